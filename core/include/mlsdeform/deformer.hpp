@@ -1,0 +1,112 @@
+// mlsdeform: the MLS deformer (paper Sec. 3-6): every vertex gets the rigid, similarity or affine transform
+// that best maps the handles' rest positions to their moved positions under inverse-distance weights.
+#pragma once
+
+#include <mlsdeform/rotation.hpp>
+#include <mlsdeform/types.hpp>
+
+#include <cstddef>
+#include <memory>
+#include <string_view>
+#include <vector>
+
+namespace mlsdeform {
+
+enum class Transform { rigid, similarity, affine };
+
+/// How a segment handle's weight varies along it (Sec. 6.2).
+enum class SegmentWeight {
+  /// The paper's simplification: constant d^-u (d = distance from the vertex to the segment), so
+  /// W = d^-u [[1/3, 1/6], [1/6, 1/3]] and the centroids use the segment midpoints.
+  paper_constant,
+  /// The exact integral of |p(t) - v|^-u along the segment (adaptive Gauss-Legendre quadrature).
+  exact_integral,
+};
+
+/// Which implementation runs deform().
+enum class Backend {
+  simd,    ///< structure-of-arrays kernels, one vertex per SIMD lane, best ISA at run time (default)
+  scalar,  ///< the scalar reference, one vertex at a time
+};
+
+/// Where the per-vertex, per-handle weights come from each frame (rigid and similarity).
+enum class WeightStorage {
+  automatic,   ///< precomputed while the table fits in `precompute_budget_bytes`, on the fly beyond
+  precomputed, ///< stream the precomputed A_i = w_i phat_i (16 bytes per vertex and handle in float)
+  on_the_fly,  ///< recompute the weights from the distances every frame (no per-handle table)
+};
+
+/// Point handles (k x 3) and segment handles given by their end points (s x 3 each). Either kind may be
+/// empty, not both.
+template <class T>
+struct Handles {
+  Points<T> points;
+  Points<T> segment_a, segment_b;
+
+  Eigen::Index point_count() const { return points.rows(); }
+  Eigen::Index segment_count() const { return segment_a.rows(); }
+};
+
+struct Options {
+  Transform transform = Transform::rigid;
+  /// The paper's u in w_i = |p_i - v|^-u (Fig. 5 uses 2, 3 and 4); any finite real >= 1.
+  double weight_exponent = 2.0;
+  RotationMethod method = RotationMethod::axis_angle;
+  SegmentWeight segment_weight = SegmentWeight::paper_constant;
+  Backend backend = Backend::simd;
+  /// Worker threads for deform(); 0 means all cores.
+  int threads = 0;
+  WeightStorage weight_storage = WeightStorage::automatic;
+  /// The automatic choice precomputes while the weight table needs at most this many bytes.
+  std::size_t precompute_budget_bytes = std::size_t(256) << 20;
+};
+
+/// A deformation session (Sec. 5): the constructor precomputes everything that depends only on the rest
+/// pose; deform() does only what depends on the moved handles. Thread-compatible: deform() is const and
+/// may run concurrently on distinct outputs.
+template <class T>
+class Deformer {
+ public:
+  /// Throws std::invalid_argument (message naming the problem) on: no handles, non-finite coordinates,
+  /// mismatched segment end-point counts, weight_exponent < 1 or non-finite, a zero-length segment, or an
+  /// affine transform whose handles do not span 3D (fewer than four non-coplanar points).
+  Deformer(const Points<T>& rest_vertices, const Handles<T>& rest_handles, const Options& options = {});
+  ~Deformer();
+  Deformer(Deformer&&) noexcept;
+  Deformer& operator=(Deformer&&) noexcept;
+  Deformer(const Deformer&) = delete;
+  Deformer& operator=(const Deformer&) = delete;
+
+  /// Deform with the given moved handles (same counts as the rest handles). Writes `out` (resized only if
+  /// its size is wrong); allocates nothing once `out` has its size. On invalid input throws
+  /// std::invalid_argument and leaves `out` untouched.
+  void deform(const Handles<T>& moved_handles, Points<T>& out) const;
+  /// The same, writing interleaved xyz (e.g. a mapped vertex buffer of vertex_count() * 3 values).
+  void deform(const Handles<T>& moved_handles, InterleavedView<T> out) const;
+
+  /// Stateful targets for interactive use: the session keeps the current moved handles (initially the rest
+  /// handles); move some of them and deform() with no handle argument.
+  void set_point_target(Eigen::Index i, const Vector3<T>& target);
+  void set_segment_target(Eigen::Index i, const Vector3<T>& a, const Vector3<T>& b);
+  const Handles<T>& targets() const;
+  void deform(Points<T>& out) const;
+
+  /// A new rest pose (vertices and/or handles): redoes the precomputation; targets reset to the rest handles.
+  void reset_rest_pose(const Points<T>& rest_vertices, const Handles<T>& rest_handles);
+
+  Eigen::Index vertex_count() const;
+  const Options& options() const;
+  /// Bytes held by the precomputation (weights and per-vertex data).
+  std::size_t memory_bytes() const;
+  /// Whether the weights are streamed from a precomputed table (true) or recomputed per frame (false).
+  bool uses_precomputed_weights() const;
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+extern template class Deformer<float>;
+extern template class Deformer<double>;
+
+}  // namespace mlsdeform

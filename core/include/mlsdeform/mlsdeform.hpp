@@ -1,0 +1,9 @@
+// mlsdeform: 3D as-rigid-as-possible deformation by Moving Least Squares (Cuno, Esperanca, Oliveira,
+// Cavalcanti), and the batched weighted rotation fit at its heart. The one header consumers include.
+#pragma once
+
+#include <mlsdeform/point_fit.hpp>
+#include <mlsdeform/rotation.hpp>
+#include <mlsdeform/types.hpp>
+#include <mlsdeform/deformer.hpp>
+#include <mlsdeform/version.hpp>

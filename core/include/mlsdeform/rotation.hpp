@@ -1,0 +1,62 @@
+// mlsdeform: the weighted rotation fit (absolute orientation) at the heart of as-rigid-as-possible MLS.
+//
+// Convention. Column vectors throughout: H = sum_i w_i qhat_i phat_i^T (3x3), and fit_rotation returns the
+// proper rotation R (R^T R = I, det R = +1) that maximises trace(R^T H), i.e. minimises
+// sum_i w_i |R phat_i - qhat_i|^2.
+//
+// Mapping to the paper (Cuno et al., Sec. 4). The paper uses row vectors, l_v(x) = x R_paper + T, and its
+// correlation matrix M (eq. 6) is M_jk = sum_i w_i qhat_ij phat_ik, which is exactly our H. The paper's
+// rotation acts on rows, so R_paper = R^T. The paper's vector V = sum_i w_i phat_i x qhat_i (eq. 6) equals
+// (H32 - H23, H13 - H31, H21 - H12). (Its eq. (4) writes qhat R phat^T where expanding (3) gives
+// phat R qhat^T; with H = sum q p^T, taking eq. (15)'s sin(alpha) = -2|u|/(1+|u|^2) literally yields R^T.)
+#pragma once
+
+#include <Eigen/Core>
+
+#include <string_view>
+
+namespace mlsdeform {
+
+/// The rotation solvers. All return the same optimum (where it is unique) to within rounding.
+enum class RotationMethod {
+  /// The paper's method (Sec. 4.3-4.6): largest root of the depressed quartic (13), rotation axis from the
+  /// 3x3 system (14) (generalised to the best-conditioned of the four equivalent systems, Shuster's
+  /// sequential rotations, so that it stays exact near 180 degrees), sine and cosine from (15).
+  axis_angle,
+  /// Horn 1987: unit quaternion = eigenvector of the largest eigenvalue of the symmetric 4x4 matrix.
+  horn_quaternion,
+  /// Horn, Hilden, Negahdaripour 1988: R = H (H^T H)^{-1/2}, with the correction for det H < 0 (and rank 2).
+  horn_matrix,
+  /// Kanatani 1994: R = V diag(1, 1, det(V U^T)) U^T from the SVD of the correlation matrix
+  /// K = sum_i w_i phat_i qhat_i^T = H^T (Kanatani's own orientation of the data).
+  kanatani,
+  /// Arun, Huang, Blostein 1987 (SVD, R = U V^T) with Umeyama's 1991 reflection fix diag(1, 1, det(U V^T)).
+  svd,
+};
+
+/// All methods, in declaration order (handy for tests, benchmarks and reports).
+inline constexpr RotationMethod all_rotation_methods[] = {RotationMethod::axis_angle, RotationMethod::horn_quaternion,
+                                                          RotationMethod::horn_matrix, RotationMethod::kanatani,
+                                                          RotationMethod::svd};
+
+/// "axis_angle", "horn_quaternion", ...; and the inverse (throws std::invalid_argument on an unknown name).
+std::string_view to_string(RotationMethod method);
+RotationMethod rotation_method_from_string(std::string_view name);
+
+template <class T>
+using Matrix3 = Eigen::Matrix<T, 3, 3>;
+template <class T>
+using Vector3 = Eigen::Matrix<T, 3, 1>;
+
+/// The proper rotation maximising trace(R^T H). Defined for every finite H: H = 0 gives the identity; where
+/// the optimum is not unique (rank-1 H, some reflected or degenerate H) a rotation attaining the optimal
+/// trace is returned (for axis_angle: the one closest to the identity). Scaling H by any positive factor
+/// that keeps it finite does not change the result (axis_angle: bitwise for powers of two).
+/// Throws std::invalid_argument if H has a NaN or infinite entry.
+template <class T>
+Matrix3<T> fit_rotation(const Matrix3<T>& H, RotationMethod method = RotationMethod::axis_angle);
+
+extern template Matrix3<float> fit_rotation<float>(const Matrix3<float>&, RotationMethod);
+extern template Matrix3<double> fit_rotation<double>(const Matrix3<double>&, RotationMethod);
+
+}  // namespace mlsdeform

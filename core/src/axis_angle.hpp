@@ -1,0 +1,273 @@
+// The paper's closed-form rotation fit (Sec. 4.3-4.6, Algorithm 1 steps 3-7), scalar reference.
+//
+// Written to be read beside the paper; the SIMD kernels (kernels/rotation_fit.hpp) compute the same stages in
+// the same order. Column-vector convention (see rotation.hpp): H = sum w q p^T is the paper's M.
+//
+// Stages, with the paper's routine names (Table 1):
+//   normalise          H <- 2^-e H so that max |H_ij| is in [1, 2): exact, so the result is bitwise
+//                      invariant under power-of-two scaling and no product (det^2, ||H||^4) can overflow.
+//   invariants (6)     E = trace H, V, ||H||^2, det H, and c2 = sum_{i<j} |H_i x H_j|^2 (columns H_i).
+//   maximum_root (13)  largest root y of y^4 - 2||H||^2 y^2 - 8 det(H) y + (||H||^4 - 4 c2): first the
+//                      paper's closed form through the resolvent cubic (Sec. 4.4, whose largest root is
+//                      4 s1^2), then Newton steps on (13) from just above, which decrease monotonically to
+//                      the largest root (the quartic is convex there, since y >= s1 >= ||H||/sqrt(3)).
+//                      The closed form alone loses up to eps^(1/2) (eps^(1/3) near triple roots) when
+//                      singular values nearly coincide; the Newton polish restores full accuracy.
+//   rotation_axis (14) The rotation's quaternion (cos(a/2), e sin(a/2)) is the eigenvector of Davenport's
+//                      K = [[E, z^T], [z, N - E I]] (z = -V, N = H + H^T) for the eigenvalue y; the
+//                      paper's system (N - lambda I) u = V with lambda = y + E is the last three rows of
+//                      (K - y I) q = 0 divided by q0, u the Gibbs vector e tan(a/2). It is singular as
+//                      a -> pi (q0 -> 0) and when V e = 0. We solve in homogeneous form instead: every
+//                      column of adj(K - y I) is proportional to q q_k, and column 0 is the paper's
+//                      (14) by Cramer's rule (q0 = det(N - lambda I), q_vec = -adj(N - lambda I) z). We take
+//                      the column k with the largest diagonal cofactor (|q_k| largest, so >= 1/2 of |q|):
+//                      Shuster and Oh's sequential rotations, i.e. (14) written in a frame turned by pi
+//                      about axis k. Where the adjugate vanishes (y is a multiple root: rank-1 H, H = 0,
+//                      or H = -s I) every unit vector of the null space of K - y I is optimal, and we take
+//                      the one closest to the identity rotation (the projection of (1, 0, 0, 0)).
+//   sin_cos (15)       cos a = (q0^2 - |q_vec|^2) / |q|^2 and sin a = 2 q0 |q_vec| / |q|^2, the homogeneous
+//                      forms of (1 - |u|^2)/(1 + |u|^2) and 2|u|/(1 + |u|^2); with e = q_vec / |q_vec|,
+//                      (5) becomes R = ((q0^2 - |q_vec|^2) I + 2 q_vec q_vec^T + 2 q0 [q_vec]_x) / |q|^2.
+#pragma once
+
+#include <mlsdeform/rotation.hpp>
+
+#include <Eigen/Core>
+
+#include <array>
+#include <cmath>
+#include <limits>
+
+namespace mlsdeform::detail {
+
+/// Newton steps allowed in maximum_root; a simple root needs 2-4, a double root (rank-1 H) up to ~40.
+inline constexpr int kMaxNewton = 64;
+
+template <class T>
+struct Invariants {
+  T E;          // trace H (paper's E)
+  Vector3<T> z; // (H21 - H12, H02 - H20, H10 - H01) = -V (paper's V, eq. 6), 0-based indices
+  T norm2;      // ||H||_F^2
+  T det;        // det H
+  T c2;         // sum_{i<j} |H_i x H_j|^2: second invariant of H^T H (Lagrange identity)
+};
+
+/// Eq. (6) and the coefficients of (13), on a normalised H.
+template <class T>
+Invariants<T> invariants(const Matrix3<T>& H) {
+  Invariants<T> inv;
+  inv.E = H.trace();
+  inv.z = Vector3<T>(H(2, 1) - H(1, 2), H(0, 2) - H(2, 0), H(1, 0) - H(0, 1));
+  inv.norm2 = H.squaredNorm();
+  const Vector3<T> c01 = H.col(0).cross(H.col(1));
+  const Vector3<T> c02 = H.col(0).cross(H.col(2));
+  const Vector3<T> c12 = H.col(1).cross(H.col(2));
+  inv.det = c01.dot(H.col(2));
+  inv.c2 = c01.squaredNorm() + c02.squaredNorm() + c12.squaredNorm();
+  return inv;
+}
+
+/// Sec. 4.4: the largest root 4 s1^2 of the resolvent cubic Q(z) is 4 times the largest eigenvalue of H^T H,
+/// mu^3 - ||H||^2 mu^2 + c2 mu - det^2 = 0. Trigonometric (Viete) solution in the shifted variable.
+template <class T>
+T largest_eigenvalue_HtH(const Invariants<T>& inv) {
+  using std::acos;
+  using std::cos;
+  using std::sqrt;
+  const T shift = inv.norm2 / T(3);
+  // mu = shift + t: t^3 + p t + q = 0 with p = c2 - n^2/3 <= 0 and q = -2n^3/27 + n c2/3 - det^2 (n = ||H||^2).
+  const T p = inv.c2 - inv.norm2 * shift;
+  const T q = -T(2) * shift * shift * shift + shift * inv.c2 - inv.det * inv.det;
+  if (!(p < T(0))) return shift;  // triple root (H^T H = s^2 I)
+  const T m = sqrt(-p / T(3));
+  T r = T(-0.5) * q / (m * m * m);  // cos(3 phi)
+  r = r > T(1) ? T(1) : (r < T(-1) ? T(-1) : r);
+  return shift + T(2) * m * cos(acos(r) / T(3));
+}
+
+/// Eq. (13): the largest root y of the depressed quartic, i.e. the optimal value of trace(R^T H), which is
+/// s1 + s2 + sign(det H) s3. Returns the root and, through `iterations`, the Newton steps it took.
+template <class T>
+T maximum_root(const Invariants<T>& inv, int* iterations = nullptr) {
+  using std::sqrt;
+  constexpr T eps = std::numeric_limits<T>::epsilon();
+  const T mu1 = largest_eigenvalue_HtH(inv);
+  const T s1 = sqrt(mu1 > T(0) ? mu1 : T(0));
+  // Sec. 4.4 with p = sqrt(4 mu1) = 2 s1: y = p/2 + sqrt(-p^2/4 + ||M||^2 + 4 det(M)/p) = s1 + (s2 + s3').
+  // (The paper's other candidate, -p/2 + sqrt(...), is never larger for the largest root of Q.)
+  T rest = inv.norm2 - mu1 + (s1 > T(0) ? T(2) * inv.det / s1 : T(0));
+  const T y_closed = s1 + sqrt(rest > T(0) ? rest : T(0));
+  // Quartic (13): P(y) = ((y^2 + a) y + b) y + c.
+  const T a = -T(2) * inv.norm2, b = -T(8) * inv.det, c = inv.norm2 * inv.norm2 - T(4) * inv.c2;
+  auto P = [&](T y) { return ((y * y + a) * y + b) * y + c; };
+  auto dP = [&](T y) { return (T(4) * y * y + T(2) * a) * y + b; };
+  // Start just above the root: the closed form is good to eps^(1/3) relative (worst case, a triple root of
+  // the cubic); s1 + s2 + s3 <= sqrt(3) ||H|| bounds the root from above. If the start is not above the
+  // root (P < 0 there), start from the bound.
+  const T norm = sqrt(inv.norm2);
+  const T upper = sqrt(T(3)) * norm;
+  T y = y_closed + T(4) * std::cbrt(eps) * norm;
+  if (y > upper) y = upper;
+  if (P(y) < T(0)) y = upper;
+  // Lower bound: y >= s1 >= ||H|| / sqrt(3). Near a double root, P and P' are both at rounding level and a
+  // step could land anywhere; the eigenvector stage refines y anyway (Rayleigh quotient), so stop there.
+  const T lower = norm / sqrt(T(3));
+  int it = 0;
+  // Monotone decrease; stop when a step no longer decreases y (rounding floor reached).
+  for (; it < kMaxNewton; ++it) {
+    const T d = dP(y);
+    if (!(d > T(0))) break;
+    const T next = y - P(y) / d;
+    if (!(next < y) || !(next >= lower)) break;
+    y = next;
+  }
+  if (iterations) *iterations = it;
+  return y;
+}
+
+
+/// The symmetric 4x4 matrix K - y I (Davenport's K, so that trace(R(q)^T H) = q^T K q / |q|^2).
+template <class T>
+Eigen::Matrix<T, 4, 4> shifted_davenport(const Matrix3<T>& H, const Invariants<T>& inv, T y) {
+  Eigen::Matrix<T, 4, 4> A;
+  A(0, 0) = inv.E - y;
+  A.template block<3, 1>(1, 0) = inv.z;
+  A.template block<1, 3>(0, 1) = inv.z.transpose();
+  A.template block<3, 3>(1, 1) = H + H.transpose();
+  A.template block<3, 3>(1, 1).diagonal().array() -= inv.E + y;
+  return A;
+}
+
+/// adj(A) of a symmetric 4x4 A, through the 2x2 minors of its upper and lower row pairs (Laplace
+/// expansion by complementary minors). Every column of adj(A) lies in the null space of A when det A = 0.
+template <class T>
+Eigen::Matrix<T, 4, 4> adjugate4(const Eigen::Matrix<T, 4, 4>& A) {
+  // 2x2 minors of rows (0,1) and of rows (2,3), over column pairs (01, 02, 03, 12, 13, 23).
+  const T s0 = A(0, 0) * A(1, 1) - A(1, 0) * A(0, 1), s1 = A(0, 0) * A(1, 2) - A(1, 0) * A(0, 2);
+  const T s2 = A(0, 0) * A(1, 3) - A(1, 0) * A(0, 3), s3 = A(0, 1) * A(1, 2) - A(1, 1) * A(0, 2);
+  const T s4 = A(0, 1) * A(1, 3) - A(1, 1) * A(0, 3), s5 = A(0, 2) * A(1, 3) - A(1, 2) * A(0, 3);
+  const T c5 = A(2, 2) * A(3, 3) - A(3, 2) * A(2, 3), c4 = A(2, 1) * A(3, 3) - A(3, 1) * A(2, 3);
+  const T c3 = A(2, 1) * A(3, 2) - A(3, 1) * A(2, 2), c2 = A(2, 0) * A(3, 3) - A(3, 0) * A(2, 3);
+  const T c1 = A(2, 0) * A(3, 2) - A(3, 0) * A(2, 2), c0 = A(2, 0) * A(3, 1) - A(3, 0) * A(2, 1);
+  Eigen::Matrix<T, 4, 4> adj;
+  adj(0, 0) = A(1, 1) * c5 - A(1, 2) * c4 + A(1, 3) * c3;
+  adj(0, 1) = -A(0, 1) * c5 + A(0, 2) * c4 - A(0, 3) * c3;
+  adj(0, 2) = A(3, 1) * s5 - A(3, 2) * s4 + A(3, 3) * s3;
+  adj(0, 3) = -A(2, 1) * s5 + A(2, 2) * s4 - A(2, 3) * s3;
+  adj(1, 0) = -A(1, 0) * c5 + A(1, 2) * c2 - A(1, 3) * c1;
+  adj(1, 1) = A(0, 0) * c5 - A(0, 2) * c2 + A(0, 3) * c1;
+  adj(1, 2) = -A(3, 0) * s5 + A(3, 2) * s2 - A(3, 3) * s1;
+  adj(1, 3) = A(2, 0) * s5 - A(2, 2) * s2 + A(2, 3) * s1;
+  adj(2, 0) = A(1, 0) * c4 - A(1, 1) * c2 + A(1, 3) * c0;
+  adj(2, 1) = -A(0, 0) * c4 + A(0, 1) * c2 - A(0, 3) * c0;
+  adj(2, 2) = A(3, 0) * s4 - A(3, 1) * s2 + A(3, 3) * s0;
+  adj(2, 3) = -A(2, 0) * s4 + A(2, 1) * s2 - A(2, 3) * s0;
+  adj(3, 0) = -A(1, 0) * c3 + A(1, 1) * c1 - A(1, 2) * c0;
+  adj(3, 1) = A(0, 0) * c3 - A(0, 1) * c1 + A(0, 2) * c0;
+  adj(3, 2) = -A(3, 0) * s3 + A(3, 1) * s1 - A(3, 2) * s0;
+  adj(3, 3) = A(2, 0) * s3 - A(2, 1) * s1 + A(2, 2) * s0;
+  return adj;
+}
+
+/// A unit vector of the null space of a symmetric 4x4 A of rank <= 2 (a multiple largest eigenvalue of K),
+/// chosen closest to e0 = (1, 0, 0, 0), the identity rotation: e0 minus its projection on the column space
+/// of A, found by Gram-Schmidt with column pivoting. If e0 is (nearly) in that column space the axis e_k
+/// with the largest remainder is projected instead (then the optimal rotations are all half-turns or so).
+/// `rank_tol` is the relative size under which a remaining column counts as zero.
+template <class T>
+Eigen::Matrix<T, 4, 1> null_vector_closest_to_identity(const Eigen::Matrix<T, 4, 4>& A, T rank_tol) {
+  using Vec4 = Eigen::Matrix<T, 4, 1>;
+  Eigen::Matrix<T, 4, 4> C = A;
+  std::array<Vec4, 2> basis;
+  int rank = 0;
+  const T scale = C.colwise().norm().maxCoeff();
+  for (; rank < 2; ++rank) {
+    int best;
+    const T n = C.colwise().norm().maxCoeff(&best);
+    if (!(n > rank_tol * scale)) break;
+    basis[rank] = C.col(best) / n;
+    for (int j = 0; j < 4; ++j) C.col(j) -= basis[rank] * basis[rank].dot(C.col(j));
+  }
+  auto remainder = [&](int k) {
+    Vec4 r = Vec4::Unit(k);
+    for (int i = 0; i < rank; ++i) r -= basis[i] * basis[i].dot(r);
+    return r;
+  };
+  Vec4 q = remainder(0);
+  // The remainders' squared norms sum to 4 - rank >= 2, so the best one has norm >= 1/sqrt(2).
+  if (q.squaredNorm() < T(0.25)) {
+    for (int k = 1; k < 4; ++k) {
+      const Vec4 r = remainder(k);
+      if (r.squaredNorm() > q.squaredNorm()) q = r;
+    }
+  }
+  return q;
+}
+
+/// Eq. (14), generalised: the (unnormalised) quaternion (q0, q_vec) of the optimal rotation, from the
+/// best-conditioned column of adj(K - y I) (sequential rotations), or the null-space fallback where the
+/// adjugate vanishes because y is a multiple root; then `refinements` steps of Rayleigh-quotient inverse
+/// iteration q <- adj(K - rho(q) I) q, rho(q) = q^T K q / q^T q. The refinement matters only where y
+/// (from the quartic's coefficients) is inaccurate: near a double root the coefficients fix y only to
+/// about sqrt(eps) ||H||, while rho(q) is backward stable. `used_fallback` reports the null-space path.
+template <class T>
+Eigen::Matrix<T, 4, 1> rotation_axis(const Matrix3<T>& H, const Invariants<T>& inv, T y, int refinements = 1,
+                                     bool* used_fallback = nullptr) {
+  using Vec4 = Eigen::Matrix<T, 4, 1>;
+  constexpr T eps = std::numeric_limits<T>::epsilon();
+  const Eigen::Matrix<T, 4, 4> K = shifted_davenport(H, inv, T(0));
+  Eigen::Matrix<T, 4, 4> A = shifted_davenport(H, inv, y);
+  Eigen::Matrix<T, 4, 4> adj = adjugate4(A);
+  // adj(A)(k,k) = q_k^2 prod_j (lambda_j - y) for a simple root, of size up to ~ ||A||^3; each cofactor
+  // carries rounding of a few tens of eps ||A||^3 (sums of products of three entries of A). Below
+  // 64 eps ||A||^3 it is noise: y is a multiple root to working precision.
+  const T a = K.cwiseAbs().maxCoeff() + std::abs(y);
+  const T noise = T(64) * eps * a * a * a;
+  // Column choice: the paper's frame (k = 0, system (14) as written) unless |q0| is below half the largest
+  // |q_k| (cofactor ratio 1/4); then the largest (Shuster's sequential rotation about axis k). Preferring
+  // k = 0 costs at most a factor 2 in accuracy and, where y is a double root (rank-1 H) and every column
+  // is the projection of e_k onto the optimal plane, keeps the rotation closest to the identity, so that
+  // neighbouring vertices of a deformation get the same choice.
+  int k;
+  const T d = adj.diagonal().cwiseAbs().maxCoeff(&k);
+  if (std::abs(adj(0, 0)) >= T(0.25) * d) k = 0;
+  const bool fallback = !(d > noise);
+  if (used_fallback) *used_fallback = fallback;
+  Vec4 q = fallback ? null_vector_closest_to_identity(A, T(64) * eps) : Vec4(adj.col(k));
+  // Rayleigh-quotient inverse iteration; a step is kept only if it raises rho (it cannot, beyond rounding,
+  // once q is optimal; a step taken on a numerically multiple root returns noise, which lowers rho).
+  T rho = q.dot(K * q) / q.squaredNorm();
+  for (int r = 0; r < refinements; ++r) {
+    A = K;
+    A.diagonal().array() -= rho;
+    const Vec4 next = adjugate4(A) * q;
+    const T rho_next = next.dot(K * next) / next.squaredNorm();
+    if (!(rho_next > rho)) break;
+    q = next;
+    rho = rho_next;
+  }
+  return q;
+}
+
+/// Eqs. (15) and (5) in homogeneous form: the rotation matrix of the unnormalised quaternion q.
+template <class T>
+Matrix3<T> rotation_from_quaternion(const Eigen::Matrix<T, 4, 1>& q) {
+  const T w = q(0);
+  const Vector3<T> x = q.template tail<3>();
+  const T n = q.squaredNorm();
+  Matrix3<T> R = (w * w - x.squaredNorm()) * Matrix3<T>::Identity() + T(2) * x * x.transpose();
+  Matrix3<T> cross;
+  cross << T(0), -x(2), x(1), x(2), T(0), -x(0), -x(1), x(0), T(0);
+  R += T(2) * w * cross;
+  return R / n;
+}
+
+/// The whole fit (Algorithm 1, steps 3-7) on a finite, normalised H (max |H_ij| in [1, 2), or H = 0).
+template <class T>
+Matrix3<T> fit_rotation_axis_angle(const Matrix3<T>& H) {
+  const Invariants<T> inv = invariants(H);
+  const T y = maximum_root(inv);
+  return rotation_from_quaternion(rotation_axis(H, inv, y));
+}
+
+}  // namespace mlsdeform::detail

@@ -1,0 +1,67 @@
+// The four baseline rotation solvers, scalar, on Eigen's dense solvers. Each takes a finite, normalised H
+// (max |H_ij| in [1, 2) or H = 0) and returns the proper rotation maximising trace(R^T H).
+#pragma once
+
+#include "axis_angle.hpp"
+
+#include <Eigen/Eigenvalues>
+#include <Eigen/SVD>
+
+namespace mlsdeform::detail {
+
+/// Horn 1987: the unit quaternion is the eigenvector of the largest eigenvalue of the symmetric 4x4
+/// matrix (Davenport's K; Horn's N matrix in his eq. for the column convention used here).
+template <class T>
+Matrix3<T> fit_rotation_horn_quaternion(const Matrix3<T>& H) {
+  const Invariants<T> inv = invariants(H);
+  const Eigen::Matrix<T, 4, 4> K = shifted_davenport(H, inv, T(0));
+  Eigen::SelfAdjointEigenSolver<Eigen::Matrix<T, 4, 4>> eig(K);
+  return rotation_from_quaternion<T>(eig.eigenvectors().col(3));  // eigenvalues ascend
+}
+
+/// Horn, Hilden, Negahdaripour 1988: R = H (H^T H)^{-1/2} = sum_k (H v_k / s_k) v_k^T over the eigenvectors
+/// v_k of H^T H. The third term is taken as (u1 x u2)(v1 x v2)^T, which equals H v3 v3^T / s3 when
+/// det H > 0 and is the paper's end-of-Sec.-4.6 correction when det H < 0 or H has rank 2. Rank 1 (u2
+/// undefined) completes u1 with the direction of v2 made orthogonal to u1; rank 0 gives the identity.
+template <class T>
+Matrix3<T> fit_rotation_horn_matrix(const Matrix3<T>& H) {
+  Eigen::SelfAdjointEigenSolver<Matrix3<T>> eig(H.transpose() * H);
+  const Vector3<T> v1 = eig.eigenvectors().col(2), v2 = eig.eigenvectors().col(1);
+  const Vector3<T> h1 = H * v1;
+  if (h1.squaredNorm() == T(0)) return Matrix3<T>::Identity();
+  const Vector3<T> u1 = h1.normalized();
+  // u2 = H v2 / s2, made exactly orthogonal to u1 (in exact arithmetic it already is).
+  Vector3<T> u2 = H * v2;
+  u2 -= u1 * u1.dot(u2);
+  const T tiny = T(16) * std::numeric_limits<T>::epsilon() * h1.norm();
+  if (!(u2.norm() > tiny)) {  // rank 1: any rotation taking v1 to u1 is optimal
+    u2 = v2 - u1 * u1.dot(v2);
+    if (!(u2.norm() > T(0.5))) u2 = u1.unitOrthogonal();
+  }
+  u2.normalize();
+  const Vector3<T> u3 = u1.cross(u2), v3 = v1.cross(v2);
+  return u1 * v1.transpose() + u2 * v2.transpose() + u3 * v3.transpose();
+}
+
+/// Kanatani 1994: with the correlation matrix K = sum_i w_i phat_i qhat_i^T = H^T and its SVD
+/// K = U S V^T, the optimal proper rotation is R = V diag(1, 1, det(V U^T)) U^T. Mathematically the same
+/// optimum as Umeyama's fix of Arun's SVD method (and as Horn's quaternion), reached from H^T.
+template <class T>
+Matrix3<T> fit_rotation_kanatani(const Matrix3<T>& H) {
+  Eigen::JacobiSVD<Matrix3<T>> svd(H.transpose(), Eigen::ComputeFullU | Eigen::ComputeFullV);
+  const Matrix3<T> U = svd.matrixU(), V = svd.matrixV();
+  const T d = (V * U.transpose()).determinant() < T(0) ? T(-1) : T(1);
+  return V * Vector3<T>(T(1), T(1), d).asDiagonal() * U.transpose();
+}
+
+/// Arun, Huang, Blostein 1987 with Umeyama's 1991 reflection fix: H = U S V^T, R = U diag(1,1,d) V^T,
+/// d = sign det(U V^T).
+template <class T>
+Matrix3<T> fit_rotation_svd(const Matrix3<T>& H) {
+  Eigen::JacobiSVD<Matrix3<T>> svd(H, Eigen::ComputeFullU | Eigen::ComputeFullV);
+  const Matrix3<T> U = svd.matrixU(), V = svd.matrixV();
+  const T d = (U * V.transpose()).determinant() < T(0) ? T(-1) : T(1);
+  return U * Vector3<T>(T(1), T(1), d).asDiagonal() * V.transpose();
+}
+
+}  // namespace mlsdeform::detail

@@ -1,0 +1,35 @@
+#!/usr/bin/env bash
+# The README's two commands:
+#   tools/dev.sh demo   install what is missing, build (Release), run `mlsdeform demo`
+#   tools/dev.sh test   install what is missing, build, run the whole test suite through ctest, then the
+#                       same suite again under AddressSanitizer + UndefinedBehaviorSanitizer
+# Extra arguments after `demo` go to the demo.
+set -euo pipefail
+root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
+cd "$root"
+jobs=$(nproc 2>/dev/null || echo 2)
+bash tools/install_deps.sh
+build() {  # build DIR [cmake args...]
+  local dir=$1; shift
+  cmake -S . -B "$dir" -DCMAKE_BUILD_TYPE=Release "$@" >/dev/null
+  cmake --build "$dir" -j "$jobs"
+}
+case "${1:-}" in
+  demo)
+    shift
+    build build
+    exec build/tools/mlsdeform demo "$@"
+    ;;
+  test)
+    build build
+    ctest --test-dir build --output-on-failure -j "$jobs"
+    # Sanitizers: tests only, no benchmarks or tools.
+    build build-asan -DMLSDEFORM_SANITIZE=ON -DMLSDEFORM_BUILD_BENCH=OFF
+    ASAN_OPTIONS=detect_leaks=1 UBSAN_OPTIONS=print_stacktrace=1 \
+      ctest --test-dir build-asan --output-on-failure -j "$jobs" -LE no_sanitizer
+    ;;
+  *)
+    echo "usage: tools/dev.sh demo [demo options] | tools/dev.sh test" >&2
+    exit 2
+    ;;
+esac

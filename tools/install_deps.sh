@@ -1,0 +1,20 @@
+#!/usr/bin/env bash
+# Installs mlsdeform's build and test dependencies from Debian 12 packages. Idempotent, and quiet when
+# everything is already there. Uses sudo when not root.
+set -euo pipefail
+packages=(cmake g++ make pkg-config
+  libtbb-dev libxsimd-dev libeigen3-dev libbenchmark-dev catch2            # the library, tests, benchmarks
+  libassimp-dev nlohmann-json3-dev libcli11-dev zlib1g-dev                 # the command-line tool
+  python3 python3-matplotlib                                              # figures and benchmark plots
+  clang libclang-rt-14-dev)                                               # the libFuzzer target
+missing=()
+for p in "${packages[@]}"; do
+  dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
+done
+[ ${#missing[@]} -eq 0 ] && exit 0
+echo "install_deps: installing ${missing[*]}" >&2
+sudo=""
+[ "$(id -u)" -eq 0 ] || sudo="sudo"
+export DEBIAN_FRONTEND=noninteractive
+$sudo apt-get update -qq
+$sudo apt-get install -y -qq --no-install-recommends "${missing[@]}" >/dev/null
