@@ -33,6 +33,7 @@
 #include <mlsdeform/rotation.hpp>
 
 #include <Eigen/Core>
+#include <Eigen/Geometry>
 
 #include <array>
 #include <cmath>
@@ -109,17 +110,19 @@ T maximum_root(const Invariants<T>& inv, int* iterations = nullptr) {
   T y = y_closed + T(4) * std::cbrt(eps) * norm;
   if (y > upper) y = upper;
   if (P(y) < T(0)) y = upper;
-  // Lower bound: y >= s1 >= ||H|| / sqrt(3). Near a double root, P and P' are both at rounding level and a
-  // step could land anywhere; the eigenvector stage refines y anyway (Rayleigh quotient), so stop there.
-  const T lower = norm / sqrt(T(3));
+  // From above the largest root, on the convex part of P, Newton's steps decrease y monotonically and
+  // shrink from one step to the next (by half at a double root, quadratically at a simple one). A step
+  // that does not decrease y, or is longer than the previous one, means P and P' have sunk into rounding
+  // (near a double root that happens about sqrt(eps) ||H|| above it): stop there, never below the root.
   int it = 0;
-  // Monotone decrease; stop when a step no longer decreases y (rounding floor reached).
+  T last_step = std::numeric_limits<T>::infinity();
   for (; it < kMaxNewton; ++it) {
     const T d = dP(y);
     if (!(d > T(0))) break;
-    const T next = y - P(y) / d;
-    if (!(next < y) || !(next >= lower)) break;
-    y = next;
+    const T step = P(y) / d;
+    if (!(step > T(0)) || !(step <= last_step) || !(y - step < y)) break;
+    y -= step;
+    last_step = step;
   }
   if (iterations) *iterations = it;
   return y;
@@ -204,49 +207,99 @@ Eigen::Matrix<T, 4, 1> null_vector_closest_to_identity(const Eigen::Matrix<T, 4,
   return q;
 }
 
-/// Eq. (14), generalised: the (unnormalised) quaternion (q0, q_vec) of the optimal rotation, from the
-/// best-conditioned column of adj(K - y I) (sequential rotations), or the null-space fallback where the
-/// adjugate vanishes because y is a multiple root; then `refinements` steps of Rayleigh-quotient inverse
-/// iteration q <- adj(K - rho(q) I) q, rho(q) = q^T K q / q^T q. The refinement matters only where y
-/// (from the quartic's coefficients) is inaccurate: near a double root the coefficients fix y only to
-/// about sqrt(eps) ||H||, while rho(q) is backward stable. `used_fallback` reports the null-space path.
+/// Rayleigh-Ritz on the span of the two strongest columns k, l of an adjugate of K - y I: the top
+/// eigenvector of the 2x2 matrix [[B11, B12], [B12, B22]] = [b1 b2]^T K [b1 b2]. Backward stable: whatever
+/// mixture of the top two eigenvectors the columns hold (y inexact), the Ritz vector is the best unit
+/// vector of their plane. Where the two Ritz values coincide to rounding (a double eigenvalue: the optimum
+/// is not unique) it returns the vector of the plane closest to e0 (the identity rotation), or to e_m, the
+/// axis with the largest projection, if e0 is nearly orthogonal to the plane, so that neighbouring
+/// vertices of a deformation make the same choice.
 template <class T>
-Eigen::Matrix<T, 4, 1> rotation_axis(const Matrix3<T>& H, const Invariants<T>& inv, T y, int refinements = 1,
-                                     bool* used_fallback = nullptr) {
+Eigen::Matrix<T, 4, 1> ritz_top(const Eigen::Matrix<T, 4, 4>& adj, int k, int l, const Eigen::Matrix<T, 4, 4>& K,
+                                T a) {
   using Vec4 = Eigen::Matrix<T, 4, 1>;
+  using std::sqrt;
+  constexpr T eps = std::numeric_limits<T>::epsilon();
+  const Vec4 b1 = adj.col(k).normalized();
+  Vec4 b2 = adj.col(l) - b1 * b1.dot(adj.col(l));
+  if (!(b2.norm() > T(64) * eps * adj.col(l).norm())) return b1;  // the columns span a line only
+  // Twice is enough (Kahan, Parlett): the first pass may cancel almost all of column l, leaving a residual
+  // whose rounding is not orthogonal to b1; a second pass makes it so to working precision.
+  b2 -= b1 * b1.dot(b2);
+  b2.normalize();
+  const Vec4 Kb1 = K * b1, Kb2 = K * b2;
+  const T B11 = b1.dot(Kb1), B12 = b1.dot(Kb2), B22 = b2.dot(Kb2);
+  const T d = T(0.5) * (B11 - B22);
+  const T r = sqrt(d * d + B12 * B12);  // half the gap between the two Ritz values
+  // B carries rounding of a few eps ||K||: a smaller gap is a double eigenvalue.
+  if (!(r > T(8) * eps * a)) {
+    const Vec4 proj = b1.cwiseProduct(b1) + b2.cwiseProduct(b2);
+    int m;
+    const T pm = proj.maxCoeff(&m);
+    if (proj(0) >= T(0.25) * pm) m = 0;
+    return b1 * b1(m) + b2 * b2(m);
+  }
+  return d >= T(0) ? Vec4((d + r) * b1 + B12 * b2) : Vec4(B12 * b1 + (r - d) * b2);
+}
+
+/// The two columns used: k, the paper's frame (k = 0, system (14) as written) unless |q0| is below half
+/// the largest |q_k| (diagonal cofactor ratio 1/4), then the largest (Shuster's sequential rotation about
+/// axis k; at most a factor 2 in accuracy is given up for continuity); l, the next strongest.
+template <class T>
+void strongest_columns(const Eigen::Matrix<T, 4, 4>& adj, int& k, int& l, T& dk) {
+  const Eigen::Matrix<T, 4, 1> diag = adj.diagonal().cwiseAbs();
+  dk = diag.maxCoeff(&k);
+  if (diag(0) >= T(0.25) * dk) k = 0;
+  l = k == 0 ? 1 : 0;
+  for (int j = 0; j < 4; ++j)
+    if (j != k && diag(j) > diag(l)) l = j;
+}
+
+/// Eq. (14), generalised: the (unnormalised) quaternion (q0, q_vec) of the optimal rotation.
+///
+/// Every column of adj(K - y I) is proportional to q q_k when y is a simple root; column 0 is the paper's
+/// (14) solved by Cramer's rule (q0 = det(N - lambda I), q_vec = adj(N - lambda I) V), column k is (14) in a
+/// frame turned by pi about axis k (Shuster and Oh's sequential rotations), which stays regular as the angle
+/// approaches pi. y comes from the quartic's coefficients and is good to about eps ||K||^2 / g, g the gap to
+/// the next eigenvalue of K (g = 2 (s2 + sign(det H) s3)), so a single column mixes in the second
+/// eigenvector by eps ||K||^2 / g^2 (an error of eps kappa^2): Rayleigh-Ritz on the two strongest columns
+/// removes that mixture and leaves eps kappa.
+/// Near a double root (g below sqrt(eps) ||K||: nearly collinear data, kappa > 1/sqrt(eps)) y is good only
+/// to about sqrt(eps) ||K|| and the adjugate at y can sink into rounding; there we evaluate it at
+/// y + sqrt(eps) ||K||, whose columns span the top two eigenvectors up to O(sqrt(eps)) (costing O(eps) in
+/// trace and O(sqrt(eps)) <= eps kappa in angle), and Rayleigh-Ritz picks the optimum in that plane (or the
+/// optimum closest to the identity, when the root is exactly double: rank-1 H).
+/// A triple root (H = -s R, a point reflection, where every half-turn is optimal) leaves even that adjugate
+/// at rounding level; then the null space of K - y I is used directly. `path` reports which branch ran:
+/// 0 regular, 1 near-double (shifted), 2 null space.
+template <class T>
+Eigen::Matrix<T, 4, 1> rotation_axis(const Matrix3<T>& H, const Invariants<T>& inv, T y, int* path = nullptr) {
+  using std::sqrt;
   constexpr T eps = std::numeric_limits<T>::epsilon();
   const Eigen::Matrix<T, 4, 4> K = shifted_davenport(H, inv, T(0));
-  Eigen::Matrix<T, 4, 4> A = shifted_davenport(H, inv, y);
-  Eigen::Matrix<T, 4, 4> adj = adjugate4(A);
-  // adj(A)(k,k) = q_k^2 prod_j (lambda_j - y) for a simple root, of size up to ~ ||A||^3; each cofactor
-  // carries rounding of a few tens of eps ||A||^3 (sums of products of three entries of A). Below
-  // 64 eps ||A||^3 it is noise: y is a multiple root to working precision.
-  const T a = K.cwiseAbs().maxCoeff() + std::abs(y);
-  const T noise = T(64) * eps * a * a * a;
-  // Column choice: the paper's frame (k = 0, system (14) as written) unless |q0| is below half the largest
-  // |q_k| (cofactor ratio 1/4); then the largest (Shuster's sequential rotation about axis k). Preferring
-  // k = 0 costs at most a factor 2 in accuracy and, where y is a double root (rank-1 H) and every column
-  // is the projection of e_k onto the optimal plane, keeps the rotation closest to the identity, so that
-  // neighbouring vertices of a deformation get the same choice.
-  int k;
-  const T d = adj.diagonal().cwiseAbs().maxCoeff(&k);
-  if (std::abs(adj(0, 0)) >= T(0.25) * d) k = 0;
-  const bool fallback = !(d > noise);
-  if (used_fallback) *used_fallback = fallback;
-  Vec4 q = fallback ? null_vector_closest_to_identity(A, T(64) * eps) : Vec4(adj.col(k));
-  // Rayleigh-quotient inverse iteration; a step is kept only if it raises rho (it cannot, beyond rounding,
-  // once q is optimal; a step taken on a numerically multiple root returns noise, which lowers rho).
-  T rho = q.dot(K * q) / q.squaredNorm();
-  for (int r = 0; r < refinements; ++r) {
-    A = K;
-    A.diagonal().array() -= rho;
-    const Vec4 next = adjugate4(A) * q;
-    const T rho_next = next.dot(K * next) / next.squaredNorm();
-    if (!(rho_next > rho)) break;
-    q = next;
-    rho = rho_next;
+  const T a = K.cwiseAbs().maxCoeff();
+  // For a simple root the strongest diagonal cofactor is q_k^2 g1 g2 g3 >= g1 a^2 / 4 roughly (g1 the gap
+  // to the next eigenvalue of K, g2, g3 ~ 2 s1 ~ a): below sqrt(eps) a^3 the gap is under a few
+  // sqrt(eps) a, kappa is above 1/sqrt(eps), and the shifted evaluation's O(sqrt(eps)) is within eps kappa.
+  // Cofactors are sums of six products of three entries of K - y I (|entries| <= a + y <= 3a), so their
+  // rounding is below 64 eps (3a)^3: the shifted adjugate must stand above that.
+  const T a3 = a * a * a;
+  int k, l;
+  T dk;
+  Eigen::Matrix<T, 4, 4> adj = adjugate4(shifted_davenport(H, inv, y));
+  strongest_columns(adj, k, l, dk);
+  if (dk > sqrt(eps) * a3) {
+    if (path) *path = 0;
+    return ritz_top(adj, k, l, K, a);
   }
-  return q;
+  adj = adjugate4(shifted_davenport(H, inv, y + sqrt(eps) * a));
+  strongest_columns(adj, k, l, dk);
+  if (dk > T(64 * 27) * eps * a3) {
+    if (path) *path = 1;
+    return ritz_top(adj, k, l, K, a);
+  }
+  if (path) *path = 2;
+  return null_vector_closest_to_identity(shifted_davenport(H, inv, y), T(64) * eps);
 }
 
 /// Eqs. (15) and (5) in homogeneous form: the rotation matrix of the unnormalised quaternion q.
