@@ -302,17 +302,20 @@ Eigen::Matrix<T, 4, 1> rotation_axis(const Matrix3<T>& H, const Invariants<T>& i
   return null_vector_closest_to_identity(shifted_davenport(H, inv, y), T(64) * eps);
 }
 
-/// Eqs. (15) and (5) in homogeneous form: the rotation matrix of the unnormalised quaternion q.
+/// Eqs. (15) and (5) in homogeneous form: the rotation matrix of the unnormalised quaternion q = (w, x),
+/// R = ((w^2 - |x|^2) I + 2 x x^T + 2 w [x]_x) / |q|^2, written entry by entry as kernels/sin_cos.hpp does.
 template <class T>
 Matrix3<T> rotation_from_quaternion(const Eigen::Matrix<T, 4, 1>& q) {
-  const T w = q(0);
-  const Vector3<T> x = q.template tail<3>();
-  const T n = q.squaredNorm();
-  Matrix3<T> R = (w * w - x.squaredNorm()) * Matrix3<T>::Identity() + T(2) * x * x.transpose();
-  Matrix3<T> cross;
-  cross << T(0), -x(2), x(1), x(2), T(0), -x(0), -x(1), x(0), T(0);
-  R += T(2) * w * cross;
-  return R / n;
+  const T w = q(0), x0 = q(1), x1 = q(2), x2 = q(3);
+  const T inv_n = T(1) / (w * w + x0 * x0 + x1 * x1 + x2 * x2);
+  const T c = w * w - (x0 * x0 + x1 * x1 + x2 * x2);
+  const T xy = T(2) * x0 * x1, xz = T(2) * x0 * x2, yz = T(2) * x1 * x2;
+  const T wx = T(2) * w * x0, wy = T(2) * w * x1, wz = T(2) * w * x2;
+  Matrix3<T> R;
+  R << (c + T(2) * x0 * x0) * inv_n, (xy - wz) * inv_n, (xz + wy) * inv_n,  //
+      (xy + wz) * inv_n, (c + T(2) * x1 * x1) * inv_n, (yz - wx) * inv_n,   //
+      (xz - wy) * inv_n, (yz + wx) * inv_n, (c + T(2) * x2 * x2) * inv_n;
+  return R;
 }
 
 /// The whole fit (Algorithm 1, steps 3-7) on a finite, normalised H (max |H_ij| in [1, 2), or H = 0).

@@ -5,5 +5,6 @@
 #include <mlsdeform/point_fit.hpp>
 #include <mlsdeform/rotation.hpp>
 #include <mlsdeform/types.hpp>
+#include <mlsdeform/batch.hpp>
 #include <mlsdeform/deformer.hpp>
 #include <mlsdeform/version.hpp>

@@ -1,0 +1,94 @@
+#include "dispatch.hpp"
+
+#include <mlsdeform/batch.hpp>
+
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+#include <tbb/task_arena.h>
+
+#include <atomic>
+#include <cmath>
+#include <stdexcept>
+#include <string>
+
+namespace mlsdeform {
+
+namespace {
+
+// Work is cut into chunks of this many matrices (a multiple of every lane width): large enough to amortise
+// scheduling, small enough to balance two to a few dozen cores on 10^5+ fits.
+constexpr std::size_t kChunk = 2048;
+
+template <class T>
+void validate(const T* H, const T* R, std::size_t n) {
+  if (!H || !R) throw std::invalid_argument("fit_rotations: null pointer");
+  for (std::size_t e = 0; e < 9; ++e)
+    for (std::size_t i = 0; i < n; ++i)
+      if (!std::isfinite(H[e * n + i]))
+        throw std::invalid_argument("fit_rotations: H of matrix " + std::to_string(i) + ", entry (" +
+                                    std::to_string(e / 3) + ", " + std::to_string(e % 3) + ") is NaN or infinite");
+}
+
+template <class T>
+kernels::FitRotationsFn<T> simd_kernel(RotationMethod method) {
+  const kernels::KernelTable* k = detail::active_kernels();
+  if (!k) return nullptr;
+  if constexpr (std::is_same_v<T, float>) {
+    if (method == RotationMethod::axis_angle) return k->fit_axis_angle_f;
+    if (method == RotationMethod::horn_quaternion) return k->fit_horn_f;
+  } else {
+    if (method == RotationMethod::axis_angle) return k->fit_axis_angle_d;
+    if (method == RotationMethod::horn_quaternion) return k->fit_horn_d;
+  }
+  return nullptr;
+}
+
+}  // namespace
+
+template <class T>
+void fit_rotations(const T* H, T* R, std::size_t n, RotationMethod method, int threads, BatchStats* stats) {
+  if (n == 0) return;
+  validate(H, R, n);
+  const kernels::FitRotationsFn<T> kernel = simd_kernel<T>(method);
+  auto range = [&](std::size_t begin, std::size_t end, kernels::RotationStats* st) {
+    if (kernel) return kernel(H, R, n, begin, end, st);
+    for (std::size_t i = begin; i < end; ++i) {  // scalar methods, one matrix at a time
+      Matrix3<T> Hi;
+      for (std::size_t e = 0; e < 9; ++e) Hi(e / 3, e % 3) = H[e * n + i];
+      const Matrix3<T> Ri = fit_rotation<T>(Hi, method);
+      for (std::size_t e = 0; e < 9; ++e) R[e * n + i] = Ri(e / 3, e % 3);
+    }
+  };
+  kernels::RotationStats total;
+  if (threads == 1 || n <= kChunk) {
+    range(0, n, &total);
+  } else {
+    std::atomic<std::size_t> near_double{0}, fallback{0};
+    auto parallel = [&] {
+      tbb::parallel_for(tbb::blocked_range<std::size_t>(0, (n + kChunk - 1) / kChunk),
+                        [&](const tbb::blocked_range<std::size_t>& chunks) {
+                          kernels::RotationStats st;
+                          range(chunks.begin() * kChunk, std::min(n, chunks.end() * kChunk), &st);
+                          near_double += st.near_double;
+                          fallback += st.scalar_fallback;
+                        });
+    };
+    if (threads > 1) {
+      tbb::task_arena arena(threads);
+      arena.execute(parallel);
+    } else {
+      parallel();
+    }
+    total.near_double = near_double;
+    total.scalar_fallback = fallback;
+  }
+  if (stats) {
+    stats->near_double += total.near_double;
+    stats->scalar_fallback += total.scalar_fallback;
+  }
+}
+
+template void fit_rotations<float>(const float*, float*, std::size_t, RotationMethod, int, BatchStats*);
+template void fit_rotations<double>(const double*, double*, std::size_t, RotationMethod, int, BatchStats*);
+
+}  // namespace mlsdeform

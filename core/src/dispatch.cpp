@@ -1,0 +1,102 @@
+#include "dispatch.hpp"
+
+#include "axis_angle.hpp"
+
+#include <atomic>
+#include <cstdlib>
+#include <stdexcept>
+#include <string>
+
+namespace mlsdeform {
+
+namespace {
+
+constexpr std::string_view kIsaNames[] = {"scalar", "sse4_2", "avx2", "avx512"};
+
+bool cpu_runs(Isa isa) {
+  // GCC's __builtin_cpu_supports also checks that the OS saves the wider registers (XCR0).
+  switch (isa) {
+    case Isa::scalar: return true;
+    case Isa::sse4_2: return __builtin_cpu_supports("sse4.2");
+    case Isa::avx2: return __builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma");
+    case Isa::avx512: return __builtin_cpu_supports("avx512f") && __builtin_cpu_supports("avx2") &&
+                             __builtin_cpu_supports("fma");
+  }
+  return false;
+}
+
+Isa isa_from_string(std::string_view name) {
+  for (int i = 0; i < 4; ++i)
+    if (kIsaNames[i] == name) return static_cast<Isa>(i);
+  throw std::invalid_argument("MLSDEFORM_ISA='" + std::string(name) +
+                              "' is not one of scalar, sse4_2, avx2, avx512");
+}
+
+Isa initial_isa() {
+  if (const char* forced = std::getenv("MLSDEFORM_ISA"); forced && *forced) {
+    const Isa isa = isa_from_string(forced);
+    if (!cpu_runs(isa))
+      throw std::invalid_argument("MLSDEFORM_ISA=" + std::string(forced) + ": this CPU cannot run it");
+    return isa;
+  }
+  return supported_isas().back();
+}
+
+std::atomic<int>& current() {
+  static std::atomic<int> isa{static_cast<int>(initial_isa())};
+  return isa;
+}
+
+}  // namespace
+
+std::string_view to_string(Isa isa) { return kIsaNames[static_cast<int>(isa)]; }
+
+std::vector<Isa> supported_isas() {
+  std::vector<Isa> out;
+  for (Isa isa : {Isa::scalar, Isa::sse4_2, Isa::avx2, Isa::avx512})
+    if (cpu_runs(isa)) out.push_back(isa);
+  return out;
+}
+
+Isa active_isa() { return static_cast<Isa>(current().load(std::memory_order_relaxed)); }
+
+void set_isa(Isa isa) {
+  if (!cpu_runs(isa)) throw std::invalid_argument("set_isa(" + std::string(to_string(isa)) + "): this CPU cannot run it");
+  current().store(static_cast<int>(isa), std::memory_order_relaxed);
+}
+
+std::size_t simd_lanes(bool double_precision) {
+  const kernels::KernelTable* k = detail::active_kernels();
+  if (!k) return 1;
+  return double_precision ? k->lanes_double : k->lanes_float;
+}
+
+namespace detail {
+
+const kernels::KernelTable* active_kernels() {
+  switch (active_isa()) {
+    case Isa::scalar: return nullptr;
+    case Isa::sse4_2: return &kernels::kernel_table_sse4_2();
+    case Isa::avx2: return &kernels::kernel_table_avx2();
+    case Isa::avx512: return &kernels::kernel_table_avx512();
+  }
+  return nullptr;
+}
+
+}  // namespace detail
+
+namespace kernels {
+
+template <class T>
+void fit_rotation_lane_fallback(const T* h9, T* r9) {
+  Matrix3<T> H;
+  for (int i = 0; i < 9; ++i) H(i / 3, i % 3) = h9[i];
+  const Matrix3<T> R = detail::fit_rotation_axis_angle(H);
+  for (int i = 0; i < 9; ++i) r9[i] = R(i / 3, i % 3);
+}
+template void fit_rotation_lane_fallback<float>(const float*, float*);
+template void fit_rotation_lane_fallback<double>(const double*, double*);
+
+}  // namespace kernels
+
+}  // namespace mlsdeform

@@ -1,0 +1,91 @@
+// The batched axis/angle rotation fit (Algorithm 1 steps 3-7), one matrix per SIMD lane:
+// normalise -> invariants (6) -> maximum_root (13) -> rotation_axis (14) -> sin_cos (15)/(5).
+// Same stages, same order as detail::fit_rotation_axis_angle in core/src/axis_angle.hpp.
+#pragma once
+
+#include "kernel_table.hpp"
+#include "quartic_root.hpp"
+#include "rotation_axis.hpp"
+#include "sin_cos.hpp"
+
+namespace mlsdeform::kernels {
+
+template <class T, class A>
+struct FitRotations : Simd<T, A> {
+  using typename Simd<T, A>::V;
+  using typename Simd<T, A>::M;
+  using Simd<T, A>::W;
+  using Q = QuarticRoot<T, A>;
+  using RA = RotationAxis<T, A>;
+
+  /// h: 9 lanes of H (row-major entries), not yet normalised; r: the rotations. Lanes with H = 0 get the
+  /// identity. Returns the lanes the scalar code must redo (their r is unspecified) and counts.
+  static M fit(V (&h)[9], V (&r)[9], RotationStats& stats) {
+    V m = xsimd::abs(h[0]);
+    for (int i = 1; i < 9; ++i) m = xsimd::max(m, xsimd::abs(h[i]));
+    const M zero = m == V(T(0));
+    const V scale = Simd<T, A>::pow2_inverse_exponent(xsimd::select(zero, V(T(1)), m));
+    for (int i = 0; i < 9; ++i) h[i] = h[i] * scale;
+    const typename Q::Invariants inv = Q::invariants(h);
+    const V y = Q::maximum_root(inv);
+    const typename RA::Mat4 K = RA::davenport(h, inv.E, inv.z0, inv.z1, inv.z2);
+    M near_double, fallback;
+    const typename RA::Vec4 q = RA::rotation_axis(K, y, near_double, fallback);
+    SinCos<T, A>::rotation_from_quaternion(q.v[0], q.v[1], q.v[2], q.v[3], r);
+    for (int i = 0; i < 9; ++i) r[i] = xsimd::select(zero, V(i % 4 == 0 ? T(1) : T(0)), r[i]);
+    near_double = near_double & !zero;
+    fallback = fallback & !zero;
+    if (xsimd::any(near_double)) stats.near_double += count(near_double);
+    return fallback;
+  }
+
+  static std::size_t count(M m) {
+    alignas(64) T tmp[W];
+    xsimd::select(m, V(T(1)), V(T(0))).store_aligned(tmp);
+    std::size_t c = 0;
+    for (std::size_t i = 0; i < W; ++i) c += tmp[i] != T(0);
+    return c;
+  }
+
+  /// Redo the lanes in `fallback` with the scalar reference (normalised h in, r out).
+  static void scalar_lanes(M fallback, const V (&h)[9], V (&r)[9], RotationStats& stats) {
+    alignas(64) T hb[9][W], rb[9][W], fb[W];
+    for (int i = 0; i < 9; ++i) {
+      h[i].store_aligned(hb[i]);
+      r[i].store_aligned(rb[i]);
+    }
+    xsimd::select(fallback, V(T(1)), V(T(0))).store_aligned(fb);
+    for (std::size_t lane = 0; lane < W; ++lane) {
+      if (fb[lane] == T(0)) continue;
+      T h9[9], r9[9];
+      for (int i = 0; i < 9; ++i) h9[i] = hb[i][lane];
+      fit_rotation_lane_fallback<T>(h9, r9);
+      for (int i = 0; i < 9; ++i) rb[i][lane] = r9[i];
+      ++stats.scalar_fallback;
+    }
+    for (int i = 0; i < 9; ++i) r[i] = V::load_aligned(rb[i]);
+  }
+
+  /// One batch of W matrices at H + offset (loads of W consecutive values per entry).
+  static void run_batch(const T* H, T* R, std::size_t stride, std::size_t offset, RotationStats& stats) {
+    V h[9], r[9];
+    for (int i = 0; i < 9; ++i) h[i] = V::load_unaligned(H + std::size_t(i) * stride + offset);
+    const M fallback = fit(h, r, stats);
+    if (xsimd::any(fallback)) scalar_lanes(fallback, h, r, stats);
+    for (int i = 0; i < 9; ++i) r[i].store_unaligned(R + std::size_t(i) * stride + offset);
+  }
+
+  /// The kernel-table entry: matrices [begin, end).
+  static void run(const T* H, T* R, std::size_t stride, std::size_t begin, std::size_t end, RotationStats* stats) {
+    RotationStats local;
+    Simd<T, A>::for_each_batch(H, R, stride, begin, end, [&](const T* src, T* dst, std::size_t st, std::size_t off) {
+      run_batch(src, dst, st, off, local);
+    });
+    if (stats) {
+      stats->near_double += local.near_double;
+      stats->scalar_fallback += local.scalar_fallback;
+    }
+  }
+};
+
+}  // namespace mlsdeform::kernels

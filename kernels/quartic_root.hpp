@@ -1,0 +1,115 @@
+// Stage "maximum_root" of Algorithm 1 (eq. 13) in SIMD lanes, mirroring core/src/axis_angle.hpp:
+// invariants (eq. 6), the resolvent cubic's closed form (Sec. 4.4), then Newton steps from just above the
+// root until each lane's step stops shrinking. Lanes iterate under a mask; the loop ends when no lane is
+// active (2-6 steps for a simple root, up to ~15 at a double one).
+#pragma once
+
+#include "simd.hpp"
+
+namespace mlsdeform::kernels {
+
+template <class T, class A>
+struct QuarticRoot : Simd<T, A> {
+  using typename Simd<T, A>::V;
+  using typename Simd<T, A>::M;
+  using Simd<T, A>::eps;
+
+  struct Invariants {
+    V E;            // trace H
+    V z0, z1, z2;   // (H21 - H12, H02 - H20, H10 - H01) = -V of eq. (6)
+    V norm2;        // ||H||_F^2
+    V det;          // det H
+    V c2;           // sum_{i<j} |H_i x H_j|^2 over columns
+  };
+
+  /// h[3 r + c] = H(r, c), normalised.
+  static Invariants invariants(const V (&h)[9]) {
+    Invariants inv;
+    inv.E = h[0] + h[4] + h[8];
+    inv.z0 = h[7] - h[5];
+    inv.z1 = h[2] - h[6];
+    inv.z2 = h[3] - h[1];
+    inv.norm2 = h[0] * h[0] + h[1] * h[1] + h[2] * h[2] + h[3] * h[3] + h[4] * h[4] + h[5] * h[5] + h[6] * h[6] +
+                h[7] * h[7] + h[8] * h[8];
+    // Columns c0 = (h0, h3, h6), c1 = (h1, h4, h7), c2 = (h2, h5, h8).
+    const V x01a = h[3] * h[7] - h[6] * h[4], x01b = h[6] * h[1] - h[0] * h[7], x01c = h[0] * h[4] - h[3] * h[1];
+    const V x02a = h[3] * h[8] - h[6] * h[5], x02b = h[6] * h[2] - h[0] * h[8], x02c = h[0] * h[5] - h[3] * h[2];
+    const V x12a = h[4] * h[8] - h[7] * h[5], x12b = h[7] * h[2] - h[1] * h[8], x12c = h[1] * h[5] - h[4] * h[2];
+    inv.det = x01a * h[2] + x01b * h[5] + x01c * h[8];
+    inv.c2 = (x01a * x01a + x01b * x01b + x01c * x01c) + (x02a * x02a + x02b * x02b + x02c * x02c) +
+             (x12a * x12a + x12b * x12b + x12c * x12c);
+    return inv;
+  }
+
+  /// cos x for x in [0, pi/3] by its Taylor series (Horner in x^2), truncated where the next term is below
+  /// eps/2: x^18/18! < 4e-16 (double), x^12/12! < 4e-9 (float). Written here rather than xsimd::cos because
+  /// xsimd's cos pulls in a non-template inline helper (__kernel_rem_pio2) that every ISA object would
+  /// define as a weak symbol, compiled with that ISA's flags (../shared/TOOLCHAIN.md pitfall 3).
+  static V cos_small(V x) {
+    const V x2 = x * x;
+    V p;
+    if constexpr (sizeof(T) == 4) {
+      p = V(T(-1.0 / 3628800));                         // -1/10!
+      p = p * x2 + V(T(1.0 / 40320));                   // 1/8!
+      p = p * x2 + V(T(-1.0 / 720));
+      p = p * x2 + V(T(1.0 / 24));
+    } else {
+      p = V(T(1.0 / 20922789888000.0));                 // 1/16!
+      p = p * x2 + V(T(-1.0 / 87178291200.0));          // -1/14!
+      p = p * x2 + V(T(1.0 / 479001600.0));             // 1/12!
+      p = p * x2 + V(T(-1.0 / 3628800.0));
+      p = p * x2 + V(T(1.0 / 40320.0));
+      p = p * x2 + V(T(-1.0 / 720.0));
+      p = p * x2 + V(T(1.0 / 24.0));
+    }
+    p = p * x2 + V(T(-0.5));
+    return p * x2 + V(T(1));
+  }
+
+  /// Largest eigenvalue of H^T H from the resolvent cubic (Sec. 4.4), Viete's trigonometric form.
+  static V largest_eigenvalue_HtH(const Invariants& inv) {
+    const V shift = inv.norm2 / V(T(3));
+    const V p = inv.c2 - inv.norm2 * shift;
+    const V q = V(T(-2)) * shift * shift * shift + shift * inv.c2 - inv.det * inv.det;
+    const M regular = p < V(T(0));  // else a triple root: mu = shift
+    const V m = xsimd::sqrt(xsimd::max(-p / V(T(3)), V(T(0))));
+    V r = xsimd::select(regular, V(T(-0.5)) * q / (m * m * m), V(T(0)));
+    r = xsimd::min(xsimd::max(r, V(T(-1))), V(T(1)));
+    const V t = V(T(2)) * m * cos_small(xsimd::acos(r) / V(T(3)));
+    return xsimd::select(regular, shift + t, shift);
+  }
+
+  /// Eq. (13): the largest root y = s1 + s2 + sign(det H) s3. `iterations` counts the loop trips.
+  static V maximum_root(const Invariants& inv, int* iterations = nullptr) {
+    // cbrt(eps), as in the scalar code: the closed form's worst-case relative accuracy.
+    constexpr T cbrt_eps = sizeof(T) == 4 ? T(4.92156660e-3) : T(6.0554544523933395e-6);
+    const V mu1 = largest_eigenvalue_HtH(inv);
+    const V s1 = xsimd::sqrt(xsimd::max(mu1, V(T(0))));
+    const M s1pos = s1 > V(T(0));
+    const V rest = inv.norm2 - mu1 + xsimd::select(s1pos, V(T(2)) * inv.det / s1, V(T(0)));
+    const V y_closed = s1 + xsimd::sqrt(xsimd::max(rest, V(T(0))));
+    const V a = V(T(-2)) * inv.norm2, b = V(T(-8)) * inv.det, c = inv.norm2 * inv.norm2 - V(T(4)) * inv.c2;
+    auto P = [&](V y) { return ((y * y + a) * y + b) * y + c; };
+    auto dP = [&](V y) { return (V(T(4)) * y * y + V(T(2)) * a) * y + b; };
+    const V norm = xsimd::sqrt(inv.norm2);
+    const V upper = xsimd::sqrt(V(T(3))) * norm;
+    V y = xsimd::min(y_closed + V(T(4) * cbrt_eps) * norm, upper);
+    y = xsimd::select(P(y) < V(T(0)), upper, y);
+    V last_step(std::numeric_limits<T>::infinity());
+    M active = Simd<T, A>::all_true();
+    int it = 0;
+    for (; it < 64; ++it) {
+      const V d = dP(y);
+      const V step = P(y) / d;
+      // scalar: if (!(d > 0) || !(step > 0) || !(step <= last_step) || !(y - step < y)) break;
+      active = active & (d > V(T(0))) & (step > V(T(0))) & (step <= last_step) & ((y - step) < y);
+      if (xsimd::none(active)) break;
+      y = xsimd::select(active, y - step, y);
+      last_step = xsimd::select(active, step, last_step);
+    }
+    if (iterations) *iterations = it;
+    return y;
+  }
+};
+
+}  // namespace mlsdeform::kernels

@@ -1,0 +1,188 @@
+// Stage "rotation_axis" of Algorithm 1 (eq. 14, generalised) in SIMD lanes, mirroring
+// core/src/axis_angle.hpp stage by stage: the adjugate of K - y I, the two strongest columns (the paper's
+// frame k = 0 unless |q0| is below half the largest |q_k|: Shuster's sequential rotations), Rayleigh-Ritz
+// on their span, the near-double-root evaluation at y + sqrt(eps) ||K|| for the lanes that need it (run
+// only when some lane does), and the lanes left (a triple root) marked for the scalar code.
+#pragma once
+
+#include "simd.hpp"
+
+namespace mlsdeform::kernels {
+
+template <class T, class A>
+struct RotationAxis : Simd<T, A> {
+  using typename Simd<T, A>::V;
+  using typename Simd<T, A>::M;
+  using Simd<T, A>::eps;
+
+  /// The symmetric 4x4 Davenport matrix K, full storage k[4 i + j].
+  struct Mat4 {
+    V k[16];
+    V operator()(int i, int j) const { return k[4 * i + j]; }
+  };
+  struct Vec4 {
+    V v[4];
+  };
+
+  static Mat4 davenport(const V (&h)[9], V E, V z0, V z1, V z2) {
+    Mat4 K;
+    const V n01 = h[1] + h[3], n02 = h[2] + h[6], n12 = h[5] + h[7];
+    const V d[4] = {E, V(T(2)) * h[0] - E, V(T(2)) * h[4] - E, V(T(2)) * h[8] - E};
+    const V off[4][4] = {{d[0], z0, z1, z2}, {z0, d[1], n01, n02}, {z1, n01, d[2], n12}, {z2, n02, n12, d[3]}};
+    for (int i = 0; i < 4; ++i)
+      for (int j = 0; j < 4; ++j) K.k[4 * i + j] = off[i][j];
+    return K;
+  }
+
+  static Mat4 shifted(const Mat4& K, V y) {
+    Mat4 S = K;
+    for (int i = 0; i < 4; ++i) S.k[5 * i] = K.k[5 * i] - y;
+    return S;
+  }
+
+  /// adj(A) by complementary 2x2 minors; the same expressions as the scalar adjugate4.
+  static Mat4 adjugate(const Mat4& S) {
+    const V s0 = S(0, 0) * S(1, 1) - S(1, 0) * S(0, 1), s1 = S(0, 0) * S(1, 2) - S(1, 0) * S(0, 2);
+    const V s2 = S(0, 0) * S(1, 3) - S(1, 0) * S(0, 3), s3 = S(0, 1) * S(1, 2) - S(1, 1) * S(0, 2);
+    const V s4 = S(0, 1) * S(1, 3) - S(1, 1) * S(0, 3), s5 = S(0, 2) * S(1, 3) - S(1, 2) * S(0, 3);
+    const V c5 = S(2, 2) * S(3, 3) - S(3, 2) * S(2, 3), c4 = S(2, 1) * S(3, 3) - S(3, 1) * S(2, 3);
+    const V c3 = S(2, 1) * S(3, 2) - S(3, 1) * S(2, 2), c2 = S(2, 0) * S(3, 3) - S(3, 0) * S(2, 3);
+    const V c1 = S(2, 0) * S(3, 2) - S(3, 0) * S(2, 2), c0 = S(2, 0) * S(3, 1) - S(3, 0) * S(2, 1);
+    Mat4 adj;
+    adj.k[0] = S(1, 1) * c5 - S(1, 2) * c4 + S(1, 3) * c3;
+    adj.k[1] = -S(0, 1) * c5 + S(0, 2) * c4 - S(0, 3) * c3;
+    adj.k[2] = S(3, 1) * s5 - S(3, 2) * s4 + S(3, 3) * s3;
+    adj.k[3] = -S(2, 1) * s5 + S(2, 2) * s4 - S(2, 3) * s3;
+    adj.k[4] = -S(1, 0) * c5 + S(1, 2) * c2 - S(1, 3) * c1;
+    adj.k[5] = S(0, 0) * c5 - S(0, 2) * c2 + S(0, 3) * c1;
+    adj.k[6] = -S(3, 0) * s5 + S(3, 2) * s2 - S(3, 3) * s1;
+    adj.k[7] = S(2, 0) * s5 - S(2, 2) * s2 + S(2, 3) * s1;
+    adj.k[8] = S(1, 0) * c4 - S(1, 1) * c2 + S(1, 3) * c0;
+    adj.k[9] = -S(0, 0) * c4 + S(0, 1) * c2 - S(0, 3) * c0;
+    adj.k[10] = S(3, 0) * s4 - S(3, 1) * s2 + S(3, 3) * s0;
+    adj.k[11] = -S(2, 0) * s4 + S(2, 1) * s2 - S(2, 3) * s0;
+    adj.k[12] = -S(1, 0) * c3 + S(1, 1) * c1 - S(1, 2) * c0;
+    adj.k[13] = S(0, 0) * c3 - S(0, 1) * c1 + S(0, 2) * c0;
+    adj.k[14] = -S(3, 0) * s3 + S(3, 1) * s1 - S(3, 2) * s0;
+    adj.k[15] = S(2, 0) * s3 - S(2, 1) * s1 + S(2, 2) * s0;
+    return adj;
+  }
+
+  /// One-hot lane masks for the chosen column k (scalar: maxCoeff's first index, then k = 0 if
+  /// |adj00| >= |adj_kk| / 4) and the next strongest l (first index of the max over j != k).
+  struct Columns {
+    M k[4], l[4];
+    V dk;
+  };
+  static Columns strongest_columns(const Mat4& adj) {
+    Columns c;
+    const V d[4] = {xsimd::abs(adj.k[0]), xsimd::abs(adj.k[5]), xsimd::abs(adj.k[10]), xsimd::abs(adj.k[15])};
+    c.dk = xsimd::max(xsimd::max(d[0], d[1]), xsimd::max(d[2], d[3]));
+    c.k[0] = d[0] >= V(T(0.25)) * c.dk;
+    M taken = c.k[0];
+    for (int j = 1; j < 4; ++j) {
+      c.k[j] = ~taken & (d[j] == c.dk);
+      taken = taken | c.k[j];
+    }
+    c.k[3] = c.k[3] | ~taken;  // NaN lanes (H = 0): any choice, they are replaced by the identity
+    V e[4];
+    for (int j = 0; j < 4; ++j) e[j] = xsimd::select(c.k[j], V(T(-1)), d[j]);
+    const V dl = xsimd::max(xsimd::max(e[0], e[1]), xsimd::max(e[2], e[3]));
+    taken = e[0] == dl;
+    c.l[0] = taken;
+    for (int j = 1; j < 4; ++j) {
+      c.l[j] = ~taken & (e[j] == dl);
+      taken = taken | c.l[j];
+    }
+    return c;
+  }
+
+  static Vec4 column(const Mat4& adj, const M (&pick)[4]) {
+    Vec4 col;
+    for (int i = 0; i < 4; ++i)
+      col.v[i] = xsimd::select(pick[0], adj(i, 0),
+                               xsimd::select(pick[1], adj(i, 1), xsimd::select(pick[2], adj(i, 2), adj(i, 3))));
+    return col;
+  }
+
+  static V dot(const Vec4& a, const Vec4& b) {
+    return a.v[0] * b.v[0] + a.v[1] * b.v[1] + a.v[2] * b.v[2] + a.v[3] * b.v[3];
+  }
+  static Vec4 mul(const Mat4& K, const Vec4& x) {
+    Vec4 r;
+    for (int i = 0; i < 4; ++i) r.v[i] = K(i, 0) * x.v[0] + K(i, 1) * x.v[1] + K(i, 2) * x.v[2] + K(i, 3) * x.v[3];
+    return r;
+  }
+
+  /// Rayleigh-Ritz on span{column k, column l}: mirrors the scalar ritz_top.
+  static Vec4 ritz_top(const Mat4& adj, const Columns& c, const Mat4& K, V a) {
+    const Vec4 ck = column(adj, c.k), cl = column(adj, c.l);
+    Vec4 b1, b2;
+    const V inv1 = V(T(1)) / xsimd::sqrt(dot(ck, ck));
+    for (int i = 0; i < 4; ++i) b1.v[i] = ck.v[i] * inv1;
+    V p = dot(b1, cl);
+    for (int i = 0; i < 4; ++i) b2.v[i] = cl.v[i] - b1.v[i] * p;
+    // scalar: if (!(|b2| > 64 eps |cl|)) return b1;
+    const M line_only = !(dot(b2, b2) > V(T(64 * 64) * eps * eps) * dot(cl, cl));
+    p = dot(b1, b2);  // twice is enough
+    for (int i = 0; i < 4; ++i) b2.v[i] = b2.v[i] - b1.v[i] * p;
+    const V inv2 = V(T(1)) / xsimd::sqrt(dot(b2, b2));
+    for (int i = 0; i < 4; ++i) b2.v[i] = b2.v[i] * inv2;
+    const Vec4 Kb1 = mul(K, b1), Kb2 = mul(K, b2);
+    const V B11 = dot(b1, Kb1), B12 = dot(b1, Kb2), B22 = dot(b2, Kb2);
+    const V d = V(T(0.5)) * (B11 - B22);
+    const V r = xsimd::sqrt(d * d + B12 * B12);
+    // scalar: if (!(r > 8 eps a)) { the plane's vector closest to e0 (or e_m) }
+    const M is_double = !(r > V(T(8) * eps) * a);
+    V proj[4];
+    for (int i = 0; i < 4; ++i) proj[i] = b1.v[i] * b1.v[i] + b2.v[i] * b2.v[i];
+    const V pm = xsimd::max(xsimd::max(proj[0], proj[1]), xsimd::max(proj[2], proj[3]));
+    M pick[4];
+    pick[0] = proj[0] >= V(T(0.25)) * pm;
+    M taken = pick[0];
+    for (int j = 1; j < 4; ++j) {
+      pick[j] = ~taken & (proj[j] == pm);
+      taken = taken | pick[j];
+    }
+    V b1m = b1.v[3], b2m = b2.v[3];
+    for (int j = 2; j >= 0; --j) {
+      b1m = xsimd::select(pick[j], b1.v[j], b1m);
+      b2m = xsimd::select(pick[j], b2.v[j], b2m);
+    }
+    const M d_pos = d >= V(T(0));
+    const V f1 = xsimd::select(d_pos, d + r, B12), f2 = xsimd::select(d_pos, B12, r - d);
+    Vec4 q;
+    for (int i = 0; i < 4; ++i) {
+      const V ritz = f1 * b1.v[i] + f2 * b2.v[i];
+      const V dbl = b1.v[i] * b1m + b2.v[i] * b2m;
+      q.v[i] = xsimd::select(line_only, b1.v[i], xsimd::select(is_double, dbl, ritz));
+    }
+    return q;
+  }
+
+  /// Eq. (14) generalised. `fallback` returns the lanes (a triple root) the scalar code must redo;
+  /// `near_double` those that took the shifted evaluation.
+  static Vec4 rotation_axis(const Mat4& K, V y, M& near_double, M& fallback) {
+    V a = xsimd::abs(K.k[0]);
+    for (int i = 1; i < 16; ++i) a = xsimd::max(a, xsimd::abs(K.k[i]));
+    const V a3 = a * a * a;
+    const V sqrt_eps(Simd<T, A>::sqrt_eps);
+    Mat4 adj = adjugate(shifted(K, y));
+    Columns c = strongest_columns(adj);
+    Vec4 q = ritz_top(adj, c, K, a);
+    // scalar: if (dk > sqrt(eps) a^3) return ritz_top(...)   (regular root)
+    const M regular = c.dk > sqrt_eps * a3;
+    near_double = !regular;
+    fallback = M(false);
+    if (xsimd::any(near_double)) {
+      adj = adjugate(shifted(K, y + sqrt_eps * a));
+      c = strongest_columns(adj);
+      const Vec4 q1 = ritz_top(adj, c, K, a);
+      for (int i = 0; i < 4; ++i) q.v[i] = xsimd::select(regular, q.v[i], q1.v[i]);
+      fallback = near_double & !(c.dk > V(T(64 * 27) * eps) * a3);
+    }
+    return q;
+  }
+};
+
+}  // namespace mlsdeform::kernels
