@@ -1,0 +1,370 @@
+// Rotation fit: ns per fit and fits per second for every RotationMethod, in float and double, plus QCP
+// (bench/qcp.hpp) as an extra baseline, all on the same 10^6 random correlation matrices (bench/cases.hpp:
+// random rotations of weighted noisy point sets, a fifth of them mirrored so that det H < 0), generated once.
+//
+// Every benchmark first runs its method over the whole set and checks each result against the long-double
+// SVD reference (bench/reference.hpp: angle, trace and orthonormality tolerances derived there); a single
+// mismatch skips the benchmark with an error naming the case. Timing then repeats the whole pass; one
+// iteration = 10^6 fits, streamed from memory (72 bytes of H per fit in double, 36 in float), one core.
+//
+// Names: fit/<float|double>/<method>/<path>, path = "scalar" for fit_rotation (the library's scalar
+// reference, baseline flags) and for QCP, or batch:<isa> for the batched fit_rotations forced to that ISA
+// (see the batched section below; fit_hot/... repeats a cache-resident subset).
+//
+// Extra options (before the Google Benchmark ones):
+//   --cases=N           size of the set (default 1000000)
+//   --error_sweep=FILE  also write the error-versus-distance-from-half-turn data (CSV) for the report's plot
+#include "cases.hpp"
+#include "common.hpp"
+#include "paper_literal.hpp"
+#include "qcp.hpp"
+#include "reference.hpp"
+
+#include <mlsdeform/batch.hpp>
+#include <mlsdeform/rotation.hpp>
+
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+#include <tbb/parallel_reduce.h>
+
+#include <algorithm>
+#include <atomic>
+#include <cmath>
+#include <fstream>
+#include <functional>
+#include <mutex>
+#include <numbers>
+#include <string>
+#include <vector>
+
+namespace {
+
+using mlsdeform::Matrix3;
+using mlsdeform::RotationMethod;
+using bench::Matrix3L;
+
+std::size_t g_case_count = 1'000'000;
+
+/// The shared set and its references, built once (in parallel: the long-double SVDs take a few seconds).
+struct Data {
+  std::vector<Eigen::Matrix3d> H_double;
+  std::vector<Eigen::Matrix3f> H_float;
+  std::vector<bench::Reference> ref_double, ref_float;
+  std::size_t det_negative = 0;
+
+  template <class T>
+  const std::vector<Matrix3<T>>& H() const {
+    if constexpr (std::is_same_v<T, float>) return H_float;
+    else return H_double;
+  }
+  template <class T>
+  const std::vector<bench::Reference>& ref() const {
+    if constexpr (std::is_same_v<T, float>) return ref_float;
+    else return ref_double;
+  }
+};
+
+const Data& data() {
+  static const Data shared = [] {
+    Data d;
+    const std::size_t n = g_case_count;
+    d.H_double.resize(n);
+    d.H_float.resize(n);
+    d.ref_double.resize(n);
+    d.ref_float.resize(n);
+    std::atomic<std::size_t> negative{0};
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, 1024), [&](const tbb::blocked_range<std::size_t>& r) {
+      std::size_t neg = 0;
+      for (std::size_t i = r.begin(); i < r.end(); ++i) {
+        d.H_double[i] = bench::make_case(bench::kCaseSeed, i);
+        d.H_float[i] = d.H_double[i].cast<float>();
+        d.ref_double[i] = bench::reference(d.H_double[i]);
+        d.ref_float[i] = bench::reference(d.H_float[i]);
+        if (d.H_double[i].determinant() < 0) ++neg;
+      }
+      negative += neg;
+    });
+    d.det_negative = negative;
+    return d;
+  }();
+  return shared;
+}
+
+/// Check every result of `fit` against the reference (in parallel: untimed). Returns an empty string when
+/// all pass, else a message naming the first failing case; `worst` gets the largest error/tolerance ratio.
+template <class T, class Fit>
+std::string validate(const Fit& fit, bench::ErrorModel model, std::vector<Matrix3<T>>& out, double& worst) {
+  const Data& d = data();
+  const auto& H = d.template H<T>();
+  const auto& ref = d.template ref<T>();
+  std::mutex m;
+  std::size_t first_bad = H.size(), bad = 0;
+  bench::Verdict first_verdict;
+  worst = tbb::parallel_reduce(
+      tbb::blocked_range<std::size_t>(0, H.size(), 4096), 0.0,
+      [&](const tbb::blocked_range<std::size_t>& r, double w) {
+        for (std::size_t i = r.begin(); i < r.end(); ++i) {
+          out[i] = fit(H[i]);
+          const bench::Verdict v = bench::judge(out[i], H[i], ref[i], model);
+          w = std::max(w, static_cast<double>(v.worst_ratio()));
+          if (!v.ok) {
+            std::lock_guard lock(m);
+            ++bad;
+            if (i < first_bad) {
+              first_bad = i;
+              first_verdict = v;
+            }
+          }
+        }
+        return w;
+      },
+      [](double a, double b) { return std::max(a, b); });
+  if (bad == 0) return {};
+  return std::to_string(bad) + " of " + std::to_string(H.size()) + " fits off the long-double SVD reference; first: case " +
+         std::to_string(first_bad) + " (seed " + std::to_string(bench::kCaseSeed) + "): " + first_verdict.describe();
+}
+
+/// The common body: validate, then time whole passes over the set.
+template <class T, class Fit>
+void run_fit(benchmark::State& state, bench::ErrorModel model, const Fit& fit) {
+  const auto& H = data().template H<T>();
+  const std::size_t n = H.size();
+  std::vector<Matrix3<T>> out(n);
+  double worst = 0;
+  if (const std::string err = validate<T>(fit, model, out, worst); !err.empty()) {
+    state.SkipWithError(err.c_str());
+    return;
+  }
+  for (auto _ : state) {
+    for (std::size_t i = 0; i < n; ++i) out[i] = fit(H[i]);
+    benchmark::DoNotOptimize(out.data());
+    benchmark::ClobberMemory();
+  }
+  state.SetItemsProcessed(static_cast<int64_t>(state.iterations() * n));
+  state.counters["ns_per_fit"] = bench::ns_per(static_cast<double>(n));
+  state.counters["worst_err_over_tol"] = worst;
+}
+
+template <class T>
+const char* type_name() {
+  return std::is_same_v<T, float> ? "float" : "double";
+}
+
+template <class T>
+void register_scalar() {
+  for (RotationMethod m : mlsdeform::all_rotation_methods) {
+    const std::string name = std::string("fit/") + type_name<T>() + "/" + std::string(mlsdeform::to_string(m)) + "/scalar";
+    benchmark::RegisterBenchmark(name.c_str(), [m](benchmark::State& s) {
+      run_fit<T>(s, bench::error_model(m), [m](const Matrix3<T>& H) { return mlsdeform::fit_rotation<T>(H, m); });
+    })->Unit(benchmark::kMillisecond);
+  }
+  const std::string name = std::string("fit/") + type_name<T>() + "/qcp/scalar";
+  benchmark::RegisterBenchmark(name.c_str(), [](benchmark::State& s) {
+    run_fit<T>(s, bench::ErrorModel::polynomial_root,
+               [](const Matrix3<T>& H) { return bench::fit_rotation_qcp<T>(H); });
+    // Mean Newton steps, for the record (counted outside the timed loop).
+    const auto& Hs = data().template H<T>();
+    double steps = 0;
+    for (const auto& H : Hs) {
+      bench::QcpInfo info;
+      bench::fit_rotation_qcp<T>(H, &info);
+      steps += info.newton;
+    }
+    s.counters["newton_steps"] = steps / static_cast<double>(Hs.size());
+  })->Unit(benchmark::kMillisecond);
+}
+
+// ---------------------------------------------------------------------------------------------------------
+// Batched: mlsdeform::fit_rotations over the same set in the 3 x 3 x n structure-of-arrays layout
+// (<mlsdeform/batch.hpp>), for each ISA this CPU runs (forced with set_isa) and each method the kernels put
+// in SIMD lanes. "fit" streams the 10^6 matrices from memory (72 bytes in and out per fit in float, 144 in
+// double); "fit_hot" repeats the first 4096 (a 295 KB / 590 KB working set, in L2), which is what the
+// deformer sees, since it builds each H in registers.
+// ---------------------------------------------------------------------------------------------------------
+
+constexpr RotationMethod kBatchedMethods[] = {RotationMethod::axis_angle, RotationMethod::horn_quaternion};
+constexpr std::size_t kHotCount = 4096;
+
+/// The set in SoA layout: entry (r, c) of matrix i at [(3 r + c) n + i].
+template <class T>
+const std::vector<T>& soa() {
+  static const std::vector<T> v = [] {
+    const auto& H = data().template H<T>();
+    const std::size_t n = H.size();
+    std::vector<T> out(9 * n);
+    for (std::size_t i = 0; i < n; ++i)
+      for (std::size_t e = 0; e < 9; ++e) out[e * n + i] = H[i](e / 3, e % 3);
+    return out;
+  }();
+  return v;
+}
+
+template <class T>
+std::vector<T> soa_prefix(std::size_t m) {
+  const auto& full = soa<T>();
+  const std::size_t n = full.size() / 9;
+  std::vector<T> out(9 * m);
+  for (std::size_t e = 0; e < 9; ++e)
+    std::copy(full.begin() + static_cast<std::ptrdiff_t>(e * n), full.begin() + static_cast<std::ptrdiff_t>(e * n + m),
+              out.begin() + static_cast<std::ptrdiff_t>(e * m));
+  return out;
+}
+
+/// Check a batched result (n = all cases) against the references; empty string when all pass.
+template <class T>
+std::string validate_soa(const std::vector<T>& R, double& worst) {
+  const Data& d = data();
+  const auto& H = d.template H<T>();
+  const auto& ref = d.template ref<T>();
+  const std::size_t n = H.size();
+  std::size_t bad = 0, first_bad = n;
+  bench::Verdict first_verdict;
+  worst = 0;
+  for (std::size_t i = 0; i < n; ++i) {
+    Matrix3<T> Ri;
+    for (std::size_t e = 0; e < 9; ++e) Ri(e / 3, e % 3) = R[e * n + i];
+    const bench::Verdict v = bench::judge(Ri, H[i], ref[i]);
+    worst = std::max(worst, static_cast<double>(v.worst_ratio()));
+    if (!v.ok && bad++ == 0) {
+      first_bad = i;
+      first_verdict = v;
+    }
+  }
+  if (bad == 0) return {};
+  return std::to_string(bad) + " of " + std::to_string(n) + " batched fits off the long-double SVD reference; first: case " +
+         std::to_string(first_bad) + ": " + first_verdict.describe();
+}
+
+/// Restores the library's default ISA choice when a batched benchmark ends.
+struct IsaGuard {
+  mlsdeform::Isa saved = mlsdeform::active_isa();
+  ~IsaGuard() { mlsdeform::set_isa(saved); }
+};
+
+template <class T>
+void run_batched(benchmark::State& state, mlsdeform::Isa isa, RotationMethod method, bool hot, int threads) {
+  IsaGuard guard;
+  mlsdeform::set_isa(isa);
+  const auto& H = soa<T>();
+  const std::size_t n = H.size() / 9;
+  // Validate the whole set (on all cores: untimed), and count the lanes that left the regular path.
+  std::vector<T> R(9 * n);
+  mlsdeform::BatchStats stats;
+  mlsdeform::fit_rotations<T>(H.data(), R.data(), n, method, 0, &stats);
+  double worst = 0;
+  if (const std::string err = validate_soa<T>(R, worst); !err.empty()) {
+    state.SkipWithError(err.c_str());
+    return;
+  }
+  const std::vector<T> H_hot = hot ? soa_prefix<T>(kHotCount) : std::vector<T>();
+  const T* in = hot ? H_hot.data() : H.data();
+  const std::size_t m = hot ? kHotCount : n;
+  for (auto _ : state) {
+    mlsdeform::fit_rotations<T>(in, R.data(), m, method, threads);
+    benchmark::DoNotOptimize(R.data());
+    benchmark::ClobberMemory();
+  }
+  state.SetItemsProcessed(static_cast<int64_t>(state.iterations() * m));
+  state.counters["ns_per_fit"] = bench::ns_per(static_cast<double>(m));
+  state.counters["worst_err_over_tol"] = worst;
+  state.counters["lanes_near_double"] = static_cast<double>(stats.near_double);
+  state.counters["lanes_scalar_fallback"] = static_cast<double>(stats.scalar_fallback);
+  state.counters["lanes"] = static_cast<double>(mlsdeform::simd_lanes(std::is_same_v<T, double>));
+}
+
+template <class T>
+void register_batched() {
+  const std::vector<mlsdeform::Isa> isas = mlsdeform::supported_isas();
+  for (mlsdeform::Isa isa : isas)
+    for (RotationMethod m : kBatchedMethods)
+      for (bool hot : {false, true}) {
+        const std::string name = std::string(hot ? "fit_hot/" : "fit/") + type_name<T>() + "/" +
+                                 std::string(mlsdeform::to_string(m)) + "/batch:" + std::string(mlsdeform::to_string(isa));
+        benchmark::RegisterBenchmark(name.c_str(), [=](benchmark::State& s) { run_batched<T>(s, isa, m, hot, 1); })
+            ->Unit(benchmark::kMillisecond);
+      }
+  // Both cores, best ISA, the paper's method (UseRealTime: TBB workers do the work).
+  const mlsdeform::Isa best = isas.back();
+  for (bool hot : {false, true}) {
+    const std::string name = std::string(hot ? "fit_hot/" : "fit/") + type_name<T>() + "/axis_angle/batch:" +
+                             std::string(mlsdeform::to_string(best)) + "/threads:" + std::to_string(bench::hardware_threads());
+    benchmark::RegisterBenchmark(name.c_str(), [=](benchmark::State& s) {
+      run_batched<T>(s, best, RotationMethod::axis_angle, hot, 0);
+    })->Unit(benchmark::kMillisecond)->UseRealTime();
+  }
+}
+
+// ---------------------------------------------------------------------------------------------------------
+// Error versus distance from a half-turn (the report's plot): for delta = pi - angle from 1e-8 to 1 rad,
+// cases of near_half_turn_correlation; per method and precision, the median and largest angle to the
+// long-double SVD reference of the rounded H.
+// ---------------------------------------------------------------------------------------------------------
+
+template <class T>
+void sweep_type(std::ofstream& csv) {
+  struct Method {
+    std::string name;
+    std::function<Matrix3<T>(const Matrix3<T>&)> fit;
+  };
+  std::vector<Method> methods;
+  for (RotationMethod m : mlsdeform::all_rotation_methods)
+    methods.push_back({std::string(mlsdeform::to_string(m)),
+                       [m](const Matrix3<T>& H) { return mlsdeform::fit_rotation<T>(H, m); }});
+  methods.push_back({"qcp", [](const Matrix3<T>& H) { return bench::fit_rotation_qcp<T>(H); }});
+  methods.push_back({"paper_eq14_literal", [](const Matrix3<T>& H) { return bench::fit_rotation_paper_literal<T>(H); }});
+  constexpr int kPerDecade = 4, kCasesPerDelta = 400;
+  for (int e = -8 * kPerDecade; e <= 0; ++e) {
+    const double delta = std::pow(10.0, double(e) / kPerDecade);
+    std::vector<Matrix3<T>> H(kCasesPerDelta);
+    std::vector<Matrix3L> R_ref(kCasesPerDelta);
+    bench::Rng rng = bench::case_rng(bench::kCaseSeed + 1, static_cast<std::uint64_t>(e + 1000));
+    for (int i = 0; i < kCasesPerDelta; ++i) {
+      H[i] = bench::near_half_turn_correlation(rng, delta).template cast<T>();
+      R_ref[i] = bench::reference(H[i]).rotation.template cast<long double>();
+    }
+    for (const Method& m : methods) {
+      std::vector<double> err(kCasesPerDelta);
+      for (int i = 0; i < kCasesPerDelta; ++i) {
+        const Matrix3<T> R = m.fit(H[i]);
+        err[i] = R.allFinite() ? static_cast<double>(bench::rotation_angle(R.template cast<long double>(), R_ref[i]))
+                               : std::numbers::pi;
+      }
+      std::sort(err.begin(), err.end());
+      csv << type_name<T>() << ',' << m.name << ',' << delta << ',' << kCasesPerDelta << ','
+          << err[kCasesPerDelta / 2] << ',' << err.back() << '\n';
+    }
+  }
+}
+
+void write_error_sweep(const std::string& path) {
+  std::ofstream csv(path);
+  csv.precision(6);
+  csv << "type,method,delta,cases,median_angle_error,max_angle_error\n";
+  sweep_type<float>(csv);
+  sweep_type<double>(csv);
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  const auto opt = bench::take_options(argc, argv, {"cases", "error_sweep"});
+  if (!opt[0].empty()) g_case_count = std::stoul(opt[0]);
+  if (!opt[1].empty()) write_error_sweep(opt[1]);
+
+  register_scalar<float>();
+  register_scalar<double>();
+  register_batched<float>();
+  register_batched<double>();
+
+  const Data& d = data();
+  std::string isas;
+  for (mlsdeform::Isa isa : mlsdeform::supported_isas()) isas += std::string(mlsdeform::to_string(isa)) + " ";
+  bench::add_context("fit/*/scalar: fit_rotation (baseline x86-64 flags); fit/*/batch:<isa>: fit_rotations "
+                     "forced to <isa>; library default: " + std::string(mlsdeform::to_string(mlsdeform::active_isa())) +
+                         " (supported: " + isas + ")",
+                     "1 (except names ending threads:N)");
+  benchmark::AddCustomContext("cases", std::to_string(d.H_double.size()));
+  benchmark::AddCustomContext("cases_det_negative", std::to_string(d.det_negative));
+  benchmark::AddCustomContext("case_seed", std::to_string(bench::kCaseSeed));
+  return bench::run_benchmarks(argc, argv);
+}
