@@ -20,9 +20,32 @@ template <class T>
 using FitRotationsFn = void (*)(const T* H, T* R, std::size_t stride, std::size_t begin, std::size_t end,
                                 RotationStats* stats);
 
-/// One block of B = 16 vertices of the precomputed rigid/similarity deformation; see deform_kernel.hpp.
-struct DeformBlockArgsF;
-struct DeformBlockArgsD;
+/// One frame of the MLS deformation over the precomputed session data of core/src/deformer_data.hpp
+/// (blocks of 16 vertices; per block and pseudo-handle j the 16-lane arrays omega, Ax, Ay, Az, or alpha).
+/// Targets come straight from the caller's handles: point j at (points[j], points[k + j], points[2k + j])
+/// (column-major k x 3), then for each segment i its ends seg_a and seg_b (column-major s x 3).
+template <class T>
+struct DeformFrame {
+  const T* table;         ///< coefficient table
+  const T* vhat;          ///< vhat[c * padded + v] (rigid, similarity)
+  const T* D;             ///< similarity: D[v]; else nullptr
+  std::size_t padded;     ///< 16 * blocks
+  const T* points;        ///< k x 3 column-major
+  std::size_t k;
+  const T* seg_a;         ///< s x 3 column-major
+  const T* seg_b;
+  std::size_t s;
+  T centre[3];            ///< c: H = sum_j (q_j - c) A_j^T
+  int transform;          ///< 0 rigid, 1 similarity, 2 affine
+  int method;             ///< 0 axis_angle, 1 horn_quaternion (Jacobi)
+  T* out;                 ///< vertex v, coordinate c at out[c * out_coord_stride + v * out_vertex_stride]
+  std::size_t out_vertex_stride, out_coord_stride;
+  std::size_t n;          ///< vertices (the last block may be partial)
+};
+
+template <class T>
+using DeformBlocksFn = void (*)(const DeformFrame<T>& frame, std::size_t block_begin, std::size_t block_end,
+                                RotationStats* stats);
 
 struct KernelTable {
   const char* name;          ///< "sse4_2", "avx2", "avx512"
@@ -32,6 +55,8 @@ struct KernelTable {
   FitRotationsFn<double> fit_axis_angle_d;
   FitRotationsFn<float> fit_horn_f;    ///< Horn 1987 quaternion by cyclic Jacobi on the 4x4 matrix
   FitRotationsFn<double> fit_horn_d;
+  DeformBlocksFn<float> deform_f;
+  DeformBlocksFn<double> deform_d;
 };
 
 /// Defined in kernels/isa_<name>.cpp; nullptr-free: each returns its table.

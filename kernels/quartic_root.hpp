@@ -95,7 +95,8 @@ struct QuarticRoot : Simd<T, A> {
     const V upper = xsimd::sqrt(V(T(3))) * norm;
     V y = xsimd::min(y_closed + V(T(4) * cbrt_eps) * norm, upper);
     y = xsimd::select(P(y) < V(T(0)), upper, y);
-    V last_step(std::numeric_limits<T>::infinity());
+    constexpr T inf = std::numeric_limits<T>::infinity();
+    V last_step(inf);
     M active = Simd<T, A>::all_true();
     int it = 0;
     for (; it < 64; ++it) {

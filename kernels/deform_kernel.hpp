@@ -1,0 +1,118 @@
+// One frame of the MLS deformation in SIMD lanes, one vertex per lane, mirroring the scalar reference
+// core/src/deformer_scalar.hpp stage by stage over the precomputed table of core/src/deformer_data.hpp:
+//   weighted_centroid   q* = sum_j omega_j q_j                         (eq. 2)
+//   correlation_matrix  H  = sum_j (q_j - c) A_j^T                     (eq. 6, Sec. 6.2)
+//   fit                 R  (FitRotations: eqs. 13-15; or HornJacobi)
+//   scale               mu = trace(R^T H) / D (similarity, Sec. 6.1), else 1
+//   apply               v' = q* + mu R vhat                            (Algorithm 1 steps 8-10)
+// Affine: v' = sum_j alpha_j q_j. The pseudo-handles are visited in the same order as the scalar code, so a
+// vertex's sums see the same terms in the same order (its lane), whatever the thread or block schedule.
+#pragma once
+
+#include "fit_rotations.hpp"
+#include "horn_jacobi.hpp"
+#include "kernel_table.hpp"
+
+namespace mlsdeform::kernels {
+
+template <class T, class A>
+struct DeformKernel : Simd<T, A> {
+  using typename Simd<T, A>::V;
+  using typename Simd<T, A>::M;
+  using Simd<T, A>::W;
+  static constexpr std::size_t kBlock = 16;  // detail::kLanes
+  static_assert(kBlock % W == 0, "a block holds a whole number of batches");
+
+  /// f(j, x, y, z) for every pseudo-handle in the scalar code's order: points, then each segment's ends.
+  template <class F>
+  static void for_each_target(const DeformFrame<T>& fr, F&& f) {
+    std::size_t j = 0;
+    for (std::size_t i = 0; i < fr.k; ++i, ++j) f(j, fr.points[i], fr.points[fr.k + i], fr.points[2 * fr.k + i]);
+    for (std::size_t i = 0; i < fr.s; ++i) {
+      f(j++, fr.seg_a[i], fr.seg_a[fr.s + i], fr.seg_a[2 * fr.s + i]);
+      f(j++, fr.seg_b[i], fr.seg_b[fr.s + i], fr.seg_b[2 * fr.s + i]);
+    }
+  }
+
+  /// The W vertices starting at lane `g` of block b.
+  static void batch(const DeformFrame<T>& fr, std::size_t b, std::size_t g, RotationStats& stats) {
+    const std::size_t J = fr.k + 2 * fr.s;
+    V out[3];
+    if (fr.transform == 2) {
+      V x(T(0)), y(T(0)), z(T(0));
+      for_each_target(fr, [&](std::size_t j, T qx, T qy, T qz) {
+        const V alpha = V::load_aligned(fr.table + (b * J + j) * kBlock + g);
+        x = x + alpha * V(qx);
+        y = y + alpha * V(qy);
+        z = z + alpha * V(qz);
+      });
+      out[0] = x, out[1] = y, out[2] = z;
+    } else {
+      V qs[3] = {V(T(0)), V(T(0)), V(T(0))};
+      V h[9];
+      for (V& e : h) e = V(T(0));
+      for_each_target(fr, [&](std::size_t j, T qx, T qy, T qz) {
+        const T* co = fr.table + (b * J + j) * 4 * kBlock + g;
+        const V omega = V::load_aligned(co), ax = V::load_aligned(co + kBlock), ay = V::load_aligned(co + 2 * kBlock),
+                az = V::load_aligned(co + 3 * kBlock);
+        qs[0] = qs[0] + omega * V(qx);
+        qs[1] = qs[1] + omega * V(qy);
+        qs[2] = qs[2] + omega * V(qz);
+        const V d[3] = {V(qx - fr.centre[0]), V(qy - fr.centre[1]), V(qz - fr.centre[2])};
+        for (int r = 0; r < 3; ++r) {
+          h[3 * r + 0] = h[3 * r + 0] + d[r] * ax;
+          h[3 * r + 1] = h[3 * r + 1] + d[r] * ay;
+          h[3 * r + 2] = h[3 * r + 2] + d[r] * az;
+        }
+      });
+      V hn[9], r[9];
+      for (int i = 0; i < 9; ++i) hn[i] = h[i];  // fit normalises its argument in place
+      if (fr.method == 1) {
+        HornJacobi<T, A>::fit(hn, r);
+      } else {
+        const M fallback = FitRotations<T, A>::fit(hn, r, stats);
+        if (xsimd::any(fallback)) FitRotations<T, A>::scalar_lanes(fallback, hn, r, stats);
+      }
+      V mu(T(1));
+      if (fr.transform == 1) {
+        const V D = V::load_aligned(fr.D + b * kBlock + g);
+        V tr = r[0] * h[0];
+        for (int i = 1; i < 9; ++i) tr = tr + r[i] * h[i];
+        mu = xsimd::select(D > V(T(0)), tr / D, V(T(1)));  // scalar: if (D > 0) mu = trace(R^T H) / D
+      }
+      const std::size_t v0 = b * kBlock + g;
+      const V vh[3] = {V::load_aligned(fr.vhat + v0), V::load_aligned(fr.vhat + fr.padded + v0),
+                       V::load_aligned(fr.vhat + 2 * fr.padded + v0)};
+      for (int i = 0; i < 3; ++i) {
+        const V rv = r[3 * i] * vh[0] + r[3 * i + 1] * vh[1] + r[3 * i + 2] * vh[2];
+        out[i] = qs[i] + mu * rv;
+      }
+    }
+    store(fr, b * kBlock + g, out);
+  }
+
+  static void store(const DeformFrame<T>& fr, std::size_t v0, const V (&out)[3]) {
+    if (v0 >= fr.n) return;
+    const std::size_t count = fr.n - v0 < W ? fr.n - v0 : W;
+    if (fr.out_vertex_stride == 1 && count == W) {
+      for (int c = 0; c < 3; ++c) out[c].store_unaligned(fr.out + c * fr.out_coord_stride + v0);
+      return;
+    }
+    alignas(64) T buf[3][W];
+    for (int c = 0; c < 3; ++c) out[c].store_aligned(buf[c]);
+    for (std::size_t l = 0; l < count; ++l)
+      for (std::size_t c = 0; c < 3; ++c) fr.out[c * fr.out_coord_stride + (v0 + l) * fr.out_vertex_stride] = buf[c][l];
+  }
+
+  static void run(const DeformFrame<T>& fr, std::size_t block_begin, std::size_t block_end, RotationStats* stats) {
+    RotationStats local;
+    for (std::size_t b = block_begin; b < block_end; ++b)
+      for (std::size_t g = 0; g < kBlock && b * kBlock + g < fr.n; g += W) batch(fr, b, g, local);
+    if (stats) {
+      stats->near_double += local.near_double;
+      stats->scalar_fallback += local.scalar_fallback;
+    }
+  }
+};
+
+}  // namespace mlsdeform::kernels
