@@ -1,0 +1,116 @@
+// The MLS deformer's precomputed session data (paper Sec. 5: "all values of vhat, p*, w and phat_i are
+// precomputed"), laid out for structure-of-arrays kernels. Written by deformer.cpp; read by the scalar
+// reference (deformer_scalar.hpp) and by the SIMD kernels, which include this header.
+//
+// Pseudo-handles. Every handle is reduced to pseudo-handles j = 0 .. J-1, each with a rest position p_j and
+// a target q_j: point handle i is pseudo-handle i (p = points(i), q = moved points(i)); segment handle s
+// gives pseudo-handles k + 2s (its end a -> target c) and k + 2s + 1 (end b -> target d), k the number of
+// point handles. Per vertex v and pseudo-handle j the precomputation stores
+//   omega_j   the centroid weight, sum_j omega_j = 1:  q* = sum_j omega_j q_j                    (eq. 2)
+//   A_j       a 3-vector with sum_j A_j = 0:             H = sum_j q_j A_j^T = sum_j qhat_j A_j^T   (eq. 6)
+// Points: omega_i = w_i / S, A_i = omega_i phat_i. Segments (Sec. 6.2, moments I0, I1, I2 of weights.hpp):
+//   omega_c = (I0 + I1) / S, omega_d = (I1 + I2) / S, A_c = (I0 ahat + I1 bhat) / S, A_d = (I1 ahat + I2 bhat) / S,
+// S the total weight (point weights plus segment integrals), so that H = sum_i int w qhat(t) phat(t)^T dt / S
+// exactly as in Sec. 6.2 (the paper's W_i split into the two end points).
+//
+// Per-frame evaluation of vertex v (rigid and similarity; Algorithm 1 steps 2-10):
+//   q*  = sum_j omega_j q_j                                 (targets as given: exact at snapped vertices)
+//   H   = sum_j (q_j - c) A_j^T                             (c: any per-frame point, e.g. the mean target;
+//                                                            equal to sum_j q_j A_j^T since sum_j A_j = 0, but
+//                                                            without cancellation when the scene is far from
+//                                                            the origin)
+//   R   = fit_rotation(H, method)
+//   mu  = 1 (rigid), trace(R^T H) / D (similarity, Sec. 6.1; 1 where D = 0)
+//   v'  = q* + mu R vhat
+// Units: A_j and D are stored divided by `scale` (an exact power of two close to the scene size), so H is
+// the paper's M divided by `scale`, and trace(R^T H) / D is still the paper's mu_s. This keeps H and D of
+// the order of the coordinates: no overflow or underflow in float even for a scene of size 1e30 or 1e-30.
+//
+// Affine (Schaefer et al. 2006 normal equations, with G = sum_j A_j phat_j^T = sum_i int w phat phat^T / S):
+//   v' = q* + H G^-1 vhat = sum_j alpha_j q_j,   alpha_j = omega_j + A_j . (G^-1 vhat)   (precomputed)
+//
+// Snapped vertices (closer to a handle than 64 eps(T) times the scene size) have omega = 1 on that point
+// handle (or 1 - t, t on the ends of that segment, t the closest point), A = 0, vhat = 0 and D = 0: H = 0,
+// fit_rotation gives the identity, and v' = q* exactly.
+//
+// Layout. Vertices are grouped in blocks of kLanes = 16 (padded; padding lanes carry omega = 0, A = 0,
+// vhat = 0, D = 0, alpha = 0). All arrays are 64-byte aligned.
+//   table (rigid, similarity): table[((b * J + j) * 4 + c) * 16 + lane], c = 0 omega, 1 Ax, 2 Ay, 3 Az
+//   table (affine):            table[(b * J + j) * 16 + lane] = alpha_j
+//   p_star, vhat (rigid, similarity): [c * padded + v] for coordinate c (SoA), padded = 16 * blocks
+//   D (similarity only):       [v]
+#pragma once
+
+#include <mlsdeform/deformer.hpp>
+
+#include <cstddef>
+#include <cstdlib>
+#include <new>
+#include <vector>
+
+namespace mlsdeform::detail {
+
+/// Vertices per block (the widest SIMD register holds 16 floats).
+inline constexpr std::size_t kLanes = 16;
+/// Alignment of every precomputed array, in bytes (one cache line; the widest vector register).
+inline constexpr std::size_t kAlignment = 64;
+
+template <class T>
+struct AlignedAllocator {
+  using value_type = T;
+  AlignedAllocator() = default;
+  template <class U>
+  AlignedAllocator(const AlignedAllocator<U>&) noexcept {}
+  T* allocate(std::size_t n) {
+    if (n > (std::size_t(-1) - kAlignment) / sizeof(T)) throw std::bad_alloc();
+    const std::size_t bytes = (n * sizeof(T) + kAlignment - 1) / kAlignment * kAlignment;
+    void* p = std::aligned_alloc(kAlignment, bytes == 0 ? kAlignment : bytes);
+    if (!p) throw std::bad_alloc();
+    return static_cast<T*>(p);
+  }
+  void deallocate(T* p, std::size_t) noexcept { std::free(p); }
+  template <class U>
+  bool operator==(const AlignedAllocator<U>&) const noexcept {
+    return true;
+  }
+};
+
+template <class T>
+using AlignedVector = std::vector<T, AlignedAllocator<T>>;
+
+template <class T>
+struct DeformerData {
+  Transform transform = Transform::rigid;
+  std::size_t n = 0;          ///< vertices
+  std::size_t blocks = 0;     ///< ceil(n / kLanes)
+  std::size_t points = 0;     ///< point handles k
+  std::size_t segments = 0;   ///< segment handles s
+  double scale = 1;           ///< A and D are stored divided by this power of two (see above)
+  AlignedVector<T> table;     ///< omega, A (rigid, similarity) or alpha (affine), blocked as above
+  AlignedVector<T> p_star;    ///< rigid, similarity: weighted centroid of the rest handles, SoA, padded
+  AlignedVector<T> vhat;      ///< rigid, similarity: v - p*, SoA, padded
+  AlignedVector<T> D;         ///< similarity: sum_j A_j . phat_j (= sum_i w_i |phat_i|^2 / S), padded
+
+  std::size_t pseudo_handles() const { return points + 2 * segments; }
+  std::size_t padded() const { return blocks * kLanes; }
+  /// Values per block and pseudo-handle: 4 (omega, Ax, Ay, Az) or 1 (alpha).
+  std::size_t components() const { return transform == Transform::affine ? 1 : 4; }
+  /// The 16-lane arrays of block b, pseudo-handle j: omega at [0], Ax at [16], Ay at [32], Az at [48]
+  /// (rigid, similarity) or alpha at [0] (affine).
+  const T* coefficients(std::size_t b, std::size_t j) const {
+    return table.data() + (b * pseudo_handles() + j) * components() * kLanes;
+  }
+  T* coefficients(std::size_t b, std::size_t j) {
+    return table.data() + (b * pseudo_handles() + j) * components() * kLanes;
+  }
+  /// Coordinate c of the per-vertex SoA arrays, from vertex 16 b on.
+  const T* p_star_block(std::size_t b, int c) const { return p_star.data() + c * padded() + b * kLanes; }
+  const T* vhat_block(std::size_t b, int c) const { return vhat.data() + c * padded() + b * kLanes; }
+  const T* D_block(std::size_t b) const { return D.data() + b * kLanes; }
+
+  std::size_t bytes() const {
+    return (table.capacity() + p_star.capacity() + vhat.capacity() + D.capacity()) * sizeof(T);
+  }
+};
+
+}  // namespace mlsdeform::detail

@@ -1,0 +1,169 @@
+// Bad input (issue #3, point 3): std::invalid_argument with a message naming the problem, and `out` left
+// untouched (bitwise, size included).
+#include "test_deformer_common.hpp"
+
+#include <limits>
+
+using namespace deformer_test;
+
+namespace {
+
+template <class T>
+void expect_ctor_error(const Points<T>& v, const Handles<T>& h, const Options& o, const std::string& what) {
+  INFO("expected message containing: " << what);
+  CHECK_THROWS_AS(Deformer<T>(v, h, o), std::invalid_argument);
+  CHECK_THROWS_WITH(Deformer<T>(v, h, o), Catch::Contains(what));
+}
+
+/// deform with bad handles must throw and leave both an empty and a correctly sized `out` as they were.
+template <class T>
+void expect_deform_error(const Deformer<T>& def, const Handles<T>& moved, const std::string& what) {
+  INFO("expected message containing: " << what);
+  Points<T> empty;
+  CHECK_THROWS_WITH(def.deform(moved, empty), Catch::Contains(what));
+  CHECK(empty.rows() == 0);
+  Points<T> out = Points<T>::Constant(def.vertex_count(), 3, T(42));
+  CHECK_THROWS_AS(def.deform(moved, out), std::invalid_argument);
+  CHECK(out.rows() == def.vertex_count());
+  CHECK((out.array() == T(42)).all());
+  PointsRowMajor<T> buffer = PointsRowMajor<T>::Constant(def.vertex_count(), 3, T(7));
+  CHECK_THROWS_AS(def.deform(moved, InterleavedView<T>(buffer.data(), def.vertex_count(), 3)), std::invalid_argument);
+  CHECK((buffer.array() == T(7)).all());
+}
+
+}  // namespace
+
+TEMPLATE_TEST_CASE("bad rest input is rejected with a message naming the problem", "[deformer][errors]", float,
+                   double) {
+  using T = TestType;
+  std::mt19937_64 g(seed());
+  const Scene<T> sc = random_scene<T>(g, 50, 5, 2);
+  const T nan = std::numeric_limits<T>::quiet_NaN(), inf = std::numeric_limits<T>::infinity();
+  Options o;
+  SECTION("no handles") { expect_ctor_error(sc.vertices, Handles<T>{}, o, "no handles"); }
+  SECTION("non-finite coordinates") {
+    Points<T> v = sc.vertices;
+    v(3, 1) = nan;
+    expect_ctor_error(v, sc.handles, o, "non-finite coordinate in rest vertices");
+    Handles<T> h = sc.handles;
+    h.points(2, 0) = inf;
+    expect_ctor_error(sc.vertices, h, o, "non-finite coordinate in rest handles points");
+    h = sc.handles;
+    h.segment_b(1, 2) = -inf;
+    expect_ctor_error(sc.vertices, h, o, "non-finite coordinate in rest handles segment_b");
+  }
+  SECTION("mismatched segment end points") {
+    Handles<T> h = sc.handles;
+    h.segment_b.conservativeResize(1, 3);
+    expect_ctor_error(sc.vertices, h, o, "segment start points (segment_a) but 1 end points");
+  }
+  SECTION("weight exponent") {
+    for (double u : {0.99, 0.0, -2.0, double(nan), double(inf)}) {
+      o.weight_exponent = u;
+      expect_ctor_error(sc.vertices, sc.handles, o, "weight_exponent must be a finite real >= 1");
+    }
+    o.weight_exponent = 1.0;  // the boundary is allowed
+    CHECK_NOTHROW(Deformer<T>(sc.vertices, sc.handles, o));
+  }
+  SECTION("zero-length segments (documented: rejected, use a point handle)") {
+    Handles<T> h = sc.handles;
+    h.segment_b.row(1) = h.segment_a.row(1);
+    expect_ctor_error(sc.vertices, h, o, "segment handle 1 has zero length");
+  }
+  SECTION("affine with handles that do not span 3D") {
+    o.transform = Transform::affine;
+    Handles<T> h;
+    h.points = random_points<T>(g, 3);
+    expect_ctor_error(sc.vertices, h, o, "needs handles spanning 3D");
+    // Coplanar (z = 0.5) and collinear point sets, and segments in a plane.
+    h.points = random_points<T>(g, 8);
+    h.points.col(2).setConstant(T(0.5));
+    expect_ctor_error(sc.vertices, h, o, "coplanar");
+    const Points<T> base = random_points<T>(g, 1), dir = random_points<T>(g, 1);
+    for (Eigen::Index i = 0; i < 8; ++i) h.points.row(i) = base + T(i) * dir;
+    expect_ctor_error(sc.vertices, h, o, "collinear");
+    Handles<T> s;
+    s.segment_a = random_points<T>(g, 3);
+    s.segment_b = random_points<T>(g, 3);
+    s.segment_a.col(0).setZero();
+    s.segment_b.col(0).setZero();
+    expect_ctor_error(sc.vertices, s, o, "coplanar");
+    // Rigid and similarity accept such handles (a rotation about the line or the plane normal is still
+    // defined by the fit), and affine accepts four non-coplanar points.
+    o.transform = Transform::rigid;
+    CHECK_NOTHROW(Deformer<T>(sc.vertices, h, o));
+    o.transform = Transform::affine;
+    Handles<T> tet;
+    tet.points.resize(4, 3);
+    tet.points << 0, 0, 0, 1, 0, 0, 0, 1, 0, 0, 0, 1;
+    CHECK_NOTHROW(Deformer<T>(sc.vertices, tet, o));
+  }
+  SECTION("options out of range") {
+    o.threads = -1;
+    expect_ctor_error(sc.vertices, sc.handles, o, "threads must be >= 0");
+    o.threads = 0;
+    o.method = static_cast<RotationMethod>(99);
+    expect_ctor_error(sc.vertices, sc.handles, o, "unknown RotationMethod");
+  }
+  SECTION("reset_rest_pose validates too and keeps the session on error") {
+    Deformer<T> def(sc.vertices, sc.handles, o);
+    Handles<T> h = sc.handles;
+    h.points(0, 0) = nan;
+    CHECK_THROWS_WITH(def.reset_rest_pose(sc.vertices, h), Catch::Contains("non-finite"));
+    CHECK(def.vertex_count() == sc.vertices.rows());
+    Points<T> out;
+    def.deform(sc.handles, out);
+    CHECK(out.allFinite());
+  }
+}
+
+TEMPLATE_TEST_CASE("bad moved handles are rejected and leave out untouched", "[deformer][errors]", float, double) {
+  using T = TestType;
+  std::mt19937_64 g(seed());
+  const Scene<T> sc = random_scene<T>(g, 50, 5, 2);
+  for (Transform tr : all_transforms) {
+    INFO(name(tr));
+    Options o;
+    o.transform = tr;
+    const Deformer<T> def(sc.vertices, sc.handles, o);
+    Handles<T> m = sc.handles;
+    m.points.conservativeResize(4, 3);
+    expect_deform_error(def, m, "5 point handles at rest but 4 moved point handles");
+    m = sc.handles;
+    m.segment_a.conservativeResize(3, 3);
+    m.segment_b.conservativeResize(3, 3);
+    m.segment_a.row(2).setZero();
+    m.segment_b.row(2).setOnes();
+    expect_deform_error(def, m, "2 segment handles at rest but 3 moved segment_a and 3 moved segment_b");
+    m = sc.handles;
+    m.segment_b.conservativeResize(1, 3);
+    expect_deform_error(def, m, "moved segment_b");
+    m = sc.handles;
+    m.points(1, 1) = std::numeric_limits<T>::quiet_NaN();
+    expect_deform_error(def, m, "non-finite coordinate in moved handles points (row 1)");
+    m = sc.handles;
+    m.segment_a(0, 2) = std::numeric_limits<T>::infinity();
+    expect_deform_error(def, m, "non-finite coordinate in moved handles segment_a (row 0)");
+    m = sc.handles;
+    m.points(0, 0) = std::numeric_limits<T>::max() / 2;  // would overflow H
+    expect_deform_error(def, m, "coordinate too large in moved handles points");
+    // A wrongly sized interleaved buffer cannot be resized: rejected, untouched.
+    PointsRowMajor<T> small = PointsRowMajor<T>::Constant(49, 3, T(7));
+    CHECK_THROWS_WITH(def.deform(sc.handles, InterleavedView<T>(small.data(), 49, 3)),
+                      Catch::Contains("interleaved output has 49 rows but the model has 50 vertices"));
+    CHECK((small.array() == T(7)).all());
+  }
+}
+
+TEMPLATE_TEST_CASE("stateful targets validate their index and coordinates", "[deformer][errors]", float, double) {
+  using T = TestType;
+  std::mt19937_64 g(seed());
+  const Scene<T> sc = random_scene<T>(g, 20, 3, 1);
+  Deformer<T> def(sc.vertices, sc.handles, {});
+  CHECK_THROWS_AS(def.set_point_target(3, Vector3<T>::Zero()), std::out_of_range);
+  CHECK_THROWS_AS(def.set_point_target(-1, Vector3<T>::Zero()), std::out_of_range);
+  CHECK_THROWS_AS(def.set_segment_target(1, Vector3<T>::Zero(), Vector3<T>::Ones()), std::out_of_range);
+  CHECK_THROWS_AS(def.set_point_target(0, Vector3<T>::Constant(std::numeric_limits<T>::quiet_NaN())),
+                  std::invalid_argument);
+  CHECK(def.targets().points == sc.handles.points);  // unchanged by the failed calls
+}

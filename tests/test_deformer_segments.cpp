@@ -1,0 +1,314 @@
+// Segment handles (paper Sec. 6.2): the weight moments by quadrature against closed forms, the paper's
+// constant-weight formulas against the direct evaluation, and the exact integral against the same segments
+// densely sampled as point handles.
+#include "test_deformer_common.hpp"
+
+#include "weights.hpp"
+
+#include <iostream>
+
+using namespace deformer_test;
+
+namespace {
+
+using LD = long double;
+
+/// Closed form of the moments for u = 2: w(t) = d_min^2 / (h^2 + L^2 (t - t0)^2), with tau = t - t0,
+/// K0 = int dtau / (h^2 + L^2 tau^2) = atan(L tau / h) / (h L), K1 = int tau ... = ln(h^2 + L^2 tau^2) / (2 L^2),
+/// K2 = int tau^2 ... = (tau - h^2 K0) / L^2, and t = t0 + tau expanded in (1-t)^2, t(1-t), t^2.
+detail::SegmentMoments closed_form_u2(LD L, LD t0, LD h, LD d_min) {
+  const LD lo = -t0, hi = 1 - t0;
+  const LD K0 = (std::atan(L * hi / h) - std::atan(L * lo / h)) / (h * L);
+  const LD K1 = (std::log(h * h + L * L * hi * hi) - std::log(h * h + L * L * lo * lo)) / (2 * L * L);
+  const LD K2 = ((hi - lo) - h * h * K0) / (L * L);
+  const LD s = 1 - t0, d2 = d_min * d_min;
+  const LD I2 = d2 * (t0 * t0 * K0 + 2 * t0 * K1 + K2);
+  const LD I0 = d2 * (s * s * K0 - 2 * s * K1 + K2);
+  const LD I1 = d2 * (t0 * s * K0 + (s - t0) * K1 - K2);
+  return {double(I0), double(I1), double(I2)};
+}
+
+/// An independent long-double reference for any u: 24-point Gauss-Legendre on pieces four times shorter than
+/// the library's (so at least ~10^10 times more accurate than needed), nodes by Newton in long double.
+detail::SegmentMoments fine_reference(const detail::SegmentGeometry& g, LD d_min, LD u) {
+  constexpr int N = 24;
+  LD x[N], w[N];
+  for (int i = 0; i < N; ++i) {
+    LD z = std::cos(3.14159265358979323846264338327950288L * (i + 0.75L) / (N + 0.5L)), dp = 1;
+    for (int it = 0; it < 100; ++it) {
+      LD p0 = 1, p1 = z;
+      for (int k = 2; k <= N; ++k) {
+        const LD p2 = ((2 * k - 1) * z * p1 - (k - 1) * p0) / k;
+        p0 = p1;
+        p1 = p2;
+      }
+      dp = N * (z * p1 - p0) / (z * z - 1);
+      z -= p1 / dp;
+    }
+    x[i] = z;
+    w[i] = 2 / ((1 - z * z) * dp * dp);
+  }
+  LD I0 = 0, I1 = 0, I2 = 0;
+  const LD kappa = std::min<LD>(1, 8 / u) / 4;
+  for (int side = 1; side >= -1; side -= 2) {
+    const LD len = (side > 0 ? 1 - LD(g.tc) : LD(g.tc)) * g.L;
+    for (LD x0 = 0; x0 < len;) {
+      const LD x1 = std::min(x0 == 0 ? kappa * g.d : (1 + kappa) * x0, len);
+      for (int k = 0; k < N; ++k) {
+        const LD xx = (x0 + x1) / 2 + (x1 - x0) / 2 * x[k];
+        const LD r = g.off + xx, dist = std::sqrt(LD(g.h) * g.h + r * r);
+        const LD t = g.tc + side * xx / g.L, wt = (x1 - x0) / 2 * w[k] * std::pow(d_min / dist, u) / g.L;
+        I0 += wt * (1 - t) * (1 - t);
+        I1 += wt * t * (1 - t);
+        I2 += wt * t * t;
+      }
+      x0 = x1;
+    }
+  }
+  return {double(I0), double(I1), double(I2)};
+}
+
+/// Pieces the library's composite rule uses (weights.hpp), for the rounding part of the tolerance.
+int pieces(const detail::SegmentGeometry& g, double u) {
+  const double kappa = std::min(1.0, 8.0 / u);
+  int p = 0;
+  for (int side = 1; side >= -1; side -= 2) {
+    const double len = (side > 0 ? 1 - g.tc : g.tc) * g.L;
+    for (double x0 = 0; x0 < len; ++p) x0 = std::min(x0 == 0 ? kappa * g.d : (1 + kappa) * x0, len);
+  }
+  return p;
+}
+
+}  // namespace
+
+TEST_CASE("segment weight moments: exact integral against closed forms and a fine reference", "[deformer][segment]") {
+  std::mt19937_64 gen(seed());
+  INFO("seed " << seed());
+  double worst = 0;
+  for (int trial = 0; trial < 400; ++trial) {
+    const Vec3d a = random_vector(gen), b = random_vector(gen);
+    // Vertices from 1e-6 to 10 segment lengths away, feet inside and beyond both ends.
+    const double t0 = std::uniform_real_distribution<double>(-1, 2)(gen);
+    const double h = (b - a).norm() * std::pow(10.0, std::uniform_real_distribution<double>(-6, 1)(gen));
+    Vec3d n = (b - a).unitOrthogonal();
+    const Vec3d v = a + t0 * (b - a) + h * n;
+    const detail::SegmentGeometry g = detail::segment_geometry(v, a, b);
+    const double d_min = g.d * std::uniform_real_distribution<double>(0.1, 1)(gen);  // another handle may be nearer
+    for (double u : {2.0, 1.0, 1.5, 3.0, 4.0, 7.5, 16.0, 40.0}) {
+      const detail::SegmentMoments m = detail::segment_moments_exact(g, d_min, u);
+      // The reference sees the geometry as computed (g.t0, g.h), so geometry rounding is not counted.
+      const detail::SegmentMoments r = u == 2.0 ? closed_form_u2(g.L, g.t0, g.h, d_min) : fine_reference(g, d_min, u);
+      // All integrand terms are positive: relative rounding <= (16 nodes x pieces + 16 per-node roundings)
+      // eps, plus the quadrature error (<= 1e-17, weights.hpp), plus, for the closed form, its cancellation
+      // (terms up to ~1/(h L) against a result ~ 1 / L^2 for feet inside: a factor L / h, in long double).
+      const double eps = std::numeric_limits<double>::epsilon();
+      const double cancel = u == 2.0 ? double(std::numeric_limits<LD>::epsilon()) * (g.L / g.h + 1) * 64 : 0;
+      const double tol = (16.0 * pieces(g, u) + 16) * eps + 1e-17 + double(cancel);
+      for (auto [got, want] : {std::pair{m.I0, r.I0}, {m.I1, r.I1}, {m.I2, r.I2}}) {
+        INFO("u " << u << " t0 " << g.t0 << " h/L " << g.h / g.L << " got " << got << " want " << want);
+        // I1 carries t(1-t) -> 0 at both ends: compare it relative to the total weight.
+        const double scale = std::max(std::abs(want), r.I0 + 2 * r.I1 + r.I2);
+        CHECK(std::abs(got - want) <= tol * scale);
+        worst = std::max(worst, std::abs(got - want) / scale);
+      }
+    }
+  }
+  std::cout << "[segment quadrature] largest relative error " << worst << "\n";
+}
+
+TEMPLATE_TEST_CASE("paper_constant segments agree with the paper's W_i and midpoint centroids (direct evaluation)",
+                   "[deformer][segment]", float, double) {
+  using T = TestType;
+  std::mt19937_64 g(seed());
+  INFO("seed " << seed());
+  for (Transform tr : all_transforms) {
+    for (Eigen::Index k : {0, 3}) {
+      INFO(name(tr) << ", " << k << " point handles");
+      const Scene<T> sc = random_scene<T>(g, 300, k, 3);
+      Options o;
+      o.transform = tr;
+      o.segment_weight = SegmentWeight::paper_constant;
+      const Handles<T> moved = transformed(sc.handles, random_rotation(g) * (Mat3d::Identity() + 0.3 * Mat3d(
+                                                           random_vector(g).asDiagonal())), random_vector(g));
+      Points<T> out;
+      Deformer<T>(sc.vertices, sc.handles, o).deform(moved, out);
+      const Comparison c = compare_with_direct(out, sc.vertices, sc.handles, moved, o);
+      INFO("max deviation " << c.max_dev << ", max deviation / bound " << c.max_ratio << ", ill-posed " << c.ill_posed);
+      CHECK(c.failures == 0);
+      CHECK(c.ill_posed == 0);
+    }
+  }
+}
+
+namespace {
+
+/// Three disjoint, non-coplanar segments and a moved pose (a rotation, a stretch and a bend of each end).
+struct SegmentScene {
+  Handles<double> rest, moved;
+  Points<double> vertices;
+};
+
+SegmentScene segment_scene(std::mt19937_64& g) {
+  SegmentScene s;
+  s.rest.segment_a.resize(3, 3);
+  s.rest.segment_b.resize(3, 3);
+  s.rest.segment_a << -1, 0, 0, 0, -1, 0.3, 0.2, 0.1, -1;
+  s.rest.segment_b << 1, 0.1, 0, 0.1, 1, 0.2, 0.1, 0.2, 1;
+  const Mat3d R = random_rotation(g);
+  auto move = [&](const Points<double>& p) {
+    Points<double> q(p.rows(), 3);
+    for (Eigen::Index i = 0; i < p.rows(); ++i)
+      q.row(i) = (1.2 * R * p.row(i).transpose() + 0.3 * random_vector(g)).transpose();
+    return q;
+  };
+  s.moved.segment_a = move(s.rest.segment_a);
+  s.moved.segment_b = move(s.rest.segment_b);
+  // Vertices at least half a segment length (>= 1) from every segment: the sampling error estimate below
+  // assumes the weight varies on the scale of that distance.
+  std::vector<Vec3d> v;
+  while (v.size() < 300) {
+    const Vec3d x = random_vector(g, -2.5, 2.5);
+    bool ok = true;
+    for (int i = 0; i < 3; ++i)
+      ok = ok && detail::segment_geometry(x, s.rest.segment_a.row(i).transpose(), s.rest.segment_b.row(i).transpose()).d >= 1.0;
+    if (ok) v.push_back(x);
+  }
+  s.vertices.resize(300, 3);
+  for (int i = 0; i < 300; ++i) s.vertices.row(i) = v[i].transpose();
+  return s;
+}
+
+/// The segments sampled at the midpoints t_k = (k + 1/2) / N as point handles (rest and moved), from the end
+/// points rounded to E (as the segment deformer in precision E sees them), in precision T.
+template <class T, class E>
+std::pair<Handles<T>, Handles<T>> sampled(const SegmentScene& s, int N) {
+  Handles<T> r, m;
+  r.points.resize(3 * N, 3);
+  m.points.resize(3 * N, 3);
+  for (int i = 0; i < 3; ++i)
+    for (int k = 0; k < N; ++k) {
+      const double t = (k + 0.5) / N;
+      auto at = [&](const Points<double>& a, const Points<double>& b) {
+        const Vec3d pa(rounded_to<E>(a(i, 0)), rounded_to<E>(a(i, 1)), rounded_to<E>(a(i, 2)));
+        const Vec3d pb(rounded_to<E>(b(i, 0)), rounded_to<E>(b(i, 1)), rounded_to<E>(b(i, 2)));
+        return Vec3d((1 - t) * pa + t * pb);
+      };
+      r.points.row(i * N + k) = at(s.rest.segment_a, s.rest.segment_b).template cast<T>().transpose();
+      m.points.row(i * N + k) = at(s.moved.segment_a, s.moved.segment_b).template cast<T>().transpose();
+    }
+  return {r, m};
+}
+
+template <class T, class S>
+Handles<T> cast(const Handles<S>& h) {
+  return {h.points.template cast<T>(), h.segment_a.template cast<T>(), h.segment_b.template cast<T>()};
+}
+
+}  // namespace
+
+TEMPLATE_TEST_CASE("exact_integral segments agree with the segments densely sampled as point handles",
+                   "[deformer][segment]", float, double) {
+  using T = TestType;
+  std::mt19937_64 g(seed());
+  INFO("seed " << seed());
+  const SegmentScene s = segment_scene(g);
+  const Points<T> vertices = s.vertices.cast<T>();
+  const Points<double> vertices_d = rounded_points<T>(s.vertices);
+  const Handles<T> rest = cast<T>(s.rest), moved = cast<T>(s.moved);
+  const auto rounded = [](const Handles<double>& h) {
+    return Handles<double>{rounded_points<T>(h.points), rounded_points<T>(h.segment_a), rounded_points<T>(h.segment_b)};
+  };
+  const Handles<double> rest_d = rounded(s.rest), moved_d = rounded(s.moved);
+  constexpr int N = 64;
+  const double eps_d = std::numeric_limits<double>::epsilon(), eps_t = std::numeric_limits<T>::epsilon();
+  for (Transform tr : all_transforms)
+    for (double u : {2.0, 3.0}) {
+      INFO(name(tr) << " u " << u);
+      Options o;
+      o.transform = tr;
+      o.weight_exponent = u;
+      o.segment_weight = SegmentWeight::exact_integral;
+      // The N-point midpoint rule replaces every integral of Sec. 6.2 by (1/N) sum_k f(t_k), and the 1/N
+      // cancels in the normalised weights: the sampled deformer is the segment deformer with midpoint-rule
+      // moments. Euler-Maclaurin: error(N) = -(1/24N^2)[f']_0^1 + (7/5760N^4)[f''']_0^1 - ..., so the output
+      // difference e(N) = sampled(N) - exact is a/N^2 + b/N^4 + O(N^-6), and the Richardson residual
+      // r(N) = e(2N) - e(N)/4 = -3b/(16N^4) + O(N^-6). If the segment deformer's limit were off by delta,
+      // r(N) would tend to -3 delta/4 instead of 0. Two checks:
+      //  (1) r decays like N^-4: max_v |r(2N)| <= 1.25 max_v |r(N)| / 16 (the N^-6 term is <= ~1e-3 of the
+      //      N^-4 one here, see (2); the 25% also covers the rounding floor);
+      //  (2) r is as small as the N^-4 term can be: with f ~ dist^-u and dist >= L/2 (L <= 2 the segment
+      //      length), |f'''/f'| <= (u+1)(u+2)(L/dist)^2, so per integral the N^-4 term is at most
+      //      (7/240)(u+1)(u+2) 4/N^2 = 5.7e-4 (u = 3, N = 64) of the N^-2 one. A vertex mixes several
+      //      integrals whose N^-2 terms may cancel (its own |e(N)| can be small), so we measure against the
+      //      largest error, max_v |e(N)|: |r_v(N)| <= 0.01 max_v |e(N)| + rounding (17x margin; the output's
+      //      nonlinearity in the moments adds O(max |e(N)| / size) relative, ~1e-4).
+      //  Rounding: the bound of test_deformer_common.hpp for the sampled runs (J = 3N handles), which also
+      //  covers the segment run (same weights in the limit, J = 6).
+      Points<double> seg_d, pts_d[3];
+      Deformer<double>(vertices_d, rest_d, o).deform(moved_d, seg_d);
+      std::vector<double> bound_pts[3];
+      for (int r = 0; r < 3; ++r) {
+        const auto [rp, mp] = sampled<double, T>(s, N << r);
+        Deformer<double>(vertices_d, rp, o).deform(mp, pts_d[r]);
+        for (int i = 0; i < 300; ++i)
+          bound_pts[r].push_back(
+              direct_vertex(vertices_d.row(i).transpose().eval(), rp, mp, o, scene_size(vertices_d, rp)).bound_unit);
+      }
+      const Points<double> e0 = pts_d[0] - seg_d, e1 = pts_d[1] - seg_d, e2 = pts_d[2] - seg_d;
+      const Points<double> r0 = e1 - e0 / 4, r1 = e2 - e1 / 4;
+      const double max_e0 = e0.rowwise().norm().maxCoeff();
+      double max_r0 = 0, max_r1 = 0, max_rounding = 0;
+      for (int i = 0; i < 300; ++i) {
+        const double rounding = 2 * eps_d * (bound_pts[0][i] + bound_pts[1][i] + bound_pts[2][i]);
+        INFO("vertex " << i << " |e(N)| " << e0.row(i).norm() << " |e(2N)| " << e1.row(i).norm() << " |r(N)| "
+                       << r0.row(i).norm() << " |r(2N)| " << r1.row(i).norm());
+        CHECK(r0.row(i).norm() <= 0.01 * max_e0 + rounding);
+        max_r0 = std::max(max_r0, r0.row(i).norm());
+        max_r1 = std::max(max_r1, r1.row(i).norm());
+        max_rounding = std::max(max_rounding, rounding);
+      }
+      CHECK(max_r1 <= 1.25 * max_r0 / 16 + max_rounding);
+      std::cout << "[segment sampling] " << type_name<T>() << " " << name(tr) << " u=" << u << ": max |e(N)| for N = "
+                << N << ", " << 2 * N << ", " << 4 * N << ": " << max_e0 << ", " << e1.rowwise().norm().maxCoeff()
+                << ", " << e2.rowwise().norm().maxCoeff() << "; max Richardson residual " << max_r0 << " -> " << max_r1
+                << " (ratio " << max_r0 / max_r1 << ", 16 expected)\n";
+      if constexpr (sizeof(T) == 4) {
+        // In float: the segment deformer and the sampled one (4N) are each within their rounding bound of
+        // their double counterparts, which differ by e(4N).
+        const auto [rp, mp] = sampled<T, T>(s, 4 * N);
+        Points<T> seg_t, pts_t;
+        Deformer<T>(vertices, rest, o).deform(moved, seg_t);
+        Deformer<T>(vertices, rp, o).deform(mp, pts_t);
+        for (int i = 0; i < 300; ++i) {
+          const double tol = e2.row(i).norm() + 2 * (eps_t + eps_d) * bound_pts[2][i];
+          CHECK((seg_t.row(i) - pts_t.row(i)).template cast<double>().norm() <= tol);
+        }
+      }
+    }
+}
+
+TEMPLATE_TEST_CASE("exact_integral differs from paper_constant, and both interpolate segments", "[deformer][segment]",
+                   float, double) {
+  using T = TestType;
+  std::mt19937_64 g(seed());
+  const SegmentScene s = segment_scene(g);
+  const Handles<T> rest = cast<T>(s.rest), moved = cast<T>(s.moved);
+  Points<T> vertices = s.vertices.cast<T>();
+  // A vertex on the interior of segment 0 (t = 1/4) maps to (3/4) c + (1/4) d with either weight.
+  vertices.row(0) = T(0.75) * rest.segment_a.row(0) + T(0.25) * rest.segment_b.row(0);
+  for (Transform tr : all_transforms) {
+    Points<T> a, b;
+    Options o;
+    o.transform = tr;
+    o.segment_weight = SegmentWeight::paper_constant;
+    Deformer<T>(vertices, rest, o).deform(moved, a);
+    o.segment_weight = SegmentWeight::exact_integral;
+    Deformer<T>(vertices, rest, o).deform(moved, b);
+    const Vector3<T> target = T(0.75) * moved.segment_a.row(0).transpose() + T(0.25) * moved.segment_b.row(0).transpose();
+    // t is the closest-point parameter of the rounded vertex: a few eps of the coordinates (|x| <= 3).
+    const T tol = 16 * std::numeric_limits<T>::epsilon() * 3;
+    CHECK((a.row(0).transpose() - target).norm() <= tol);
+    CHECK((b.row(0).transpose() - target).norm() <= tol);
+    CHECK((a - b).rowwise().norm().maxCoeff() > T(1e-3));  // different weights, visibly different shapes
+  }
+}
