@@ -8,6 +8,7 @@
 #include "deformer_data.hpp"
 
 #include <atomic>
+#include <cstdio>
 #include <cstdlib>
 #include <new>
 #include <utility>
@@ -281,6 +282,12 @@ TEMPLATE_TEST_CASE("memory_bytes reports the table and per-vertex arrays actuall
     if (tr == Transform::similarity) values += np;
     CHECK(def.memory_bytes() == values * sizeof(T) + handles_bytes);
     CHECK(def.uses_precomputed_weights());
+    const std::size_t per_pair = (tr == Transform::affine ? 1 : 4) * sizeof(T);
+    const std::size_t per_vertex = (tr == Transform::affine ? 0 : tr == Transform::similarity ? 7 : 6) * sizeof(T);
+    std::printf("[memory] %-6s %-10s n = %ld, J = %zu (10 points + 3 segments): memory_bytes() = %zu = %zu B per vertex "
+                "and pseudo-handle x %zu x %zu (padded) + %zu B per vertex x %zu + %zu B of handles\n",
+                type_name<T>(), name(tr), long(n), J, def.memory_bytes(), per_pair, J, np, per_vertex, np, handles_bytes);
+    CHECK(def.memory_bytes() == per_pair * J * np + per_vertex * np + handles_bytes);
   }
 }
 
