@@ -210,26 +210,34 @@ std::vector<T> soa_prefix(std::size_t m) {
   return out;
 }
 
-/// Check a batched result (n = all cases) against the references; empty string when all pass.
+/// Check a batched result (n = all cases) against the references (in parallel: untimed); empty string
+/// when all pass.
 template <class T>
 std::string validate_soa(const std::vector<T>& R, double& worst) {
   const Data& d = data();
   const auto& H = d.template H<T>();
   const auto& ref = d.template ref<T>();
   const std::size_t n = H.size();
+  std::mutex m;
   std::size_t bad = 0, first_bad = n;
   bench::Verdict first_verdict;
-  worst = 0;
-  for (std::size_t i = 0; i < n; ++i) {
-    Matrix3<T> Ri;
-    for (std::size_t e = 0; e < 9; ++e) Ri(e / 3, e % 3) = R[e * n + i];
-    const bench::Verdict v = bench::judge(Ri, H[i], ref[i]);
-    worst = std::max(worst, static_cast<double>(v.worst_ratio()));
-    if (!v.ok && bad++ == 0) {
-      first_bad = i;
-      first_verdict = v;
-    }
-  }
+  worst = tbb::parallel_reduce(
+      tbb::blocked_range<std::size_t>(0, n, 4096), 0.0,
+      [&](const tbb::blocked_range<std::size_t>& r, double w) {
+        for (std::size_t i = r.begin(); i < r.end(); ++i) {
+          Matrix3<T> Ri;
+          for (std::size_t e = 0; e < 9; ++e) Ri(e / 3, e % 3) = R[e * n + i];
+          const bench::Verdict v = bench::judge(Ri, H[i], ref[i]);
+          w = std::max(w, static_cast<double>(v.worst_ratio()));
+          if (!v.ok) {
+            std::lock_guard lock(m);
+            ++bad;
+            if (i < first_bad) first_bad = i, first_verdict = v;
+          }
+        }
+        return w;
+      },
+      [](double a, double b) { return std::max(a, b); });
   if (bad == 0) return {};
   return std::to_string(bad) + " of " + std::to_string(n) + " batched fits off the long-double SVD reference; first: case " +
          std::to_string(first_bad) + ": " + first_verdict.describe();

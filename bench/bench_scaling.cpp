@@ -1,0 +1,98 @@
+// Scaling laws of rigid MLS deformation (float, Backend::simd), for both weight storages
+// (WeightStorage::precomputed: stream A_i = w_i phat_i, 16 bytes per vertex and handle; on_the_fly:
+// recompute the weights from the distances every frame):
+//   scaling/vertices/<storage>/n:<n>       time per frame vs vertex count, 10 handles, all cores;
+//                                          n = 10^3 .. 10^6 random points in a 4 x 1 x 1 box
+//   scaling/vertices/<storage>/spot_loop3  the 737,986-vertex spot_loop3.ply.gz (Keenan Crane's "Spot",
+//                                          remeshed by O. Stein, 3 Loop subdivisions; public domain)
+//   scaling/handles/<storage>/k:<k>        time per frame vs handle count, k = 1 .. 1024, 10^4 vertices
+//   scaling/threads/<storage>/n:<n>/threads:<t>  1 and all threads, 10 handles
+// Counters: ms_per_frame, fps, memory_bytes (Deformer::memory_bytes(), the precomputation's footprint),
+// ns_per_vertex_handle. Each benchmark first checks 2,000 evenly spread vertices (all when fewer) of one
+// frame against the naive formula in double (bench/naive_mls.hpp).
+#include "deform_common.hpp"
+
+#include <mlsdeform/batch.hpp>
+#include <mlsdeform/deformer.hpp>
+
+#include <map>
+#include <memory>
+#include <string>
+
+namespace {
+
+using bench::PointsD;
+using T = float;
+using mlsdeform::WeightStorage;
+
+constexpr Eigen::Index kCheckedRows = 2000;
+
+PointsD random_box(Eigen::Index n, std::uint64_t seed) {
+  bench::Rng rng(seed);
+  PointsD p(n, 3);
+  for (Eigen::Index i = 0; i < n; ++i) p.row(i) << 4 * rng.uniform(), rng.uniform(), rng.uniform();
+  return p;
+}
+
+struct Prepared {
+  bench::Scene scene;
+  std::vector<Eigen::Index> rows;
+  bench::NaiveReference ref;
+};
+
+/// Scenes by key, built on first use and kept (the largest holds 10^6 vertices: 24 MB in double).
+const Prepared& prepared(const std::string& key, Eigen::Index n, Eigen::Index k) {
+  static std::map<std::string, std::unique_ptr<Prepared>> cache;
+  auto& slot = cache[key];
+  if (!slot) {
+    slot = std::make_unique<Prepared>();
+    PointsD v = key == "spot_loop3" ? bench::read_ply_vertices(bench::mesh_dir() + "/spot_loop3.ply.gz")
+                                    : random_box(n, 7 + static_cast<std::uint64_t>(n));
+    slot->scene = bench::make_scene(key, std::move(v), k, 11 + static_cast<std::uint64_t>(k));
+    slot->rows = bench::check_rows(slot->scene.vertices.rows(), kCheckedRows);
+    slot->ref = bench::scene_reference<T>(slot->scene, slot->rows);
+  }
+  return *slot;
+}
+
+const char* storage_name(WeightStorage s) { return s == WeightStorage::precomputed ? "precomputed" : "on_the_fly"; }
+
+void bm(benchmark::State& state, const std::string& key, Eigen::Index n, Eigen::Index k, WeightStorage storage,
+        int threads) {
+  const Prepared& p = prepared(key, n, k);
+  bench::run_deformer<T>(state, p.scene, p.ref, p.rows,
+                         bench::deformer_options(mlsdeform::Backend::simd, threads, storage));
+  const double pairs = static_cast<double>(p.scene.vertices.rows()) * static_cast<double>(k);
+  state.counters["ns_per_vertex_handle"] = bench::ns_per(pairs);
+  state.counters["requested_precomputed"] = storage == WeightStorage::precomputed ? 1 : 0;
+}
+
+void add(const std::string& name, const std::string& key, Eigen::Index n, Eigen::Index k, WeightStorage storage,
+         int threads) {
+  benchmark::RegisterBenchmark(name.c_str(), [=](benchmark::State& s) { bm(s, key, n, k, storage, threads); })
+      ->Unit(benchmark::kMillisecond)
+      ->UseRealTime();
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  const Eigen::Index sizes[] = {1000, 3000, 10000, 30000, 100000, 300000, 1000000};
+  const Eigen::Index handle_counts[] = {1, 2, 4, 8, 16, 32, 64, 128, 256, 512, 1024};
+  const int all = bench::hardware_threads();
+  for (WeightStorage st : {WeightStorage::precomputed, WeightStorage::on_the_fly}) {
+    const std::string s = storage_name(st);
+    for (Eigen::Index n : sizes)
+      add("scaling/vertices/" + s + "/n:" + std::to_string(n), "box" + std::to_string(n), n, 10, st, 0);
+    add("scaling/vertices/" + s + "/spot_loop3", "spot_loop3", 0, 10, st, 0);
+    for (Eigen::Index k : handle_counts)
+      add("scaling/handles/" + s + "/k:" + std::to_string(k), "box10000k" + std::to_string(k), 10000, k, st, 0);
+    for (Eigen::Index n : {Eigen::Index(100000), Eigen::Index(1000000)})
+      for (int t : {1, all})
+        add("scaling/threads/" + s + "/n:" + std::to_string(n) + "/threads:" + std::to_string(t),
+            "box" + std::to_string(n), n, 10, st, t);
+  }
+  bench::add_context(std::string(mlsdeform::to_string(mlsdeform::active_isa())) + " (Deformer, Backend::simd; float)",
+                     "all (" + std::to_string(all) + ") unless the name ends threads:N");
+  return bench::run_benchmarks(argc, argv);
+}

@@ -1,0 +1,222 @@
+// Vertex sets for the deformation benchmarks: the shared meshes (../shared/data/meshes, see LICENSES.txt there
+// for sources and attribution), read here with two small readers (OBJ 'v' lines; binary little-endian PLY
+// through zlib), and the generated shapes of the paper's Table 2 (Plane, Bar, Cylinder). Only positions
+// matter to MLS deformation (it never looks at the faces), so faces are skipped.
+#pragma once
+
+#include <mlsdeform/types.hpp>
+
+#include <zlib.h>
+
+#include <Eigen/Core>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+#include <cstdio>
+#include <cstring>
+#include <fstream>
+#include <numeric>
+#include <numbers>
+#include <sstream>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include "cases.hpp"  // Rng
+
+namespace bench {
+
+using PointsD = mlsdeform::Points<double>;
+
+/// The shared mesh folder: $MLSDEFORM_MESHES, else ../shared/data/meshes beside the source tree.
+inline std::string mesh_dir() {
+  if (const char* env = std::getenv("MLSDEFORM_MESHES"); env && *env) return env;
+#ifdef MLSDEFORM_SOURCE_DIR
+  return std::string(MLSDEFORM_SOURCE_DIR) + "/../shared/data/meshes";
+#else
+  return "../shared/data/meshes";
+#endif
+}
+
+/// The 'v x y z' lines of a Wavefront OBJ file.
+inline PointsD read_obj_vertices(const std::string& path) {
+  std::ifstream in(path);
+  if (!in) throw std::runtime_error("cannot open " + path);
+  std::vector<double> xyz;
+  std::string line;
+  while (std::getline(in, line)) {
+    if (line.size() < 2 || line[0] != 'v' || line[1] != ' ') continue;
+    double x, y, z;
+    if (std::sscanf(line.c_str() + 2, "%lf %lf %lf", &x, &y, &z) != 3) throw std::runtime_error("bad 'v' line in " + path);
+    xyz.insert(xyz.end(), {x, y, z});
+  }
+  PointsD p(static_cast<Eigen::Index>(xyz.size() / 3), 3);
+  for (Eigen::Index i = 0; i < p.rows(); ++i)
+    for (int c = 0; c < 3; ++c) p(i, c) = xyz[static_cast<std::size_t>(3 * i + c)];
+  return p;
+}
+
+/// The vertices of a binary little-endian PLY file, optionally gzip-compressed (zlib reads both). Supports
+/// a vertex element whose properties are scalars (float, double, uchar, int ...) with x, y, z among them.
+inline PointsD read_ply_vertices(const std::string& path) {
+  gzFile f = gzopen(path.c_str(), "rb");
+  if (!f) throw std::runtime_error("cannot open " + path);
+  auto fail = [&](const std::string& why) {
+    gzclose(f);
+    return std::runtime_error(path + ": " + why);
+  };
+  // Header: text lines up to "end_header".
+  std::string header_line;
+  auto getline = [&]() {
+    header_line.clear();
+    for (int ch; (ch = gzgetc(f)) != -1 && ch != '\n';) header_line.push_back(static_cast<char>(ch));
+    return !header_line.empty() || !gzeof(f);
+  };
+  if (!getline() || header_line != "ply") throw fail("not a PLY file");
+  long long vertices = -1;
+  bool in_vertex = false, seen_vertex = false;
+  int stride = 0, offset[3] = {-1, -1, -1};
+  auto size_of = [](const std::string& t) {
+    if (t == "char" || t == "uchar" || t == "int8" || t == "uint8") return 1;
+    if (t == "short" || t == "ushort" || t == "int16" || t == "uint16") return 2;
+    if (t == "int" || t == "uint" || t == "float" || t == "int32" || t == "uint32" || t == "float32") return 4;
+    if (t == "double" || t == "float64") return 8;
+    return 0;
+  };
+  while (getline()) {
+    std::istringstream ss(header_line);
+    std::string word;
+    ss >> word;
+    if (word == "format") {
+      std::string fmt;
+      ss >> fmt;
+      if (fmt != "binary_little_endian") throw fail("only binary_little_endian PLY is supported");
+    } else if (word == "element") {
+      std::string name;
+      long long count;
+      ss >> name >> count;
+      in_vertex = name == "vertex";
+      if (in_vertex) {
+        if (seen_vertex) throw fail("two vertex elements");
+        vertices = count, seen_vertex = true;
+      } else if (!seen_vertex) {
+        throw fail("the vertex element must come first");
+      }
+    } else if (word == "property" && in_vertex) {
+      std::string type, name;
+      ss >> type >> name;
+      if (type == "list") throw fail("list property in the vertex element");
+      const int sz = size_of(type);
+      if (!sz) throw fail("unknown property type " + type);
+      const bool is_float = type == "float" || type == "float32";
+      for (int c = 0; c < 3; ++c)
+        if (name == std::string(1, "xyz"[c])) {
+          if (!is_float) throw fail("x, y, z must be float");
+          offset[c] = stride;
+        }
+      stride += sz;
+    } else if (word == "end_header") {
+      break;
+    }
+  }
+  if (vertices < 0 || offset[0] < 0 || offset[1] < 0 || offset[2] < 0) throw fail("no vertex x, y, z");
+  std::vector<unsigned char> buf(static_cast<std::size_t>(vertices) * static_cast<std::size_t>(stride));
+  std::size_t got = 0;
+  while (got < buf.size()) {
+    const unsigned chunk = static_cast<unsigned>(std::min<std::size_t>(buf.size() - got, 1u << 30));
+    const int r = gzread(f, buf.data() + got, chunk);
+    if (r <= 0) throw fail("truncated vertex data");
+    got += static_cast<std::size_t>(r);
+  }
+  gzclose(f);
+  PointsD p(vertices, 3);
+  for (long long i = 0; i < vertices; ++i)
+    for (int c = 0; c < 3; ++c) {
+      float v;
+      std::memcpy(&v, buf.data() + static_cast<std::size_t>(i) * static_cast<std::size_t>(stride) +
+                          static_cast<std::size_t>(offset[c]),
+                  sizeof v);
+      p(i, c) = v;
+    }
+  return p;
+}
+
+/// `count` distinct rows of `p` chosen uniformly at random (a fixed seed; partial Fisher-Yates), in their
+/// original order. Used to bring a shared mesh to the paper's vertex count: MLS cost depends on the
+/// number of vertices, not on the connectivity.
+inline PointsD random_subset(const PointsD& p, Eigen::Index count, std::uint64_t seed) {
+  if (count >= p.rows()) return p;
+  std::vector<Eigen::Index> idx(static_cast<std::size_t>(p.rows()));
+  std::iota(idx.begin(), idx.end(), Eigen::Index(0));
+  Rng rng(seed);
+  for (Eigen::Index i = 0; i < count; ++i) {
+    const auto j = i + static_cast<Eigen::Index>(rng.next() % static_cast<std::uint64_t>(p.rows() - i));
+    std::swap(idx[static_cast<std::size_t>(i)], idx[static_cast<std::size_t>(j)]);
+  }
+  std::sort(idx.begin(), idx.begin() + count);
+  PointsD out(count, 3);
+  for (Eigen::Index i = 0; i < count; ++i) out.row(i) = p.row(idx[static_cast<std::size_t>(i)]);
+  return out;
+}
+
+/// The paper's Plane: an n x n grid in the xy plane, unit spacing (33 x 33 = 1,089 vertices).
+inline PointsD grid(int n) {
+  PointsD p(n * n, 3);
+  for (int i = 0; i < n; ++i)
+    for (int j = 0; j < n; ++j) p.row(i * n + j) << j, i, 0.0;
+  return p;
+}
+
+/// An open cylinder along z: `rings` rings of `around` vertices, radius 1, ring spacing 2 pi / around
+/// (square quads). The paper's Cylinder has 1,058 = 46 x 23 vertices.
+inline PointsD cylinder(int around, int rings) {
+  PointsD p(around * rings, 3);
+  const double h = 2 * std::numbers::pi / around;
+  for (int r = 0; r < rings; ++r)
+    for (int a = 0; a < around; ++a) {
+      const double t = 2 * std::numbers::pi * a / around;
+      p.row(r * around + a) << std::cos(t), std::sin(t), r * h;
+    }
+  return p;
+}
+
+/// The surface vertices of an a x b x c box of unit cells (a parallelepiped, the paper's Fig. 3 Bar):
+/// (a+1)(b+1)(c+1) - (a-1)(b-1)(c-1) vertices; 16 x 16 x 88 gives the paper's 6,146.
+inline PointsD box_surface(int a, int b, int c) {
+  std::vector<Eigen::Vector3d> v;
+  for (int i = 0; i <= a; ++i)
+    for (int j = 0; j <= b; ++j)
+      for (int k = 0; k <= c; ++k)
+        if (i == 0 || i == a || j == 0 || j == b || k == 0 || k == c) v.emplace_back(i, j, k);
+  PointsD p(static_cast<Eigen::Index>(v.size()), 3);
+  for (std::size_t i = 0; i < v.size(); ++i) p.row(static_cast<Eigen::Index>(i)) = v[i].transpose();
+  return p;
+}
+
+/// `count` distinct vertices as handles (random, fixed seed): what a user clicking on the mesh produces.
+inline PointsD pick_handles(const PointsD& vertices, Eigen::Index count, std::uint64_t seed) {
+  return random_subset(vertices, count, seed);
+}
+
+/// The moved handles of a benchmark frame: a twist about the model's longest axis of up to 90 degrees
+/// end to end (the paper's Fig. 3) plus a bend of a tenth of the length, so that every vertex gets a
+/// different, large rotation.
+inline PointsD twist(const PointsD& rest_vertices, const PointsD& handles) {
+  const Eigen::Vector3d lo = rest_vertices.colwise().minCoeff(), hi = rest_vertices.colwise().maxCoeff();
+  int axis;
+  const double length = (hi - lo).maxCoeff(&axis);
+  const Eigen::Vector3d centre = (lo + hi) / 2;
+  const int u = (axis + 1) % 3, w = (axis + 2) % 3;
+  PointsD q = handles;
+  for (Eigen::Index i = 0; i < handles.rows(); ++i) {
+    const double t = length > 0 ? (handles(i, axis) - lo(axis)) / length : 0.0;  // 0 .. 1 along the axis
+    const double angle = std::numbers::pi / 2 * t;
+    const double x = handles(i, u) - centre(u), y = handles(i, w) - centre(w);
+    q(i, u) = centre(u) + std::cos(angle) * x - std::sin(angle) * y + 0.1 * length * t * t;
+    q(i, w) = centre(w) + std::sin(angle) * x + std::cos(angle) * y;
+  }
+  return q;
+}
+
+}  // namespace bench
