@@ -20,7 +20,7 @@ struct FitRotations : Simd<T, A> {
 
   /// h: 9 lanes of H (row-major entries), not yet normalised; r: the rotations. Lanes with H = 0 get the
   /// identity. Returns the lanes the scalar code must redo (their r is unspecified) and counts.
-  static M fit(V (&h)[9], V (&r)[9], RotationStats& stats) {
+  MLSDEFORM_KERNEL_INLINE static M fit(V (&h)[9], V (&r)[9], RotationStats& stats) {
     V m = xsimd::abs(h[0]);
     for (int i = 1; i < 9; ++i) m = xsimd::max(m, xsimd::abs(h[i]));
     const M zero = m == V(T(0));
@@ -30,7 +30,7 @@ struct FitRotations : Simd<T, A> {
     const V y = Q::maximum_root(inv);
     const typename RA::Mat4 K = RA::davenport(h, inv.E, inv.z0, inv.z1, inv.z2);
     M near_double, fallback;
-    const typename RA::Vec4 q = RA::rotation_axis(K, y, near_double, fallback);
+    const typename RA::Vec4 q = RA::rotation_axis(K, y, Q::clustered_top_three(inv), near_double, fallback);
     SinCos<T, A>::rotation_from_quaternion(q.v[0], q.v[1], q.v[2], q.v[3], r);
     for (int i = 0; i < 9; ++i) r[i] = xsimd::select(zero, V(i % 4 == 0 ? T(1) : T(0)), r[i]);
     near_double = near_double & !zero;
@@ -67,7 +67,7 @@ struct FitRotations : Simd<T, A> {
   }
 
   /// One batch of W matrices at H + offset (loads of W consecutive values per entry).
-  static void run_batch(const T* H, T* R, std::size_t stride, std::size_t offset, RotationStats& stats) {
+  MLSDEFORM_KERNEL_INLINE static void run_batch(const T* H, T* R, std::size_t stride, std::size_t offset, RotationStats& stats) {
     V h[9], r[9];
     for (int i = 0; i < 9; ++i) h[i] = V::load_unaligned(H + std::size_t(i) * stride + offset);
     const M fallback = fit(h, r, stats);

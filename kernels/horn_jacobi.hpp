@@ -19,7 +19,7 @@ struct HornJacobi : Simd<T, A> {
   using Simd<T, A>::W;
   static constexpr int sweeps = sizeof(T) == 4 ? 5 : 6;
 
-  static void fit(V (&h)[9], V (&r)[9]) {
+  MLSDEFORM_KERNEL_INLINE static void fit(V (&h)[9], V (&r)[9]) {
     V m = xsimd::abs(h[0]);
     for (int i = 1; i < 9; ++i) m = xsimd::max(m, xsimd::abs(h[i]));
     const M zero = m == V(T(0));
@@ -52,7 +52,7 @@ struct HornJacobi : Simd<T, A> {
   }
 
   /// One Jacobi rotation annihilating a[p][q]; v accumulates the eigenvectors (columns).
-  static void rotate(V (&a)[4][4], V (&v)[4][4], int p, int q) {
+  MLSDEFORM_KERNEL_INLINE static void rotate(V (&a)[4][4], V (&v)[4][4], int p, int q) {
     const V apq = a[p][q];
     const M skip = apq == V(T(0));
     const V theta = (a[q][q] - a[p][p]) / (V(T(2)) * xsimd::select(skip, V(T(1)), apq));

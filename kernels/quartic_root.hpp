@@ -1,7 +1,7 @@
 // Stage "maximum_root" of Algorithm 1 (eq. 13) in SIMD lanes, mirroring core/src/axis_angle.hpp:
 // invariants (eq. 6), the resolvent cubic's closed form (Sec. 4.4), then Newton steps from just above the
 // root until each lane's step stops shrinking. Lanes iterate under a mask; the loop ends when no lane is
-// active (2-6 steps for a simple root, up to ~15 at a double one).
+// active (1-2 steps for a simple root, up to ~15 at a double one).
 #pragma once
 
 #include "simd.hpp"
@@ -23,7 +23,7 @@ struct QuarticRoot : Simd<T, A> {
   };
 
   /// h[3 r + c] = H(r, c), normalised.
-  static Invariants invariants(const V (&h)[9]) {
+  MLSDEFORM_KERNEL_INLINE static Invariants invariants(const V (&h)[9]) {
     Invariants inv;
     inv.E = h[0] + h[4] + h[8];
     inv.z0 = h[7] - h[5];
@@ -41,11 +41,18 @@ struct QuarticRoot : Simd<T, A> {
     return inv;
   }
 
+  /// Lanes whose top three eigenvalues of K cluster (scalar: clustered_top_three): det H < 0 and the
+  /// squared singular values spread less than their mean (m < shift / 2).
+  MLSDEFORM_KERNEL_INLINE static M clustered_top_three(const Invariants& inv) {
+    const V shift = inv.norm2 / V(T(3)), p = inv.c2 - inv.norm2 * shift;
+    return (inv.det < V(T(0))) & (-p / V(T(3)) < shift * shift / V(T(4)));
+  }
+
   /// cos x for x in [0, pi/3] by its Taylor series (Horner in x^2), truncated where the next term is below
   /// eps/2: x^18/18! < 4e-16 (double), x^12/12! < 4e-9 (float). Written here rather than xsimd::cos because
   /// xsimd's cos pulls in a non-template inline helper (__kernel_rem_pio2) that every ISA object would
   /// define as a weak symbol, compiled with that ISA's flags (../shared/TOOLCHAIN.md pitfall 3).
-  static V cos_small(V x) {
+  MLSDEFORM_KERNEL_INLINE static V cos_small(V x) {
     const V x2 = x * x;
     V p;
     if constexpr (sizeof(T) == 4) {
@@ -67,7 +74,7 @@ struct QuarticRoot : Simd<T, A> {
   }
 
   /// Largest eigenvalue of H^T H from the resolvent cubic (Sec. 4.4), Viete's trigonometric form.
-  static V largest_eigenvalue_HtH(const Invariants& inv) {
+  MLSDEFORM_KERNEL_INLINE static V largest_eigenvalue_HtH(const Invariants& inv) {
     const V shift = inv.norm2 / V(T(3));
     const V p = inv.c2 - inv.norm2 * shift;
     const V q = V(T(-2)) * shift * shift * shift + shift * inv.c2 - inv.det * inv.det;
@@ -80,7 +87,7 @@ struct QuarticRoot : Simd<T, A> {
   }
 
   /// Eq. (13): the largest root y = s1 + s2 + sign(det H) s3. `iterations` counts the loop trips.
-  static V maximum_root(const Invariants& inv, int* iterations = nullptr) {
+  MLSDEFORM_KERNEL_INLINE static V maximum_root(const Invariants& inv, int* iterations = nullptr) {
     // cbrt(eps), as in the scalar code: the closed form's worst-case relative accuracy.
     constexpr T cbrt_eps = sizeof(T) == 4 ? T(4.92156660e-3) : T(6.0554544523933395e-6);
     const V mu1 = largest_eigenvalue_HtH(inv);
@@ -93,8 +100,11 @@ struct QuarticRoot : Simd<T, A> {
     auto dP = [&](V y) { return (V(T(4)) * y * y + V(T(2)) * a) * y + b; };
     const V norm = xsimd::sqrt(inv.norm2);
     const V upper = xsimd::sqrt(V(T(3))) * norm;
-    V y = xsimd::min(y_closed + V(T(4) * cbrt_eps) * norm, upper);
-    y = xsimd::select(P(y) < V(T(0)), upper, y);
+    // scalar: y = near_ok ? near : (P(far) >= 0 ? far : upper)
+    const V near = xsimd::min(y_closed + V(T(64) * eps) * norm, upper);
+    const V far = xsimd::min(y_closed + V(T(4) * cbrt_eps) * norm, upper);
+    const M near_ok = (P(near) >= V(T(0))) & (dP(near) > V(T(4) * Simd<T, A>::sqrt_eps) * inv.norm2 * norm);
+    V y = xsimd::select(near_ok, near, xsimd::select(P(far) >= V(T(0)), far, upper));
     constexpr T inf = std::numeric_limits<T>::infinity();
     V last_step(inf);
     M active = Simd<T, A>::all_true();

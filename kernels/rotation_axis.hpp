@@ -24,7 +24,7 @@ struct RotationAxis : Simd<T, A> {
     V v[4];
   };
 
-  static Mat4 davenport(const V (&h)[9], V E, V z0, V z1, V z2) {
+  MLSDEFORM_KERNEL_INLINE static Mat4 davenport(const V (&h)[9], V E, V z0, V z1, V z2) {
     Mat4 K;
     const V n01 = h[1] + h[3], n02 = h[2] + h[6], n12 = h[5] + h[7];
     const V d[4] = {E, V(T(2)) * h[0] - E, V(T(2)) * h[4] - E, V(T(2)) * h[8] - E};
@@ -34,14 +34,14 @@ struct RotationAxis : Simd<T, A> {
     return K;
   }
 
-  static Mat4 shifted(const Mat4& K, V y) {
+  MLSDEFORM_KERNEL_INLINE static Mat4 shifted(const Mat4& K, V y) {
     Mat4 S = K;
     for (int i = 0; i < 4; ++i) S.k[5 * i] = K.k[5 * i] - y;
     return S;
   }
 
   /// adj(A) by complementary 2x2 minors; the same expressions as the scalar adjugate4.
-  static Mat4 adjugate(const Mat4& S) {
+  MLSDEFORM_KERNEL_INLINE static Mat4 adjugate(const Mat4& S) {
     const V s0 = S(0, 0) * S(1, 1) - S(1, 0) * S(0, 1), s1 = S(0, 0) * S(1, 2) - S(1, 0) * S(0, 2);
     const V s2 = S(0, 0) * S(1, 3) - S(1, 0) * S(0, 3), s3 = S(0, 1) * S(1, 2) - S(1, 1) * S(0, 2);
     const V s4 = S(0, 1) * S(1, 3) - S(1, 1) * S(0, 3), s5 = S(0, 2) * S(1, 3) - S(1, 2) * S(0, 3);
@@ -68,13 +68,13 @@ struct RotationAxis : Simd<T, A> {
     return adj;
   }
 
-  /// One-hot lane masks for the chosen column k (scalar: maxCoeff's first index, then k = 0 if
-  /// |adj00| >= |adj_kk| / 4) and the next strongest l (first index of the max over j != k).
+  /// One-hot lane masks for the column k (scalar strongest_column: maxCoeff's first index, then k = 0 if
+  /// |adj00| >= |adj_kk| / 4); dk the largest |diagonal cofactor|.
   struct Columns {
-    M k[4], l[4];
+    M k[4];
     V dk;
   };
-  static Columns strongest_columns(const Mat4& adj) {
+  MLSDEFORM_KERNEL_INLINE static Columns strongest_column(const Mat4& adj) {
     Columns c;
     const V d[4] = {xsimd::abs(adj.k[0]), xsimd::abs(adj.k[5]), xsimd::abs(adj.k[10]), xsimd::abs(adj.k[15])};
     c.dk = xsimd::max(xsimd::max(d[0], d[1]), xsimd::max(d[2], d[3]));
@@ -85,19 +85,10 @@ struct RotationAxis : Simd<T, A> {
       taken = taken | c.k[j];
     }
     c.k[3] = c.k[3] | ~taken;  // NaN lanes (H = 0): any choice, they are replaced by the identity
-    V e[4];
-    for (int j = 0; j < 4; ++j) e[j] = xsimd::select(c.k[j], V(T(-1)), d[j]);
-    const V dl = xsimd::max(xsimd::max(e[0], e[1]), xsimd::max(e[2], e[3]));
-    taken = e[0] == dl;
-    c.l[0] = taken;
-    for (int j = 1; j < 4; ++j) {
-      c.l[j] = ~taken & (e[j] == dl);
-      taken = taken | c.l[j];
-    }
     return c;
   }
 
-  static Vec4 column(const Mat4& adj, const M (&pick)[4]) {
+  MLSDEFORM_KERNEL_INLINE static Vec4 column(const Mat4& adj, const M (&pick)[4]) {
     Vec4 col;
     for (int i = 0; i < 4; ++i)
       col.v[i] = xsimd::select(pick[0], adj(i, 0),
@@ -105,24 +96,44 @@ struct RotationAxis : Simd<T, A> {
     return col;
   }
 
-  static V dot(const Vec4& a, const Vec4& b) {
+  MLSDEFORM_KERNEL_INLINE static V dot(const Vec4& a, const Vec4& b) {
     return a.v[0] * b.v[0] + a.v[1] * b.v[1] + a.v[2] * b.v[2] + a.v[3] * b.v[3];
   }
-  static Vec4 mul(const Mat4& K, const Vec4& x) {
+  MLSDEFORM_KERNEL_INLINE static Vec4 mul(const Mat4& K, const Vec4& x) {
     Vec4 r;
     for (int i = 0; i < 4; ++i) r.v[i] = K(i, 0) * x.v[0] + K(i, 1) * x.v[1] + K(i, 2) * x.v[2] + K(i, 3) * x.v[3];
     return r;
   }
 
-  /// Rayleigh-Ritz on span{column k, column l}: mirrors the scalar ritz_top.
-  static Vec4 ritz_top(const Mat4& adj, const Columns& c, const Mat4& K, V a) {
-    const Vec4 ck = column(adj, c.k), cl = column(adj, c.l);
+  /// Rayleigh-Ritz on span{column k, the column most independent of it}: mirrors the scalar ritz_top,
+  /// including `gap` (infinity where the columns span a line).
+  MLSDEFORM_KERNEL_INLINE static Vec4 ritz_top(const Mat4& adj, const Columns& c, const Mat4& K, V a, V& gap) {
+    const Vec4 ck = column(adj, c.k);
     Vec4 b1, b2;
     const V inv1 = V(T(1)) / xsimd::sqrt(dot(ck, ck));
     for (int i = 0; i < 4; ++i) b1.v[i] = ck.v[i] * inv1;
+    // l: the largest remainder |c_j|^2 - (b1 . c_j)^2 over j != k (first index on ties; scalar: rem > best).
+    M l[4];
+    V best(T(-1));
+    M taken = c.k[0] ^ c.k[0];
+    for (int j = 0; j < 4; ++j) {
+      Vec4 cj;
+      for (int i = 0; i < 4; ++i) cj.v[i] = adj(i, j);
+      const V p = dot(b1, cj), rem = dot(cj, cj) - p * p;
+      l[j] = ~c.k[j] & (rem > best);
+      best = xsimd::select(l[j], rem, best);
+      taken = taken | l[j];
+    }
+    // Keep only the last index that improved (the first maximum); NaN lanes: the scalar's default.
+    for (int j = 0; j < 3; ++j)
+      for (int m = j + 1; m < 4; ++m) l[j] = l[j] & ~l[m];
+    const M none = ~taken;
+    l[1] = l[1] | (none & c.k[0]);
+    l[0] = l[0] | (none & ~c.k[0]);
+    const Vec4 cl = column(adj, l);
     V p = dot(b1, cl);
     for (int i = 0; i < 4; ++i) b2.v[i] = cl.v[i] - b1.v[i] * p;
-    // scalar: if (!(|b2| > 64 eps |cl|)) return b1;
+    // scalar: if (!(|b2|^2 > 64^2 eps^2 |cl|^2)) return b1;
     const M line_only = !(dot(b2, b2) > V(T(64 * 64) * eps * eps) * dot(cl, cl));
     p = dot(b1, b2);  // twice is enough
     for (int i = 0; i < 4; ++i) b2.v[i] = b2.v[i] - b1.v[i] * p;
@@ -132,6 +143,8 @@ struct RotationAxis : Simd<T, A> {
     const V B11 = dot(b1, Kb1), B12 = dot(b1, Kb2), B22 = dot(b2, Kb2);
     const V d = V(T(0.5)) * (B11 - B22);
     const V r = xsimd::sqrt(d * d + B12 * B12);
+    constexpr T inf = std::numeric_limits<T>::infinity();
+    gap = xsimd::select(line_only, V(inf), V(T(2)) * r);
     // scalar: if (!(r > 8 eps a)) { the plane's vector closest to e0 (or e_m) }
     const M is_double = !(r > V(T(8) * eps) * a);
     V proj[4];
@@ -139,7 +152,7 @@ struct RotationAxis : Simd<T, A> {
     const V pm = xsimd::max(xsimd::max(proj[0], proj[1]), xsimd::max(proj[2], proj[3]));
     M pick[4];
     pick[0] = proj[0] >= V(T(0.25)) * pm;
-    M taken = pick[0];
+    taken = pick[0];
     for (int j = 1; j < 4; ++j) {
       pick[j] = ~taken & (proj[j] == pm);
       taken = taken | pick[j];
@@ -160,26 +173,46 @@ struct RotationAxis : Simd<T, A> {
     return q;
   }
 
-  /// Eq. (14) generalised. `fallback` returns the lanes (a triple root) the scalar code must redo;
-  /// `near_double` those that took the shifted evaluation.
-  static Vec4 rotation_axis(const Mat4& K, V y, M& near_double, M& fallback) {
+  /// Eq. (14) generalised, mirroring the scalar rotation_axis. `fallback` returns the lanes whose adjugate
+  /// was rounding noise even when shifted (a triple root), which the scalar code redoes; `near_double` those
+  /// that took the shifted evaluation. `clustered`: the lanes whose top three eigenvalues of K cluster.
+  MLSDEFORM_KERNEL_INLINE static Vec4 rotation_axis(const Mat4& K, V y, M clustered, M& near_double, M& fallback) {
     V a = xsimd::abs(K.k[0]);
     for (int i = 1; i < 16; ++i) a = xsimd::max(a, xsimd::abs(K.k[i]));
     const V a3 = a * a * a;
     const V sqrt_eps(Simd<T, A>::sqrt_eps);
     Mat4 adj = adjugate(shifted(K, y));
-    Columns c = strongest_columns(adj);
-    Vec4 q = ritz_top(adj, c, K, a);
-    // scalar: if (dk > sqrt(eps) a^3) return ritz_top(...)   (regular root)
+    Columns c = strongest_column(adj);
+    V gap;
+    Vec4 q = ritz_top(adj, c, K, a, gap);
+    // scalar: if (dk > sqrt(eps) a^3) regular, else the shifted evaluation
     const M regular = c.dk > sqrt_eps * a3;
     near_double = !regular;
     fallback = M(false);
     if (xsimd::any(near_double)) {
       adj = adjugate(shifted(K, y + sqrt_eps * a));
-      c = strongest_columns(adj);
-      const Vec4 q1 = ritz_top(adj, c, K, a);
+      c = strongest_column(adj);
+      V gap1;
+      const Vec4 q1 = ritz_top(adj, c, K, a, gap1);
       for (int i = 0; i < 4; ++i) q.v[i] = xsimd::select(regular, q.v[i], q1.v[i]);
-      fallback = near_double & !(c.dk > V(T(64 * 27) * eps) * a3);
+      gap = xsimd::select(regular, gap, gap1);
+      fallback = near_double & !(c.dk > V(T(64) * eps) * a3);
+    }
+    // scalar: refine = noise || clustered || (!(gap > a / 16) && gap > sqrt(eps) a); the noise lanes
+    // (fallback) are redone by the scalar code, which runs its own passes.
+    M refine = ~fallback & (clustered | (~(gap > a / V(T(16))) & (gap > sqrt_eps * a)));
+    if (xsimd::any(refine)) {
+      V rho = dot(q, mul(K, q)) / dot(q, q);
+      for (int pass = 0; pass < 2 && xsimd::any(refine); ++pass) {
+        adj = adjugate(shifted(K, rho));
+        c = strongest_column(adj);
+        V unused;
+        const Vec4 next = ritz_top(adj, c, K, a, unused);
+        const V rho_next = dot(next, mul(K, next)) / dot(next, next);
+        refine = refine & (rho_next >= rho - V(T(8) * eps) * a);
+        for (int i = 0; i < 4; ++i) q.v[i] = xsimd::select(refine, next.v[i], q.v[i]);
+        rho = xsimd::select(refine, rho_next, rho);
+      }
     }
     return q;
   }

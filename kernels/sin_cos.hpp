@@ -12,7 +12,7 @@ struct SinCos : Simd<T, A> {
   using typename Simd<T, A>::V;
 
   /// r[3 i + j] = R(i, j).
-  static void rotation_from_quaternion(V w, V x0, V x1, V x2, V (&r)[9]) {
+  MLSDEFORM_KERNEL_INLINE static void rotation_from_quaternion(V w, V x0, V x1, V x2, V (&r)[9]) {
     const V inv_n = V(T(1)) / (w * w + x0 * x0 + x1 * x1 + x2 * x2);
     const V c = w * w - (x0 * x0 + x1 * x1 + x2 * x2);
     const V two(T(2));

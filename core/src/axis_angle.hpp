@@ -35,6 +35,7 @@
 #include <Eigen/Core>
 #include <Eigen/Geometry>
 
+#include <algorithm>
 #include <array>
 #include <cmath>
 #include <limits>
@@ -102,14 +103,19 @@ T maximum_root(const Invariants<T>& inv, int* iterations = nullptr) {
   const T a = -T(2) * inv.norm2, b = -T(8) * inv.det, c = inv.norm2 * inv.norm2 - T(4) * inv.c2;
   auto P = [&](T y) { return ((y * y + a) * y + b) * y + c; };
   auto dP = [&](T y) { return (T(4) * y * y + T(2) * a) * y + b; };
-  // Start just above the root: the closed form is good to eps^(1/3) relative (worst case, a triple root of
-  // the cubic); s1 + s2 + s3 <= sqrt(3) ||H|| bounds the root from above. If the start is not above the
-  // root (P < 0 there), start from the bound.
+  // Start just above the root. The closed form is good to a few eps relative for well-separated singular
+  // values, to sqrt(eps) near a double root of (13), and to eps^(1/3) near a triple root of the cubic
+  // (s1 = s2 = s3, H a scaled rotation). Try 64 eps above it first, then one or two Newton steps suffice;
+  // it is taken only where it is clearly above a simple root: P >= 0 and P' > 4 sqrt(eps) ||H||^3 (P' at the
+  // root is the product of the gaps to the other roots, about g 4 s1^2: a smaller slope means a nearly
+  // double root, where P there is rounding noise and a step from it could land anywhere). Otherwise take
+  // 4 eps^(1/3) above; where that is not above the root either (P < 0), the bound s1 + s2 + s3 <= sqrt(3) ||H||.
   const T norm = sqrt(inv.norm2);
   const T upper = sqrt(T(3)) * norm;
-  T y = y_closed + T(4) * std::cbrt(eps) * norm;
-  if (y > upper) y = upper;
-  if (P(y) < T(0)) y = upper;
+  const T near = std::min(y_closed + T(64) * eps * norm, upper);
+  const T far = std::min(y_closed + T(4) * std::cbrt(eps) * norm, upper);
+  const bool near_ok = P(near) >= T(0) && dP(near) > T(4) * sqrt(eps) * inv.norm2 * norm;
+  T y = near_ok ? near : (P(far) >= T(0) ? far : upper);
   // From above the largest root, on the convex part of P, Newton's steps decrease y monotonically and
   // shrink from one step to the next (by half at a double root, quadratically at a simple one). A step
   // that does not decrease y, or is longer than the previous one, means P and P' have sunk into rounding
@@ -207,30 +213,44 @@ Eigen::Matrix<T, 4, 1> null_vector_closest_to_identity(const Eigen::Matrix<T, 4,
   return q;
 }
 
-/// Rayleigh-Ritz on the span of the two strongest columns k, l of an adjugate of K - y I: the top
-/// eigenvector of the 2x2 matrix [[B11, B12], [B12, B22]] = [b1 b2]^T K [b1 b2]. Backward stable: whatever
-/// mixture of the top two eigenvectors the columns hold (y inexact), the Ritz vector is the best unit
-/// vector of their plane. Where the two Ritz values coincide to rounding (a double eigenvalue: the optimum
-/// is not unique) it returns the vector of the plane closest to e0 (the identity rotation), or to e_m, the
-/// axis with the largest projection, if e0 is nearly orthogonal to the plane, so that neighbouring
-/// vertices of a deformation make the same choice.
+/// Rayleigh-Ritz on the span of column k of an adjugate of K - y I and the column l most independent of it
+/// (largest remainder after removing its component along column k: pivoted Gram-Schmidt; near a double
+/// root the adjugate is nearly the projector onto the top two eigenvectors, and columns of equal size can
+/// be parallel). The top eigenvector of the 2x2 matrix [[B11, B12], [B12, B22]] = [b1 b2]^T K [b1 b2] is
+/// backward stable: whatever mixture of the top two eigenvectors the columns hold (y inexact), the Ritz
+/// vector is the best unit vector of their plane. Where the two Ritz values coincide to rounding (a double
+/// eigenvalue: the optimum is not unique) it returns the vector of the plane closest to e0 (the identity
+/// rotation), or to e_m, the axis with the largest projection, if e0 is nearly orthogonal to the plane, so
+/// that neighbouring vertices of a deformation make the same choice.
+/// `gap` receives the gap between the two Ritz values (an estimate of g = lambda1 - lambda2 when the plane
+/// holds the top two eigenvectors; O(a) when column l is noise), or infinity if the columns span a line.
 template <class T>
-Eigen::Matrix<T, 4, 1> ritz_top(const Eigen::Matrix<T, 4, 4>& adj, int k, int l, const Eigen::Matrix<T, 4, 4>& K,
-                                T a) {
+Eigen::Matrix<T, 4, 1> ritz_top(const Eigen::Matrix<T, 4, 4>& adj, int k, const Eigen::Matrix<T, 4, 4>& K, T a,
+                                T& gap) {
   using Vec4 = Eigen::Matrix<T, 4, 1>;
   using std::sqrt;
   constexpr T eps = std::numeric_limits<T>::epsilon();
-  const Vec4 b1 = adj.col(k).normalized();
+  const Vec4 b1 = adj.col(k) / sqrt(adj.col(k).squaredNorm());
+  // l: the largest remainder |c_j|^2 - (b1 . c_j)^2 over j != k (first index on ties).
+  int l = k == 0 ? 1 : 0;  // (stays if the remainders are NaN: an all-zero adjugate, rejected by the caller)
+  T best = T(-1);
+  for (int j = 0; j < 4; ++j) {
+    if (j == k) continue;
+    const T p = b1.dot(adj.col(j)), rem = adj.col(j).squaredNorm() - p * p;
+    if (rem > best) best = rem, l = j;
+  }
   Vec4 b2 = adj.col(l) - b1 * b1.dot(adj.col(l));
-  if (!(b2.norm() > T(64) * eps * adj.col(l).norm())) return b1;  // the columns span a line only
+  gap = std::numeric_limits<T>::infinity();
+  if (!(b2.squaredNorm() > T(64 * 64) * eps * eps * adj.col(l).squaredNorm())) return b1;  // a line only
   // Twice is enough (Kahan, Parlett): the first pass may cancel almost all of column l, leaving a residual
   // whose rounding is not orthogonal to b1; a second pass makes it so to working precision.
   b2 -= b1 * b1.dot(b2);
-  b2.normalize();
+  b2 /= sqrt(b2.squaredNorm());
   const Vec4 Kb1 = K * b1, Kb2 = K * b2;
   const T B11 = b1.dot(Kb1), B12 = b1.dot(Kb2), B22 = b2.dot(Kb2);
   const T d = T(0.5) * (B11 - B22);
   const T r = sqrt(d * d + B12 * B12);  // half the gap between the two Ritz values
+  gap = T(2) * r;
   // B carries rounding of a few eps ||K||: a smaller gap is a double eigenvalue.
   if (!(r > T(8) * eps * a)) {
     const Vec4 proj = b1.cwiseProduct(b1) + b2.cwiseProduct(b2);
@@ -242,17 +262,27 @@ Eigen::Matrix<T, 4, 1> ritz_top(const Eigen::Matrix<T, 4, 4>& adj, int k, int l,
   return d >= T(0) ? Vec4((d + r) * b1 + B12 * b2) : Vec4(B12 * b1 + (r - d) * b2);
 }
 
-/// The two columns used: k, the paper's frame (k = 0, system (14) as written) unless |q0| is below half
-/// the largest |q_k| (diagonal cofactor ratio 1/4), then the largest (Shuster's sequential rotation about
-/// axis k; at most a factor 2 in accuracy is given up for continuity); l, the next strongest.
+/// The column k: the paper's frame (k = 0, system (14) as written) unless |q0| is below half the largest
+/// |q_k| (diagonal cofactor ratio 1/4), then the largest (Shuster's sequential rotation about axis k; at
+/// most a factor 2 in accuracy is given up for continuity). dk: the largest |diagonal cofactor|.
 template <class T>
-void strongest_columns(const Eigen::Matrix<T, 4, 4>& adj, int& k, int& l, T& dk) {
+void strongest_column(const Eigen::Matrix<T, 4, 4>& adj, int& k, T& dk) {
   const Eigen::Matrix<T, 4, 1> diag = adj.diagonal().cwiseAbs();
   dk = diag.maxCoeff(&k);
   if (diag(0) >= T(0.25) * dk) k = 0;
-  l = k == 0 ? 1 : 0;
-  for (int j = 0; j < 4; ++j)
-    if (j != k && diag(j) > diag(l)) l = j;
+}
+
+/// Near a point reflection (det H < 0 and s1^2, s2^2, s3^2 spread less than their mean: the top three
+/// eigenvalues of K then cluster within 2 (s1 - s3)) the quartic's coefficients fix y only to eps ||K||^3 / w^2 (w the cluster
+/// width), and the adjugate columns mix in two other eigenvectors, which the two-column Ritz step cannot
+/// both remove. There one more pass at the Rayleigh quotient rho(q) (backward stable, and accurate to w
+/// theta^2 for an error theta in q) squares theta; a pass is kept only if it raises rho (at an exactly
+/// multiple root the adjugate is rounding noise, and its Ritz vector lowers rho).
+template <class T>
+bool clustered_top_three(const Invariants<T>& inv) {
+  if (!(inv.det < T(0))) return false;
+  const T shift = inv.norm2 / T(3), p = inv.c2 - inv.norm2 * shift;  // as in largest_eigenvalue_HtH
+  return -p / T(3) < shift * shift / T(4);                            // m < shift / 2
 }
 
 /// Eq. (14), generalised: the (unnormalised) quaternion (q0, q_vec) of the optimal rotation.
@@ -281,25 +311,46 @@ Eigen::Matrix<T, 4, 1> rotation_axis(const Matrix3<T>& H, const Invariants<T>& i
   // For a simple root the strongest diagonal cofactor is q_k^2 g1 g2 g3 >= g1 a^2 / 4 roughly (g1 the gap
   // to the next eigenvalue of K, g2, g3 ~ 2 s1 ~ a): below sqrt(eps) a^3 the gap is under a few
   // sqrt(eps) a, kappa is above 1/sqrt(eps), and the shifted evaluation's O(sqrt(eps)) is within eps kappa.
-  // Cofactors are sums of six products of three entries of K - y I (|entries| <= a + y <= 3a), so their
-  // rounding is below 64 eps (3a)^3: the shifted adjugate must stand above that.
+  // Cofactors are sums of six products of three entries of K - y I (|entries| <= a + y <= 3a): their
+  // rounding is a few eps a^3, and the shifted adjugate must stand above 64 eps a^3.
   const T a3 = a * a * a;
-  int k, l;
-  T dk;
+  int k;
+  T dk, gap;
   Eigen::Matrix<T, 4, 4> adj = adjugate4(shifted_davenport(H, inv, y));
-  strongest_columns(adj, k, l, dk);
+  strongest_column(adj, k, dk);
+  Eigen::Matrix<T, 4, 1> q;
+  bool noise = false;
   if (dk > sqrt(eps) * a3) {
     if (path) *path = 0;
-    return ritz_top(adj, k, l, K, a);
+    q = ritz_top(adj, k, K, a, gap);
+  } else {
+    adj = adjugate4(shifted_davenport(H, inv, y + sqrt(eps) * a));
+    strongest_column(adj, k, dk);
+    noise = !(dk > T(64) * eps * a3);
+    if (path) *path = noise ? 2 : 1;
+    q = noise ? null_vector_closest_to_identity(shifted_davenport(H, inv, y), T(64) * eps) : ritz_top(adj, k, K, a, gap);
   }
-  adj = adjugate4(shifted_davenport(H, inv, y + sqrt(eps) * a));
-  strongest_columns(adj, k, l, dk);
-  if (dk > T(64 * 27) * eps * a3) {
-    if (path) *path = 1;
-    return ritz_top(adj, k, l, K, a);
+  // Refinement passes at the Rayleigh quotient rho(q), which is backward stable (good to eps a):
+  //  - gap between a / 16 and sqrt(eps) a (kappa between ~30 and 1/sqrt(eps)): y carried eps a^2 / g,
+  //    leaving eps a / g of the far eigenvectors in the Ritz plane; a pass at rho brings that to eps.
+  //    (Beyond 1/sqrt(eps) a pass is no better than the rounding of the adjugate itself, eps a / g.)
+  //  - the top three eigenvalues cluster (clustered_top_three), or the adjugate was rounding noise.
+  // A pass is kept unless rho drops beyond its rounding (8 eps a): at an exactly multiple root the
+  // adjugate is noise and its Ritz vector lowers rho by O(a); NaN (an all-zero adjugate) too.
+  const bool refine = noise || clustered_top_three(inv) || (!(gap > a / T(16)) && gap > sqrt(eps) * a);
+  if (refine) {
+    T rho = q.dot(K * q) / q.squaredNorm();
+    for (int pass = 0; pass < 2; ++pass) {
+      adj = adjugate4(shifted_davenport(H, inv, rho));
+      strongest_column(adj, k, dk);
+      const Eigen::Matrix<T, 4, 1> next = ritz_top(adj, k, K, a, gap);
+      const T rho_next = next.dot(K * next) / next.squaredNorm();
+      if (!(rho_next >= rho - T(8) * eps * a)) break;
+      q = next;
+      rho = rho_next;
+    }
   }
-  if (path) *path = 2;
-  return null_vector_closest_to_identity(shifted_davenport(H, inv, y), T(64) * eps);
+  return q;
 }
 
 /// Eqs. (15) and (5) in homogeneous form: the rotation matrix of the unnormalised quaternion q = (w, x),

@@ -27,7 +27,9 @@ Matrix3<T> fit_rotation(const Matrix3<T>& H, RotationMethod method) {
   if (m == T(0)) return Matrix3<T>::Identity();
   // Exact power-of-two normalisation (max |H_ij| in [1, 2)) for every method: no overflow or underflow in
   // products such as det(H)^2, and power-of-two scalings of H give bitwise identical results.
-  const Matrix3<T> Hn = H * std::ldexp(T(1), -std::ilogb(m));
+  // Entry by entry: for a subnormal m the factor 2^-ilogb(m) itself would overflow.
+  const int e = std::ilogb(m);
+  const Matrix3<T> Hn = H.unaryExpr([e](T x) { return std::ldexp(x, -e); });
   switch (method) {
     case RotationMethod::axis_angle: return detail::fit_rotation_axis_angle(Hn);
     case RotationMethod::horn_quaternion: return detail::fit_rotation_horn_quaternion(Hn);
