@@ -11,6 +11,8 @@
 #include <cstdio>
 #include <cstdlib>
 #include <new>
+#include <thread>
+#include <vector>
 #include <utility>
 
 using namespace deformer_test;
@@ -18,15 +20,21 @@ using namespace deformer_test;
 namespace {
 
 /// Checks out against expected(v) for every vertex, with the bound of the direct evaluation (moved handles
-/// as given) plus `extra` (absolute). Returns the largest deviation / bound.
+/// as given) plus `extra` (absolute). Returns the largest deviation / bound. Vertices where the fit is
+/// singular in double (affine with fewer than four handles of non-negligible weight) fail the test unless
+/// `ill_posed` is given, which then counts them.
 template <class T, class F>
 double check_expected(const Points<T>& out, const Scene<T>& sc, const Handles<T>& moved, const Options& o, F expected,
-                      double extra = 0) {
+                      double extra = 0, long* ill_posed = nullptr) {
   const double l = scene_size(sc.vertices, sc.handles);
   double worst = 0;
   for (Eigen::Index i = 0; i < sc.vertices.rows(); ++i) {
     const Vec3d v = sc.vertices.row(i).transpose().template cast<double>();
     const DirectVertex d = direct_vertex(v, sc.handles, moved, o, l);
+    if (!d.well_posed && ill_posed) {
+      ++*ill_posed;
+      continue;
+    }
     REQUIRE(d.well_posed);
     const double bound = std::numeric_limits<T>::epsilon() * d.bound_unit + extra;
     const double dev = (out.row(i).transpose().template cast<double>() - expected(v)).norm();
@@ -93,6 +101,71 @@ TEMPLATE_TEST_CASE("interpolation: vertices on point handles go exactly to their
       CHECK(out.allFinite());
     }
   }
+}
+
+TEMPLATE_TEST_CASE("interpolation: vertices within the snapping distance of a handle map exactly to its target",
+                   "[deformer]", float, double) {
+  using T = TestType;
+  std::mt19937_64 g(seed());
+  INFO("seed " << seed());
+  Scene<T> sc = random_scene<T>(g, 20, 6, 0);
+  // deformer_data.hpp: closer than 64 eps(T) times the scene size (about 3.5 here) snaps. Offsets of a few
+  // ulps of the coordinates are far inside that; the weights there would be ~eps^-u without the rule.
+  for (Eigen::Index i = 0; i < 6; ++i) {
+    sc.vertices.row(i) = sc.handles.points.row(i);
+    sc.vertices(i, int(i % 3)) = std::nextafter(sc.vertices(i, int(i % 3)), T(10));
+  }
+  for (Transform tr : all_transforms) {
+    INFO(name(tr));
+    Options o;
+    o.transform = tr;
+    o.weight_exponent = 4;
+    const Handles<T> moved = transformed(sc.handles, 2 * random_rotation(g), random_vector(g));
+    Points<T> out;
+    Deformer<T>(sc.vertices, sc.handles, o).deform(moved, out);
+    for (Eigen::Index i = 0; i < 6; ++i) CHECK(out.row(i) == moved.points.row(i));
+    CHECK(out.allFinite());
+  }
+}
+
+TEMPLATE_TEST_CASE("extreme weight exponents and vertices close to handles stay finite and exact", "[deformer]",
+                   float, double) {
+  using T = TestType;
+  std::mt19937_64 g(seed());
+  INFO("seed " << seed());
+  Scene<T> sc = random_scene<T>(g, 200, 7, 2);
+  // Vertices 1e-3 of the scene from a handle, and 4 times the snapping distance (deformer_data.hpp:
+  // 64 eps(T) times the scene size; about 1e-4 in float, 2e-13 in double): weight ratios down to
+  // (1e-4 / 3.5)^20 = 1e-90 in float and (5e-14)^20 = 1e-266 in double. The first is far below the float
+  // range: the per-vertex power-of-two scaling of A keeps those handles in H. (For u * log10(d_min / d)
+  // below about -300 the weights leave the double range too and the farther handles stop counting.)
+  const double l = scene_size(sc.vertices, sc.handles);
+  for (Eigen::Index i = 0; i < 7; ++i) {
+    const double d = i % 2 ? 1e-3 * l : 4 * 64 * std::numeric_limits<T>::epsilon() * l;
+    sc.vertices.row(i) = sc.handles.points.row(i) + (d * random_vector(g).normalized()).cast<T>().transpose();
+  }
+  for (double u : {1.0, 1.5, 8.0, 20.0})
+    for (Transform tr : all_transforms) {
+      INFO(name(tr) << " u " << u);
+      Options o;
+      o.transform = tr;
+      o.weight_exponent = u;
+      const Deformer<T> def(sc.vertices, sc.handles, o);
+      const Mat3d R = random_rotation(g);
+      const Vec3d t = random_vector(g);
+      const Handles<T> moved = transformed(sc.handles, R, t);
+      Points<T> out;
+      def.deform(moved, out);
+      REQUIRE(out.allFinite());
+      // Every transform reproduces a rigid motion (test_deformer_common.hpp bound). With u = 20 the nearest
+      // two or three handles take all the weight at some vertices, and the affine fit is singular there.
+      long ill_posed = 0;
+      check_expected(out, sc, moved, o, [&](const Vec3d& v) { return Vec3d(R * v + t); },
+                     8 * std::numeric_limits<double>::epsilon() * (2 + t.norm()), &ill_posed);
+      if (tr != Transform::affine || u < 20) CHECK(ill_posed == 0);
+      if (ill_posed) std::printf("[extreme] %s %s u = %g: %ld vertices with a singular affine fit skipped\n",
+                                 type_name<T>(), name(tr), u, ill_posed);
+    }
 }
 
 TEMPLATE_TEST_CASE("reproduction: rigid motions, uniform scales and affine maps are reproduced", "[deformer]", float,
@@ -262,6 +335,26 @@ TEMPLATE_TEST_CASE("the stateful API and the interleaved output agree with defor
   Points<T> e;
   moved_def.deform(e);
   CHECK(e == d);
+}
+
+TEMPLATE_TEST_CASE("deform is const and may run concurrently on distinct outputs", "[deformer]", float, double) {
+  using T = TestType;
+  std::mt19937_64 g(seed());
+  const Scene<T> sc = random_scene<T>(g, 2000, 10, 2);
+  for (int threads : {1, 0}) {
+    Options o;
+    o.transform = Transform::similarity;
+    o.threads = threads;
+    const Deformer<T> def(sc.vertices, sc.handles, o);
+    const Handles<T> moved = transformed(sc.handles, random_rotation(g), random_vector(g));
+    Points<T> expected;
+    def.deform(moved, expected);
+    Points<T> outs[4];
+    std::vector<std::thread> pool;
+    for (Points<T>& out : outs) pool.emplace_back([&] { def.deform(moved, out); });
+    for (std::thread& th : pool) th.join();
+    for (const Points<T>& out : outs) CHECK(out == expected);
+  }
 }
 
 TEMPLATE_TEST_CASE("memory_bytes reports the table and per-vertex arrays actually held", "[deformer]", float, double) {

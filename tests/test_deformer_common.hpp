@@ -188,28 +188,34 @@ DirectVertex direct_vertex(const Vec3d& v, const Handles<T>& rest, const Handles
   }
   const std::size_t J = ph.size();
   DirectVertex r;
-  // Distances (segment: to the closest point) and the interpolation case.
+  // Distances (segment: to the closest point) and the interpolation case. Weights (d_min / d)^u: the same as
+  // d^-u after normalisation, without overflow for large u or tiny d.
   std::vector<double> w(J, 0.0);  // centroid weights (unnormalised)
-  std::vector<double> dseg(static_cast<std::size_t>(s));
+  std::vector<double> dist(J, 0.0), dseg(static_cast<std::size_t>(s)), tseg(static_cast<std::size_t>(s));
+  double d_min = std::numeric_limits<double>::infinity();
   for (Eigen::Index i = 0; i < k; ++i) {
-    const double d = (ph[i].p - v).norm();
-    if (d == 0) {
+    dist[i] = (ph[i].p - v).norm();
+    if (dist[i] == 0) {
       r.out = ph[i].q;
       r.snapped = true;
       return r;
     }
-    w[i] = std::pow(d, -u);
+    d_min = std::min(d_min, dist[i]);
   }
   for (Eigen::Index i = 0; i < s; ++i) {
     const Vec3d a = ph[k + 2 * i].p, b = ph[k + 2 * i + 1].p;
-    const double t = std::clamp((v - a).dot(b - a) / (b - a).squaredNorm(), 0.0, 1.0);
-    const double d = (a + t * (b - a) - v).norm();
-    if (d == 0) {
-      r.out = (1 - t) * ph[k + 2 * i].q + t * ph[k + 2 * i + 1].q;
+    tseg[i] = std::clamp((v - a).dot(b - a) / (b - a).squaredNorm(), 0.0, 1.0);
+    dseg[i] = (a + tseg[i] * (b - a) - v).norm();
+    if (dseg[i] == 0) {
+      r.out = (1 - tseg[i]) * ph[k + 2 * i].q + tseg[i] * ph[k + 2 * i + 1].q;
       r.snapped = true;
       return r;
     }
-    dseg[i] = std::pow(d, -u);
+    d_min = std::min(d_min, dseg[i]);
+  }
+  for (Eigen::Index i = 0; i < k; ++i) w[i] = std::pow(d_min / dist[i], u);
+  for (Eigen::Index i = 0; i < s; ++i) {
+    dseg[i] = std::pow(d_min / dseg[i], u);           // now the segment's weight, (d_min / d)^u
     w[k + 2 * i] = w[k + 2 * i + 1] = dseg[i] / 2;  // Sec. 6.2: midpoint centroids with weight d^-u
   }
   double S = 0;
@@ -219,12 +225,20 @@ DirectVertex direct_vertex(const Vec3d& v, const Handles<T>& rest, const Handles
     p_star += w[j] / S * ph[j].p;
     q_star += w[j] / S * ph[j].q;
   }
+  // phat_j = p_j - p* as sum_k omega_k (p_j - p_k) (sum_k omega_k = 1): no cancellation when one weight
+  // dominates (a vertex near a handle), where p_j - p* would carry the absolute rounding of p*. Same for qhat.
+  std::vector<Vec3d> phat(J, Vec3d::Zero()), qhat(J, Vec3d::Zero());
+  for (std::size_t j = 0; j < J; ++j)
+    for (std::size_t m2 = 0; m2 < J; ++m2) {
+      phat[j] += w[m2] / S * (ph[j].p - ph[m2].p);
+      qhat[j] += w[m2] / S * (ph[j].q - ph[m2].q);
+    }
   // H = sum w qhat phat^T / S; segments with W_i = d^-u [[1/3, 1/6], [1/6, 1/3]] (Sec. 6.2).
   Mat3d H = Mat3d::Zero(), G = Mat3d::Zero();
   double D = 0;
   std::vector<Vec3d> A(J);
   for (Eigen::Index i = 0; i < k; ++i) {
-    const Vec3d ph_i = ph[i].p - p_star, qh_i = ph[i].q - q_star;
+    const Vec3d ph_i = phat[i], qh_i = qhat[i];
     H += w[i] / S * qh_i * ph_i.transpose();
     G += w[i] / S * ph_i * ph_i.transpose();
     D += w[i] / S * ph_i.squaredNorm();
@@ -232,8 +246,8 @@ DirectVertex direct_vertex(const Vec3d& v, const Handles<T>& rest, const Handles
   }
   for (Eigen::Index i = 0; i < s; ++i) {
     const std::size_t jc = k + 2 * i, jd = jc + 1;
-    const Vec3d ah = ph[jc].p - p_star, bh = ph[jd].p - p_star;
-    const Vec3d ch = ph[jc].q - q_star, dh = ph[jd].q - q_star;
+    const Vec3d ah = phat[jc], bh = phat[jd];
+    const Vec3d ch = qhat[jc], dh = qhat[jd];
     const double W0 = dseg[i] / 3 / S, W1 = dseg[i] / 6 / S;
     H += W0 * ch * ah.transpose() + W1 * ch * bh.transpose() + W1 * dh * ah.transpose() + W0 * dh * bh.transpose();
     G += W0 * ah * ah.transpose() + W1 * (ah * bh.transpose() + bh * ah.transpose()) + W0 * bh * bh.transpose();
@@ -247,21 +261,29 @@ DirectVertex direct_vertex(const Vec3d& v, const Handles<T>& rest, const Handles
   const double l = scene;
   const double m = double(J) + 16;
   if (o.transform == Transform::affine) {
-    const Eigen::SelfAdjointEigenSolver<Mat3d> es(G);
+    // In units of g = trace G (near a handle G, H and the A_j are all about (d_min / d)^u, maybe 1e-250,
+    // and G^-1 vhat would overflow): v' = q* + (H / g) (G / g)^-1 vhat.
+    const double g = G.trace();
+    if (!(g > 0)) {
+      r.well_posed = false;
+      return r;
+    }
+    const Mat3d Gn = G / g;
+    const Eigen::SelfAdjointEigenSolver<Mat3d> es(Gn);
     const double lmin = es.eigenvalues()[0], lmax = es.eigenvalues()[2];
     if (!(lmin > 0)) {
       r.well_posed = false;
       return r;
     }
-    const Vec3d x = G.ldlt().solve(vhat);
-    r.out = q_star + H * x;
+    const Vec3d xn = Gn.ldlt().solve(vhat);  // x = G^-1 vhat = xn / g
+    r.out = q_star + (H / g) * xn;
     double sa = 0, sq = 0;
     for (std::size_t j = 0; j < J; ++j) {
-      const double alpha = w[j] / S + A[j].dot(x);
+      const double alpha = w[j] / S + (A[j] / g).dot(xn);
       sa += std::abs(alpha) * ph[j].q.norm();
-      sq += A[j].norm() * (ph[j].q - q_star).norm();
+      sq += (A[j] / g).norm() * (ph[j].q - q_star).norm();
     }
-    r.bound_unit = m * sa + m * (lmax / lmin) * x.norm() * sq + 8 * r.out.norm();
+    r.bound_unit = m * sa + m * (lmax / lmin) * xn.norm() * sq + 8 * r.out.norm();
     return r;
   }
   const Mat3d R = fit_rotation<double>(H, RotationMethod::svd);

@@ -11,6 +11,7 @@
 #include <Eigen/SVD>
 
 #include <tbb/blocked_range.h>
+#include <tbb/info.h>
 #include <tbb/parallel_for.h>
 #include <tbb/task_arena.h>
 
@@ -292,11 +293,23 @@ void precompute_block(detail::DeformerData<T>& data, std::size_t b, const Points
       // Sec. 6.1: D = sum_i w_i |phat_i|^2 / S (segments: int w |phat(t)|^2 / S).
       for (std::size_t j = 0; j < J; ++j) D += A[j].dot(rh.P[j] - p_star);
     }
+    // H matters only up to a positive factor (the rotation fit is scale-invariant and mu = trace(R^T H) / D,
+    // and for affine only H G^-1 does), so A and D are scaled per vertex by a power of two 2^s that brings
+    // sum_j |A_j|_1 into [1, 2): near a handle every A_j is about (d_min / d)^u, which for u = 8 is below the
+    // float range a few 1e-5 of the scene away, and would drop out of H entirely; for affine, G^-1 vhat
+    // would overflow where G is that small. (The sum, not the largest: |H| <= 2 max_j |q_j - c|.)
+    double a_sum = 0;
+    for (std::size_t j = 0; j < J; ++j) a_sum += A[j].cwiseAbs().sum();
+    const int s_v = a_sum > 0 ? -std::ilogb(a_sum) : 0;
+    for (std::size_t j = 0; j < J; ++j)
+      for (int c = 0; c < 3; ++c) A[j][c] = std::ldexp(A[j][c], s_v);
+    D = std::ldexp(D, s_v);
     if (affine) {
       // Normal equations: L G = H with G = sum_j A_j phat_j^T (symmetric positive definite when the handles
       // span 3D), so v' = q* + H G^-1 vhat = sum_j (omega_j + A_j . G^-1 vhat) q_j. G is solved through its
-      // eigen-decomposition; eigenvalues below 64 eps lambda_max (reachable only when weights underflow,
-      // u > ~20) are dropped (minimum-norm solution) instead of dividing by rounding noise.
+      // eigen-decomposition; eigenvalues below 64 eps lambda_max (reachable only when weights leave the
+      // double range, u log10(d_min / d) < -300) are dropped (minimum-norm solution) instead of dividing by
+      // rounding noise.
       Vec3d x = Vec3d::Zero();
       if (vhat != Vec3d::Zero()) {
         Eigen::Matrix3d G = Eigen::Matrix3d::Zero();
@@ -324,7 +337,7 @@ void precompute_block(detail::DeformerData<T>& data, std::size_t b, const Points
         data.p_star[c * np + i] = T(scene.centre[c] + std::ldexp(p_star[c], scene.e));
         data.vhat[c * np + i] = T(std::ldexp(vhat[c], scene.e));
       }
-      // Units (deformer_data.hpp): A stays in local units, D is stored as (physical D) / 2^e.
+      // Units (deformer_data.hpp): A in local units times 2^s, D as (physical D) / 2^e times 2^s.
       if (data.transform == Transform::similarity) data.D[i] = T(std::ldexp(D, scene.e));
     }
   }
@@ -369,8 +382,10 @@ detail::DeformerData<T> precompute(const Points<T>& vertices, const Handles<T>& 
 }
 
 std::unique_ptr<tbb::task_arena> make_arena(int threads) {
-  // threads == 0: TBB's default arena (all cores); 1: serial, no TBB at all.
-  if (threads > 1) return std::make_unique<tbb::task_arena>(threads);
+  // threads == 0: TBB's default arena (all cores); 1: serial, no TBB at all; more: an arena of that many,
+  // capped at the hardware's (TBB would ignore the excess anyway, with a warning on stderr).
+  const int cap = tbb::info::default_concurrency();
+  if (threads > 1 && cap > 1) return std::make_unique<tbb::task_arena>(std::min(threads, cap));
   return nullptr;
 }
 

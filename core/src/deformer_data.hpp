@@ -22,9 +22,13 @@
 //   R   = fit_rotation(H, method)
 //   mu  = 1 (rigid), trace(R^T H) / D (similarity, Sec. 6.1; 1 where D = 0)
 //   v'  = q* + mu R vhat
-// Units: A_j and D are stored divided by `scale` (an exact power of two close to the scene size), so H is
-// the paper's M divided by `scale`, and trace(R^T H) / D is still the paper's mu_s. This keeps H and D of
-// the order of the coordinates: no overflow or underflow in float even for a scene of size 1e30 or 1e-30.
+// Units: H matters only up to a positive factor (fit_rotation is scale-invariant, and mu = trace(R^T H) / D
+// when D carries the same factor), so each vertex's A_j and D are stored multiplied by a power of two: the
+// stored A_j are the local-frame A_j (physical A_j divided by `scale`, an exact power of two close to the
+// scene size) times 2^s_v, with s_v chosen per vertex so that sum_j |A_j|_1 is in [1, 2); D is stored as
+// (physical D) / scale * 2^s_v. So |H_rs| <= 2 max_j |q_j - c| never overflows, and near a handle, where every
+// A_j is about (d_min / d)^u (below the float range for u = 8 a few 1e-5 of the scene away), nothing
+// underflows either. trace(R^T H) / D is still the paper's mu_s.
 //
 // Affine (Schaefer et al. 2006 normal equations, with G = sum_j A_j phat_j^T = sum_i int w phat phat^T / S):
 //   v' = q* + H G^-1 vhat = sum_j alpha_j q_j,   alpha_j = omega_j + A_j . (G^-1 vhat)   (precomputed)
@@ -85,7 +89,7 @@ struct DeformerData {
   std::size_t blocks = 0;     ///< ceil(n / kLanes)
   std::size_t points = 0;     ///< point handles k
   std::size_t segments = 0;   ///< segment handles s
-  double scale = 1;           ///< A and D are stored divided by this power of two (see above)
+  double scale = 1;           ///< the local frame's power of two (see Units above)
   AlignedVector<T> table;     ///< omega, A (rigid, similarity) or alpha (affine), blocked as above
   AlignedVector<T> p_star;    ///< rigid, similarity: weighted centroid of the rest handles, SoA, padded
   AlignedVector<T> vhat;      ///< rigid, similarity: v - p*, SoA, padded
