@@ -3,6 +3,7 @@
 // weights in weights.hpp, and the per-frame stages in deformer_scalar.hpp.
 #include "deformer_data.hpp"
 #include "deformer_scalar.hpp"
+#include "dispatch.hpp"
 #include "weights.hpp"
 
 #include <mlsdeform/deformer.hpp>
@@ -398,6 +399,45 @@ struct Deformer<T>::Impl {
   detail::DeformerData<T> data;
   std::unique_ptr<tbb::task_arena> arena;
 
+  /// The SIMD kernels for this session's settings, or nullptr for the scalar path (Backend::scalar,
+  /// Isa::scalar, or a rotation method without a SIMD kernel: kanatani, horn_matrix, svd).
+  kernels::DeformBlocksFn<T> simd_kernel() const {
+    if (options.backend != Backend::simd) return nullptr;
+    const bool in_lanes = data.transform == Transform::affine || options.method == RotationMethod::axis_angle ||
+                          options.method == RotationMethod::horn_quaternion;
+    const kernels::KernelTable* k = detail::active_kernels();
+    if (!k || !in_lanes) return nullptr;
+    if constexpr (std::is_same_v<T, float>) return k->deform_f;
+    else return k->deform_d;
+  }
+
+  /// Per frame with the SIMD kernels: vertex v, coordinate c goes to out[c * cstride + v * vstride].
+  /// Returns false (nothing done) where the scalar path must run.
+  bool run_simd(const Handles<T>& moved, T* out, std::size_t vstride, std::size_t cstride) const {
+    const kernels::DeformBlocksFn<T> kernel = simd_kernel();
+    if (!kernel) return false;
+    kernels::DeformFrame<T> fr{};
+    fr.table = data.table.data();
+    fr.vhat = data.vhat.empty() ? nullptr : data.vhat.data();
+    fr.D = data.D.empty() ? nullptr : data.D.data();
+    fr.padded = data.padded();
+    fr.points = moved.points.data();
+    fr.k = static_cast<std::size_t>(moved.points.rows());
+    fr.seg_a = moved.segment_a.data();
+    fr.seg_b = moved.segment_b.data();
+    fr.s = static_cast<std::size_t>(moved.segment_a.rows());
+    const Vector3<T> c = detail::target_centre(moved);
+    for (int i = 0; i < 3; ++i) fr.centre[i] = c[i];
+    fr.transform = data.transform == Transform::rigid ? 0 : (data.transform == Transform::similarity ? 1 : 2);
+    fr.method = options.method == RotationMethod::horn_quaternion ? 1 : 0;
+    fr.out = out;
+    fr.out_vertex_stride = vstride;
+    fr.out_coord_stride = cstride;
+    fr.n = data.n;
+    for_blocks(data.blocks, options.threads, arena.get(), [&](std::size_t b) { kernel(fr, b, b + 1, nullptr); });
+    return true;
+  }
+
   /// Per frame: validated `moved`, write(v, x, y, z) for every vertex. Nothing is allocated here; scratch
   /// lives on the stack of each block.
   template <class Write>
@@ -437,6 +477,7 @@ void Deformer<T>::deform(const Handles<T>& moved_handles, Points<T>& out) const 
   check_moved(moved_handles, impl_->rest);
   const auto n = static_cast<Eigen::Index>(impl_->data.n);
   if (out.rows() != n) out.resize(n, 3);
+  if (impl_->run_simd(moved_handles, out.data(), 1, static_cast<std::size_t>(n))) return;
   impl_->run(moved_handles, [&out](std::size_t v, T x, T y, T z) {
     const auto r = static_cast<Eigen::Index>(v);
     out(r, 0) = x;
@@ -451,6 +492,7 @@ void Deformer<T>::deform(const Handles<T>& moved_handles, InterleavedView<T> out
   if (out.rows() != static_cast<Eigen::Index>(impl_->data.n))
     throw std::invalid_argument("Deformer: the interleaved output has " + std::to_string(out.rows()) +
                                 " rows but the model has " + std::to_string(impl_->data.n) + " vertices");
+  if (impl_->run_simd(moved_handles, out.data(), 3, 1)) return;
   impl_->run(moved_handles, [&out](std::size_t v, T x, T y, T z) {
     const auto r = static_cast<Eigen::Index>(v);
     out(r, 0) = x;

@@ -28,7 +28,8 @@ SimilarityTransform<T> fit(const Eigen::Ref<const Points<T>>& p, const Eigen::Re
                                                     : Eigen::Matrix<T, Eigen::Dynamic, 1>::Ones(n);
   const T wmax = wn.maxCoeff();
   if (!(wmax > T(0))) throw std::invalid_argument("fit: the weights sum to zero");
-  wn /= wn.sum();  // normalised weights: the fit is invariant under their scale, and nothing overflows
+  wn /= wmax;      // first by the largest, so that the sum cannot overflow (weights near the float maximum)
+  wn /= wn.sum();  // normalised weights: the fit is invariant under their scale
   const Vector3<T> p_star = p.transpose() * wn, q_star = q.transpose() * wn;
   const Points<T> phat = p.rowwise() - p_star.transpose();
   const Points<T> qhat = q.rowwise() - q_star.transpose();
