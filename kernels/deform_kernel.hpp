@@ -34,8 +34,96 @@ struct DeformKernel : Simd<T, A> {
     }
   }
 
+  /// w = (dref2 / d2)^(u/2); u = 2 (the default) needs no power.
+  MLSDEFORM_KERNEL_INLINE static V relative_weight(V r2, T half_u) {
+    if (half_u == T(1)) return r2;
+    return xsimd::exp2(V(half_u) * xsimd::log2(r2));
+  }
+
+  /// The rotation stage shared by both weight storages: R from H (fit or Horn-Jacobi), mu, and
+  /// out = q* + mu R vhat. `scale` multiplies vhat for rigid (the on-the-fly local frame).
+  MLSDEFORM_KERNEL_INLINE static void apply_rotation(const DeformFrame<T>& fr, const V (&h)[9], const V (&qs)[3],
+                                                     const V (&vh)[3], V D, V scale, V (&out)[3],
+                                                     RotationStats& stats) {
+    V hn[9], r[9];
+    for (int i = 0; i < 9; ++i) hn[i] = h[i];  // fit normalises its argument in place
+    if (fr.method == 1) {
+      HornJacobi<T, A>::fit(hn, r);
+    } else {
+      const M fallback = FitRotations<T, A>::fit(hn, r, stats);
+      if (xsimd::any(fallback)) FitRotations<T, A>::scalar_lanes(fallback, hn, r, stats);
+    }
+    V mu = scale;
+    if (fr.transform == 1) {
+      V tr = r[0] * h[0];
+      for (int i = 1; i < 9; ++i) tr = tr + r[i] * h[i];
+      mu = xsimd::select(D > V(T(0)), tr / D, scale);  // scalar: if (D > 0) mu = trace(R^T H) / D
+    }
+    for (int i = 0; i < 3; ++i) {
+      const V rv = r[3 * i] * vh[0] + r[3 * i + 1] * vh[1] + r[3 * i + 2] * vh[2];
+      out[i] = qs[i] + mu * rv;
+    }
+  }
+
+  /// On-the-fly weights, mirroring the scalar deform_block_on_the_fly (two passes over the point handles).
+  static void batch_on_the_fly(const DeformFrame<T>& fr, std::size_t b, std::size_t g, RotationStats& stats) {
+    const std::size_t v0 = b * kBlock + g;
+    const V vx = V::load_aligned(fr.v_local + v0), vy = V::load_aligned(fr.v_local + fr.padded + v0),
+            vz = V::load_aligned(fr.v_local + 2 * fr.padded + v0), dref2 = V::load_aligned(fr.dref2 + v0);
+    const T *px = fr.p_local, *py = px + fr.k, *pz = px + 2 * fr.k;
+    V S(T(0)), ps[3] = {V(T(0)), V(T(0)), V(T(0))}, qs[3] = {V(T(0)), V(T(0)), V(T(0))};
+    for (std::size_t j = 0; j < fr.k; ++j) {
+      const V dx = V(px[j]) - vx, dy = V(py[j]) - vy, dz = V(pz[j]) - vz;
+      const V w = relative_weight(dref2 / (dx * dx + dy * dy + dz * dz), fr.half_u);
+      S = S + w;
+      ps[0] = ps[0] + w * dx, ps[1] = ps[1] + w * dy, ps[2] = ps[2] + w * dz;
+      qs[0] = qs[0] + w * V(fr.points[j]), qs[1] = qs[1] + w * V(fr.points[fr.k + j]);
+      qs[2] = qs[2] + w * V(fr.points[2 * fr.k + j]);
+    }
+    const V inv_S = V(T(1)) / S;
+    for (V& x : ps) x = x * inv_S;
+    for (V& x : qs) x = x * inv_S;
+    V h[9], sum_a[3] = {V(T(0)), V(T(0)), V(T(0))}, D(T(0));
+    for (V& e : h) e = V(T(0));
+    for (std::size_t j = 0; j < fr.k; ++j) {
+      const V dx = V(px[j]) - vx, dy = V(py[j]) - vy, dz = V(pz[j]) - vz;
+      const V w = relative_weight(dref2 / (dx * dx + dy * dy + dz * dz), fr.half_u) * inv_S;
+      const V ph[3] = {dx - ps[0], dy - ps[1], dz - ps[2]};
+      const V a[3] = {w * ph[0], w * ph[1], w * ph[2]};
+      const V d[3] = {V(fr.points[j] - fr.centre[0]), V(fr.points[fr.k + j] - fr.centre[1]),
+                      V(fr.points[2 * fr.k + j] - fr.centre[2])};
+      for (int r = 0; r < 3; ++r) {
+        h[3 * r + 0] = h[3 * r + 0] + d[r] * a[0];
+        h[3 * r + 1] = h[3 * r + 1] + d[r] * a[1];
+        h[3 * r + 2] = h[3 * r + 2] + d[r] * a[2];
+      }
+      for (int r = 0; r < 3; ++r) sum_a[r] = sum_a[r] + a[r];
+      D = D + (a[0] * ph[0] + a[1] * ph[1] + a[2] * ph[2]);
+    }
+    for (int r = 0; r < 3; ++r)
+      for (int c = 0; c < 3; ++c) h[3 * r + c] = h[3 * r + c] - (qs[r] - V(fr.centre[r])) * sum_a[c];
+    const V vh[3] = {-ps[0], -ps[1], -ps[2]};
+    V out[3];
+    apply_rotation(fr, h, qs, vh, D, V(fr.world_scale), out, stats);
+    // Vertices on a handle (scalar: write q_j exactly); padding lanes have snap = -1.
+    const V snap = V::load_aligned(fr.snap + v0);
+    if (xsimd::any(snap >= V(T(0)))) {
+      alignas(64) T buf[3][W], sb[W];
+      for (int c = 0; c < 3; ++c) out[c].store_aligned(buf[c]);
+      snap.store_aligned(sb);
+      for (std::size_t l = 0; l < W; ++l)
+        if (sb[l] >= T(0)) {
+          const std::size_t j = static_cast<std::size_t>(sb[l]);
+          for (std::size_t c = 0; c < 3; ++c) buf[c][l] = fr.points[c * fr.k + j];
+        }
+      for (int c = 0; c < 3; ++c) out[c] = V::load_aligned(buf[c]);
+    }
+    store(fr, v0, out);
+  }
+
   /// The W vertices starting at lane `g` of block b.
   static void batch(const DeformFrame<T>& fr, std::size_t b, std::size_t g, RotationStats& stats) {
+    if (fr.on_the_fly) return batch_on_the_fly(fr, b, g, stats);
     const std::size_t J = fr.k + 2 * fr.s;
     V out[3];
     if (fr.transform == 2) {
@@ -65,28 +153,11 @@ struct DeformKernel : Simd<T, A> {
           h[3 * r + 2] = h[3 * r + 2] + d[r] * az;
         }
       });
-      V hn[9], r[9];
-      for (int i = 0; i < 9; ++i) hn[i] = h[i];  // fit normalises its argument in place
-      if (fr.method == 1) {
-        HornJacobi<T, A>::fit(hn, r);
-      } else {
-        const M fallback = FitRotations<T, A>::fit(hn, r, stats);
-        if (xsimd::any(fallback)) FitRotations<T, A>::scalar_lanes(fallback, hn, r, stats);
-      }
-      V mu(T(1));
-      if (fr.transform == 1) {
-        const V D = V::load_aligned(fr.D + b * kBlock + g);
-        V tr = r[0] * h[0];
-        for (int i = 1; i < 9; ++i) tr = tr + r[i] * h[i];
-        mu = xsimd::select(D > V(T(0)), tr / D, V(T(1)));  // scalar: if (D > 0) mu = trace(R^T H) / D
-      }
       const std::size_t v0 = b * kBlock + g;
       const V vh[3] = {V::load_aligned(fr.vhat + v0), V::load_aligned(fr.vhat + fr.padded + v0),
                        V::load_aligned(fr.vhat + 2 * fr.padded + v0)};
-      for (int i = 0; i < 3; ++i) {
-        const V rv = r[3 * i] * vh[0] + r[3 * i + 1] * vh[1] + r[3 * i + 2] * vh[2];
-        out[i] = qs[i] + mu * rv;
-      }
+      const V D = fr.transform == 1 ? V::load_aligned(fr.D + v0) : V(T(0));
+      apply_rotation(fr, h, qs, vh, D, V(T(1)), out, stats);
     }
     store(fr, b * kBlock + g, out);
   }

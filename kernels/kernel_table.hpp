@@ -41,6 +41,14 @@ struct DeformFrame {
   T* out;                 ///< vertex v, coordinate c at out[c * out_coord_stride + v * out_vertex_stride]
   std::size_t out_vertex_stride, out_coord_stride;
   std::size_t n;          ///< vertices (the last block may be partial)
+  // WeightStorage::on_the_fly (core/src/deformer_data.hpp): no table, weights from distances per frame.
+  bool on_the_fly;
+  const T* v_local;       ///< rest vertices, local frame, SoA [c * padded + v]
+  const T* dref2;         ///< squared nearest-handle distance [v]
+  const T* snap;          ///< handle index a vertex sits on, or -1 [v]
+  const T* p_local;       ///< point handles, local frame, SoA [c * k + j]
+  T world_scale;          ///< 2^e of the local frame
+  T half_u;               ///< u / 2
 };
 
 template <class T>

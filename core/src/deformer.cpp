@@ -344,6 +344,58 @@ void precompute_block(detail::DeformerData<T>& data, std::size_t b, const Points
   }
 }
 
+/// WeightStorage (deformer.hpp): on the fly is implemented for rigid and similarity with point handles
+/// only. `automatic` picks it when the precomputed table (16 bytes per vertex and handle in float, 32 in
+/// double) would exceed precompute_budget_bytes (default 32 MiB, about a last-level cache): beyond the cache
+/// the table streams from memory every frame, and recomputing the weights (two passes of a few tens of flops
+/// per handle) costs about as much as reading 16-32 bytes per handle (bench/bench_scaling.cpp measures both).
+template <class T>
+bool use_on_the_fly(const Options& o, const RestHandles& rh, std::size_t padded) {
+  const bool supported = o.transform != Transform::affine && rh.s == 0;
+  if (o.weight_storage == WeightStorage::on_the_fly && !supported)
+    throw std::invalid_argument(std::string("Deformer: WeightStorage::on_the_fly supports rigid and similarity "
+                                            "transforms with point handles only (got ") +
+                                (o.transform == Transform::affine ? "the affine transform" : "segment handles") +
+                                "); use precomputed or automatic");
+  if (o.weight_storage != WeightStorage::automatic) return o.weight_storage == WeightStorage::on_the_fly;
+  const double table = double(padded) * double(rh.P.size()) * 4 * sizeof(T);
+  return supported && table > double(o.precompute_budget_bytes);
+}
+
+/// The on-the-fly session data: the rest vertices and handles in the local frame, each vertex's squared
+/// distance to its nearest handle (weights are relative to it), and the handle a vertex sits on, if any.
+template <class T>
+void precompute_on_the_fly(detail::DeformerData<T>& data, const Points<T>& vertices, const Scene& scene,
+                           const RestHandles& rh, tbb::task_arena* arena, const Options& o) {
+  const std::size_t np = data.padded(), k = rh.k;
+  data.on_the_fly = true;
+  data.world_scale = std::ldexp(1.0, scene.e);
+  data.half_u = T(o.weight_exponent / 2);
+  data.v_local.assign(3 * np, T(0));
+  data.dref2.assign(np, T(1));
+  data.snap.assign(np, T(-1));
+  data.p_local.assign(3 * k, T(0));
+  for (std::size_t j = 0; j < k; ++j)
+    for (int c = 0; c < 3; ++c) data.p_local[std::size_t(c) * k + j] = T(rh.P[j][c]);
+  const double snap = 64 * double(std::numeric_limits<T>::epsilon()) * scene.size_local;
+  for_blocks(data.blocks, o.threads, arena, [&](std::size_t b) {
+    for (std::size_t i = b * detail::kLanes; i < std::min(data.n, (b + 1) * detail::kLanes); ++i) {
+      const Vec3d v = scene.local(vertices.row(static_cast<Eigen::Index>(i)).transpose().template cast<double>());
+      double d2 = std::numeric_limits<double>::infinity();
+      std::size_t nearest = 0;
+      for (std::size_t j = 0; j < k; ++j) {
+        // The same rounded coordinates the per-frame pass uses, so that the nearest handle gets w = 1.
+        const Vec3d p(double(data.p_local[j]), double(data.p_local[k + j]), double(data.p_local[2 * k + j]));
+        const double dj = (p - Vec3d(double(T(v[0])), double(T(v[1])), double(T(v[2])))).squaredNorm();
+        if (dj < d2) d2 = dj, nearest = j;
+      }
+      for (int c = 0; c < 3; ++c) data.v_local[std::size_t(c) * np + i] = T(v[c]);
+      data.dref2[i] = T(d2);
+      if (!(std::sqrt(d2) > snap) || !(T(d2) > T(0))) data.snap[i] = T(nearest);
+    }
+  });
+}
+
 /// Validates the rest pose and builds the session data. Throws std::invalid_argument (nothing is changed).
 template <class T>
 detail::DeformerData<T> precompute(const Points<T>& vertices, const Handles<T>& handles, const Options& o,
@@ -371,6 +423,10 @@ detail::DeformerData<T> precompute(const Points<T>& vertices, const Handles<T>& 
   data.segments = rh.s;
   data.scale = std::ldexp(1.0, scene.e);
   const std::size_t J = rh.P.size(), np = data.padded();
+  if (use_on_the_fly<T>(o, rh, np)) {
+    precompute_on_the_fly(data, vertices, scene, rh, arena, o);
+    return data;
+  }
   data.table.assign(np * J * data.components(), T(0));
   if (o.transform != Transform::affine) {
     data.p_star.assign(3 * np, T(0));
@@ -417,7 +473,16 @@ struct Deformer<T>::Impl {
     const kernels::DeformBlocksFn<T> kernel = simd_kernel();
     if (!kernel) return false;
     kernels::DeformFrame<T> fr{};
-    fr.table = data.table.data();
+    fr.table = data.table.empty() ? nullptr : data.table.data();
+    fr.on_the_fly = data.on_the_fly;
+    if (data.on_the_fly) {
+      fr.v_local = data.v_local.data();
+      fr.dref2 = data.dref2.data();
+      fr.snap = data.snap.data();
+      fr.p_local = data.p_local.data();
+      fr.world_scale = T(data.world_scale);
+      fr.half_u = data.half_u;
+    }
     fr.vhat = data.vhat.empty() ? nullptr : data.vhat.data();
     fr.D = data.D.empty() ? nullptr : data.D.data();
     fr.padded = data.padded();
@@ -442,7 +507,12 @@ struct Deformer<T>::Impl {
   /// lives on the stack of each block.
   template <class Write>
   void run(const Handles<T>& moved, const Write& write) const {
-    if (data.transform == Transform::affine) {
+    if (data.on_the_fly) {
+      const Vector3<T> c = detail::target_centre(moved);
+      for_blocks(data.blocks, options.threads, arena.get(), [&](std::size_t b) {
+        detail::deform_block_on_the_fly(data, b, moved, c, options.method, write);
+      });
+    } else if (data.transform == Transform::affine) {
       for_blocks(data.blocks, options.threads, arena.get(),
                  [&](std::size_t b) { detail::deform_block_affine(data, b, moved, write); });
     } else {
@@ -565,9 +635,7 @@ std::size_t Deformer<T>::memory_bytes() const {
 
 template <class T>
 bool Deformer<T>::uses_precomputed_weights() const {
-  // WeightStorage::on_the_fly (and automatic beyond the budget) is not implemented yet: every session
-  // streams the precomputed table, and says so.
-  return true;
+  return !impl_->data.on_the_fly;
 }
 
 template class Deformer<float>;

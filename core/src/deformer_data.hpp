@@ -95,6 +95,17 @@ struct DeformerData {
   AlignedVector<T> vhat;      ///< rigid, similarity: v - p*, SoA, padded
   AlignedVector<T> D;         ///< similarity: sum_j A_j . phat_j (= sum_i w_i |phat_i|^2 / S), padded
 
+  // WeightStorage::on_the_fly (rigid and similarity with point handles only): no table; per frame the
+  // weights are recomputed from the distances (deformer_scalar.hpp, deform_block_on_the_fly). Local frame:
+  // x_local = (x - centre) / world_scale.
+  bool on_the_fly = false;
+  AlignedVector<T> v_local;   ///< rest vertices, local frame, SoA, padded
+  AlignedVector<T> dref2;     ///< squared distance to the nearest handle, local (padding lanes: 1)
+  AlignedVector<T> snap;      ///< index of the handle a vertex sits on (closer than 64 eps the scene), else -1
+  AlignedVector<T> p_local;   ///< point handles, local frame, SoA: x[k], y[k], z[k]
+  double world_scale = 1;     ///< 2^e of the local frame
+  T half_u = 1;               ///< u / 2: w = (dref2 / d2)^(u/2)
+
   std::size_t pseudo_handles() const { return points + 2 * segments; }
   std::size_t padded() const { return blocks * kLanes; }
   /// Values per block and pseudo-handle: 4 (omega, Ax, Ay, Az) or 1 (alpha).
@@ -113,7 +124,9 @@ struct DeformerData {
   const T* D_block(std::size_t b) const { return D.data() + b * kLanes; }
 
   std::size_t bytes() const {
-    return (table.capacity() + p_star.capacity() + vhat.capacity() + D.capacity()) * sizeof(T);
+    return (table.capacity() + p_star.capacity() + vhat.capacity() + D.capacity() + v_local.capacity() +
+            dref2.capacity() + snap.capacity() + p_local.capacity()) *
+           sizeof(T);
   }
 };
 

@@ -20,6 +20,7 @@
 #include <mlsdeform/rotation.hpp>
 
 #include <algorithm>
+#include <cmath>
 #include <cstddef>
 
 namespace mlsdeform::detail {
@@ -90,6 +91,71 @@ void deform_block_rotation(const DeformerData<T>& data, std::size_t b, const Han
     const Vector3<T> vh(vx[lane], vy[lane], vz[lane]);
     const Vector3<T> rv = R * vh;
     write(first + lane, qs[0] + mu * rv[0], qs[1] + mu * rv[1], qs[2] + mu * rv[2]);
+  }
+}
+
+/// On-the-fly weights (WeightStorage::on_the_fly; rigid and similarity, point handles): the vertices of
+/// block b, recomputing w_j = (dref^2 / d_j^2)^(u/2) from the rest distances every frame (weights relative to
+/// the nearest handle, as in the precomputation: all in (0, 1]). Coordinates are taken relative to the vertex
+/// (p_j - v), so that near a handle, where p* ~ p_n and vhat is small, nothing cancels against the scene's
+/// size; and, as in the precomputation, the common rounding of p* is projected out of the A_j
+/// (H -= (q* - c) (sum_j A_j)^T). Two passes over the handles, for each vertex:
+///   pass 1  S = sum w_j, p* - v = sum w_j (p_j - v) / S, q* = sum w_j q_j / S                      (eq. 2)
+///   pass 2  phat_j = (p_j - v) - (p* - v), A_j = w_j phat_j / S, H = sum (q_j - c) A_j^T,
+///           D = sum A_j . phat_j                                                         (eq. 6, Sec. 6.1)
+/// then R, mu and v' = q* + mu R vhat as in deform_block_rotation (vhat = v - p*, local units: times
+/// world_scale for rigid; the local scale cancels in mu vhat for similarity).
+template <class T, class Write>
+void deform_block_on_the_fly(const DeformerData<T>& data, std::size_t b, const Handles<T>& q, const Vector3<T>& c,
+                             RotationMethod method, Write&& write) {
+  const bool similarity = data.transform == Transform::similarity;
+  const std::size_t first = b * kLanes, count = std::min(kLanes, data.n - first), np = data.padded(), k = data.points;
+  const T* px = data.p_local.data();
+  const T *py = px + k, *pz = px + 2 * k;
+  for (std::size_t lane = 0; lane < count; ++lane) {
+    const std::size_t i = first + lane;
+    if (data.snap[i] >= T(0)) {  // Sec. 3: f(p_i) = q_i exactly
+      const auto j = static_cast<Eigen::Index>(data.snap[i]);
+      write(i, q.points(j, 0), q.points(j, 1), q.points(j, 2));
+      continue;
+    }
+    const T vx = data.v_local[i], vy = data.v_local[np + i], vz = data.v_local[2 * np + i], dref2 = data.dref2[i];
+    auto weight = [&](std::size_t j, T& dx, T& dy, T& dz) {
+      dx = px[j] - vx, dy = py[j] - vy, dz = pz[j] - vz;
+      const T r2 = dref2 / (dx * dx + dy * dy + dz * dz);
+      return data.half_u == T(1) ? r2 : T(std::pow(r2, data.half_u));
+    };
+    T S = 0, ps[3] = {0, 0, 0}, qs[3] = {0, 0, 0};
+    for (std::size_t j = 0; j < k; ++j) {
+      T dx, dy, dz;
+      const T w = weight(j, dx, dy, dz);
+      S += w;
+      ps[0] += w * dx, ps[1] += w * dy, ps[2] += w * dz;
+      qs[0] += w * q.points(j, 0), qs[1] += w * q.points(j, 1), qs[2] += w * q.points(j, 2);
+    }
+    const T inv_S = T(1) / S;
+    for (T& x : ps) x *= inv_S;  // p* - v
+    for (T& x : qs) x *= inv_S;  // q*
+    T h[3][3] = {{0, 0, 0}, {0, 0, 0}, {0, 0, 0}}, sum_a[3] = {0, 0, 0}, D = 0;
+    for (std::size_t j = 0; j < k; ++j) {
+      T dx, dy, dz;
+      const T w = weight(j, dx, dy, dz) * inv_S;
+      const T ph[3] = {dx - ps[0], dy - ps[1], dz - ps[2]};
+      const T a[3] = {w * ph[0], w * ph[1], w * ph[2]};
+      const T d[3] = {q.points(j, 0) - c[0], q.points(j, 1) - c[1], q.points(j, 2) - c[2]};
+      for (int r = 0; r < 3; ++r)
+        for (int s = 0; s < 3; ++s) h[r][s] += d[r] * a[s];
+      for (int r = 0; r < 3; ++r) sum_a[r] += a[r];
+      D += a[0] * ph[0] + a[1] * ph[1] + a[2] * ph[2];
+    }
+    Matrix3<T> H;
+    for (int r = 0; r < 3; ++r)
+      for (int s = 0; s < 3; ++s) H(r, s) = h[r][s] - (qs[r] - c[r]) * sum_a[s];
+    const Matrix3<T> R = fit_rotation<T>(H, method);
+    T mu = T(data.world_scale);
+    if (similarity) mu = D > T(0) ? R.cwiseProduct(H).sum() / D : T(data.world_scale);
+    const Vector3<T> rv = R * Vector3<T>(-ps[0], -ps[1], -ps[2]);
+    write(i, qs[0] + mu * rv[0], qs[1] + mu * rv[1], qs[2] + mu * rv[2]);
   }
 }
 

@@ -29,11 +29,18 @@ enum class Backend {
   scalar,  ///< the scalar reference, one vertex at a time
 };
 
-/// Where the per-vertex, per-handle weights come from each frame (rigid and similarity).
+/// Where the per-vertex, per-handle weights come from each frame.
 enum class WeightStorage {
-  automatic,   ///< precomputed while the table fits in `precompute_budget_bytes`, on the fly beyond
-  precomputed, ///< stream the precomputed A_i = w_i phat_i (16 bytes per vertex and handle in float)
-  on_the_fly,  ///< recompute the weights from the distances every frame (no per-handle table)
+  /// precomputed while the table fits in `precompute_budget_bytes`, on the fly beyond (where supported)
+  automatic,
+  /// stream the precomputed omega_i and A_i = w_i phat_i (16 bytes per vertex and handle in float, 32 in
+  /// double; affine: 4 / 8 bytes)
+  precomputed,
+  /// recompute the weights from the distances every frame: 24 bytes per vertex in float (rest position,
+  /// nearest-handle distance, snap flag) and no per-handle table. Rigid and similarity with point handles
+  /// only (std::invalid_argument otherwise). Computed in T relative to the vertex: agrees with the
+  /// precomputed path (which works in double) to a few eps(T) kappa in the rotation.
+  on_the_fly,
 };
 
 /// Point handles (k x 3) and segment handles given by their end points (s x 3 each). Either kind may be
@@ -58,7 +65,7 @@ struct Options {
   int threads = 0;
   WeightStorage weight_storage = WeightStorage::automatic;
   /// The automatic choice precomputes while the weight table needs at most this many bytes.
-  std::size_t precompute_budget_bytes = std::size_t(256) << 20;
+  std::size_t precompute_budget_bytes = std::size_t(32) << 20;
 };
 
 /// A deformation session (Sec. 5): the constructor precomputes everything that depends only on the rest

@@ -1,0 +1,93 @@
+// WeightStorage::on_the_fly against the precomputed table, scalar and SIMD, and its limits.
+#include <mlsdeform/mlsdeform.hpp>
+
+#include <Eigen/Geometry>
+#include <catch2/catch.hpp>
+
+#include <cmath>
+#include <limits>
+#include <random>
+
+using namespace mlsdeform;
+
+namespace {
+
+template <class T>
+struct Scene {
+  Points<T> vertices;
+  Handles<T> rest, moved;
+};
+
+// Vertices in the unit cube, k handles among them (so some vertices sit exactly on handles), moved by a
+// twist of up to `angle` about z.
+template <class T>
+Scene<T> scene(Eigen::Index n, int k, double angle, std::uint64_t seed) {
+  std::mt19937_64 rng(seed);
+  std::uniform_real_distribution<double> u(-1, 1);
+  Scene<T> s;
+  s.vertices.resize(n, 3);
+  for (Eigen::Index i = 0; i < n; ++i)
+    for (int c = 0; c < 3; ++c) s.vertices(i, c) = T(u(rng));
+  s.rest.points.resize(k, 3);
+  s.moved.points.resize(k, 3);
+  for (int i = 0; i < k; ++i) {
+    const Eigen::Vector3d p(u(rng), u(rng), u(rng));
+    const Eigen::Vector3d q = Eigen::AngleAxisd(angle * (p.z() + 1) / 2, Eigen::Vector3d::UnitZ()) * p;
+    s.rest.points.row(i) = p.cast<T>().transpose();
+    s.moved.points.row(i) = q.cast<T>().transpose();
+    s.vertices.row(i) = s.rest.points.row(i);
+  }
+  return s;
+}
+
+}  // namespace
+
+TEMPLATE_TEST_CASE("on-the-fly weights agree with the precomputed table", "[deformer][on_the_fly]", float, double) {
+  using T = TestType;
+  constexpr T eps = std::numeric_limits<T>::epsilon();
+  const Scene<T> s = scene<T>(3000, 10, 2.5, 11);
+  for (Transform tr : {Transform::rigid, Transform::similarity})
+    for (Backend backend : {Backend::scalar, Backend::simd})
+      for (double u : {2.0, 3.0}) {
+        INFO("transform " << int(tr) << " backend " << int(backend) << " u " << u);
+        Options o;
+        o.transform = tr;
+        o.backend = backend;
+        o.weight_exponent = u;
+        o.weight_storage = WeightStorage::precomputed;
+        const Deformer<T> pre(s.vertices, s.rest, o);
+        o.weight_storage = WeightStorage::on_the_fly;
+        const Deformer<T> fly(s.vertices, s.rest, o);
+        CHECK(pre.uses_precomputed_weights());
+        CHECK(!fly.uses_precomputed_weights());
+        // 24 bytes per vertex (float) against 16 per vertex and handle.
+        CHECK(fly.memory_bytes() < pre.memory_bytes() / 4);
+        Points<T> a, b;
+        pre.deform(s.moved, a);
+        fly.deform(s.moved, b);
+        REQUIRE(b.allFinite());
+        for (int i = 0; i < 10; ++i) CHECK(b.row(i) == s.moved.points.row(i));  // vertices on handles: exact
+        // The two paths compute the same weights (double then rounded, against T relative to the vertex):
+        // H agrees to a few eps relative, the rotations to c eps kappa, kappa = O(1) with ten handles spread
+        // in the cube; |vhat| <= 2 sqrt(3). 256 eps allows c kappa up to about 70 (measured: below 16 eps).
+        CHECK((a - b).cwiseAbs().maxCoeff() <= T(256) * eps);
+      }
+}
+
+TEST_CASE("on-the-fly weights: unsupported settings are refused, automatic follows the budget", "[deformer][on_the_fly]") {
+  const Scene<float> s = scene<float>(2000, 8, 1.0, 3);
+  Options o;
+  o.weight_storage = WeightStorage::on_the_fly;
+  o.transform = Transform::affine;
+  CHECK_THROWS_WITH(Deformer<float>(s.vertices, s.rest, o), Catch::Contains("point handles only"));
+  o.transform = Transform::rigid;
+  Handles<float> seg = s.rest;
+  seg.segment_a = s.rest.points.topRows(1);
+  seg.segment_b = s.rest.points.bottomRows(1);
+  CHECK_THROWS_WITH(Deformer<float>(s.vertices, seg, o), Catch::Contains("point handles only"));
+  o.weight_storage = WeightStorage::automatic;
+  CHECK(Deformer<float>(s.vertices, s.rest, o).uses_precomputed_weights());  // 2000 x 8 x 16 B << 32 MiB
+  o.precompute_budget_bytes = 1000;
+  CHECK(!Deformer<float>(s.vertices, s.rest, o).uses_precomputed_weights());
+  CHECK(Deformer<float>(s.vertices, seg, o).uses_precomputed_weights());  // segments: precomputed anyway
+}
