@@ -1,0 +1,75 @@
+// deform() and fit_rotations() allocate nothing once the output has its size (issue #4, item 7): the global
+// operator new is replaced by a counting one for this test binary.
+#include <mlsdeform/mlsdeform.hpp>
+
+#include <catch2/catch.hpp>
+
+#include <atomic>
+#include <cstdlib>
+#include <new>
+#include <random>
+#include <vector>
+
+namespace {
+std::atomic<long> g_allocations{0};
+}
+
+void* operator new(std::size_t n) {
+  ++g_allocations;
+  if (void* p = std::malloc(n ? n : 1)) return p;
+  throw std::bad_alloc();
+}
+void* operator new[](std::size_t n) { return operator new(n); }
+void operator delete(void* p) noexcept { std::free(p); }
+void operator delete[](void* p) noexcept { std::free(p); }
+void operator delete(void* p, std::size_t) noexcept { std::free(p); }
+void operator delete[](void* p, std::size_t) noexcept { std::free(p); }
+
+using namespace mlsdeform;
+
+namespace {
+
+template <class F>
+long allocations_during(F&& f) {
+  const long before = g_allocations.load();
+  f();
+  return g_allocations.load() - before;
+}
+
+}  // namespace
+
+TEMPLATE_TEST_CASE("deform and fit_rotations allocate nothing in steady state", "[allocation]", float, double) {
+  using T = TestType;
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<T> u(-1, 1);
+  Points<T> v(5000, 3);
+  for (Eigen::Index i = 0; i < v.size(); ++i) v.data()[i] = u(rng);
+  Handles<T> rest, moved;
+  rest.points.resize(7, 3);
+  for (Eigen::Index i = 0; i < rest.points.size(); ++i) rest.points.data()[i] = u(rng);
+  moved = rest;
+  moved.points.col(0).array() += T(0.3);
+  for (Backend backend : {Backend::simd, Backend::scalar})
+    for (WeightStorage storage : {WeightStorage::precomputed, WeightStorage::on_the_fly})
+      for (Transform tr : {Transform::rigid, Transform::similarity}) {
+        INFO("backend " << int(backend) << " storage " << int(storage) << " transform " << int(tr));
+        Options o;
+        o.backend = backend;
+        o.weight_storage = storage;
+        o.transform = tr;
+        o.threads = 1;  // with more threads TBB's task allocation is its own (scalable allocator, not new)
+        Deformer<T> d(v, rest, o);
+        Points<T> out;
+        // The hook sees allocations at all: the first call sizes `out`.
+        CHECK(allocations_during([&] { d.deform(moved, out); }) > 0);
+        CHECK(allocations_during([&] { d.deform(moved, out); }) == 0);
+        d.set_point_target(2, Vector3<T>(T(0.5), T(0.5), T(0.5)));
+        CHECK(allocations_during([&] { d.deform(out); }) == 0);
+      }
+  std::vector<T> H(9 * 1000), R(9 * 1000);
+  for (T& h : H) h = u(rng);
+  for (RotationMethod m : all_rotation_methods) {
+    INFO(to_string(m));
+    CHECK(allocations_during([&] { fit_rotations(H.data(), R.data(), 1000, m); }) == 0);
+  }
+}
