@@ -1,0 +1,261 @@
+// Mesh reading and writing of the command-line tool (tools/cli/mesh_*.cpp): every format round-trips vertex
+// count, faces and coordinates, the file's vertex order is kept, and malformed files fail with a message
+// naming the file.
+#include "cli_test_util.hpp"
+
+#include "error.hpp"
+#include "file_io.hpp"
+#include "mesh.hpp"
+
+#include <catch2/catch.hpp>
+
+#include <cmath>
+#include <cstring>
+#include <random>
+
+using namespace mlsdeform;
+using namespace mlsdeform::cli;
+using cli_test::ScratchDir;
+using cli_test::write_text;
+
+namespace {
+
+// Polygons of 3, 4 and 5 corners, coordinates across magnitudes and signs (and -0), and a vertex no face uses.
+Mesh sample_mesh() {
+  Mesh m;
+  m.vertices.resize(9, 3);
+  m.vertices << 0.0f, 0.0f, 0.0f,  //
+      1.0f, -0.0f, 0.1f,           //
+      1.5f, 1.25f, -3.0e-3f,       //
+      0.3333333f, 2.7182817f, 3.1415927f,  //
+      -12345.678f, 0.000123f, 42.0f,       //
+      1.0e6f, -7.5f, 0.0009765625f,        //
+      -0.2f, 0.7f, 1.9f,                   //
+      5.0f, 5.0f, 5.0f,                    // unused by any face
+      0.123456789f, -98.7654f, 3.0e-4f;
+  m.add_face({0, 1, 2});
+  m.add_face({0, 2, 3, 6});
+  m.add_face({1, 4, 5, 8, 2});
+  m.add_face({6, 3, 8});
+  return m;
+}
+
+// Random coordinates in [-1000, 1000] with 1e-4 <= |x| (where the writer's texts read back exactly through
+// Assimp, see float_text in mesh_write.cpp), on a triangle strip.
+Mesh random_mesh(std::uint32_t seed, int n) {
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<float> mag(-4.0f, 3.0f);
+  Mesh m;
+  m.vertices.resize(n, 3);
+  for (int i = 0; i < n; ++i)
+    for (int k = 0; k < 3; ++k) m.vertices(i, k) = (rng() & 1 ? -1.0f : 1.0f) * std::pow(10.0f, mag(rng));
+  for (int i = 0; i + 2 < n; ++i) m.add_face({std::uint32_t(i), std::uint32_t(i + 1), std::uint32_t(i + 2)});
+  return m;
+}
+
+void require_same(const Mesh& a, const Mesh& b) {
+  REQUIRE(a.vertex_count() == b.vertex_count());
+  REQUIRE(a.face_start == b.face_start);
+  REQUIRE(a.face_indices == b.face_indices);
+  // Bit for bit: binary PLY stores the floats themselves; the text formats write texts that read back exactly.
+  for (Eigen::Index i = 0; i < a.vertex_count(); ++i)
+    for (int k = 0; k < 3; ++k) {
+      INFO("vertex " << i << " coordinate " << k << ": wrote " << a.vertices(i, k) << ", read " << b.vertices(i, k));
+      REQUIRE(std::memcmp(&a.vertices(i, k), &b.vertices(i, k), sizeof(float)) == 0);
+    }
+}
+
+const char* formats[] = {"obj", "off", "ply", "obj.gz", "off.gz", "ply.gz"};
+
+}  // namespace
+
+TEST_CASE("every format round-trips vertex count, faces and coordinates", "[cli][mesh]") {
+  ScratchDir dir;
+  const std::uint32_t seed = std::random_device{}();
+  INFO("random mesh seed " << seed);
+  for (const Mesh& m : {sample_mesh(), random_mesh(seed, 500)}) {
+    for (const char* f : formats) {
+      for (PlyEncoding enc : {PlyEncoding::binary, PlyEncoding::ascii}) {
+        if (enc == PlyEncoding::ascii && std::strncmp(f, "ply", 3) != 0) continue;
+        for (bool normals : {true, false}) {
+          const std::string path = dir / (std::string("m.") + f);
+          INFO("format " << f << (enc == PlyEncoding::ascii ? " (ascii)" : "") << (normals ? " with normals" : ""));
+          write_mesh(m, path, {/*force=*/true, enc, normals});
+          require_same(m, read_mesh(path));
+        }
+      }
+    }
+  }
+}
+
+TEST_CASE("written files are what their extension says", "[cli][mesh]") {
+  ScratchDir dir;
+  const Mesh m = sample_mesh();
+  write_mesh(m, dir / "a.ply", {});
+  CHECK(cli_test::read_text(dir / "a.ply").rfind("ply\nformat binary_little_endian 1.0\n", 0) == 0);
+  write_mesh(m, dir / "b.ply", {false, PlyEncoding::ascii});
+  CHECK(cli_test::read_text(dir / "b.ply").rfind("ply\nformat ascii 1.0\n", 0) == 0);
+  write_mesh(m, dir / "c.off", {});
+  CHECK(cli_test::read_text(dir / "c.off").rfind("OFF\n", 0) == 0);
+  write_mesh(m, dir / "d.obj", {});
+  const std::string obj = cli_test::read_text(dir / "d.obj");
+  CHECK(obj.find("\nvn ") != std::string::npos);           // normals recomputed and written
+  CHECK(obj.find("\nf 2//2 5//5 6//6 9//9 3//3\n") != std::string::npos);  // the pentagon, 1-based
+  const std::string gz = cli_test::read_text((write_mesh(m, dir / "e.ply.gz", {}), dir / "e.ply.gz"));
+  REQUIRE(gz.size() > 2);
+  CHECK((unsigned char)gz[0] == 0x1f);  // gzip magic
+  CHECK((unsigned char)gz[1] == 0x8b);
+}
+
+TEST_CASE("recomputed normals are unit area-weighted face normals", "[cli][mesh]") {
+  Mesh m;  // a unit square in the z = 0 plane, counter-clockwise seen from +z, and a lone vertex
+  m.vertices.resize(5, 3);
+  m.vertices << 0, 0, 0, 1, 0, 0, 1, 1, 0, 0, 1, 0, 3, 3, 3;
+  m.add_face({0, 1, 2, 3});
+  const auto n = vertex_normals(m);
+  for (int i = 0; i < 4; ++i) CHECK((n.row(i) - Eigen::RowVector3f(0, 0, 1)).norm() < 1e-6f);
+  CHECK(n.row(4).norm() == 0.0f);
+}
+
+TEST_CASE("OBJ keeps the file's vertex order, unused vertices and polygons", "[cli][mesh]") {
+  ScratchDir dir;
+  // Faces list the vertices out of order, with texture and normal indices, a negative (relative) index, a
+  // group, a comment, and a vertex (5) no face uses: Assimp alone would renumber all of them.
+  write_text(dir / "a.obj",
+             "# test\nv 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nv 5 5 5\nv 0 0 1\nvt 0 0\nvn 0 0 1\n"
+             "g one\nf 3/1/1 4/1/1 1/1/1 2/1/1\ng two\nf 1//1 2//1 -1//1\n");
+  const Mesh m = read_mesh(dir / "a.obj");
+  REQUIRE(m.vertex_count() == 6);
+  CHECK(m.vertices.row(4) == Eigen::RowVector3f(5, 5, 5));
+  CHECK(m.vertices.row(5) == Eigen::RowVector3f(0, 0, 1));
+  REQUIRE(m.face_count() == 2);
+  CHECK(std::vector<std::uint32_t>(m.face_indices.begin(), m.face_indices.begin() + 4) == std::vector<std::uint32_t>{2, 3, 0, 1});
+  CHECK(std::vector<std::uint32_t>(m.face_indices.begin() + 4, m.face_indices.end()) == std::vector<std::uint32_t>{0, 1, 5});
+}
+
+TEST_CASE("OFF and PLY keep the file's vertex order", "[cli][mesh]") {
+  ScratchDir dir;
+  write_text(dir / "a.off", "OFF\n5 2 0\n0 0 0\n1 0 0\n1 1 0\n0 1 0\n5 5 5\n4 2 3 0 1\n3 0 1 2\n");
+  write_text(dir / "a.ply",
+             "ply\nformat ascii 1.0\nelement vertex 5\nproperty float x\nproperty float y\nproperty float z\n"
+             "element face 2\nproperty list uchar int vertex_indices\nend_header\n0 0 0\n1 0 0\n1 1 0\n0 1 0\n5 5 5\n"
+             "4 2 3 0 1\n3 0 1 2\n");
+  for (const char* f : {"a.off", "a.ply"}) {
+    INFO(f);
+    const Mesh m = read_mesh(dir / f);
+    REQUIRE(m.vertex_count() == 5);
+    CHECK(m.vertices.row(4) == Eigen::RowVector3f(5, 5, 5));
+    CHECK(m.face_indices == std::vector<std::uint32_t>{2, 3, 0, 1, 0, 1, 2});
+  }
+}
+
+TEST_CASE("the bundled mesh reads with the file's counts", "[cli][mesh]") {
+  const Mesh m = read_mesh(MLSDEFORM_SOURCE_DIR "/data/human_man.obj");
+  CHECK(m.vertex_count() == 6890);
+  CHECK(m.face_count() == 13776);
+  // The file's first `v` line, as Assimp's fast_atof reads it (not always the nearest float).
+  CHECK(m.vertices.row(0) == Eigen::RowVector3f(detail::assimp_atof("0.042626"), detail::assimp_atof("1.716077"),
+                                                detail::assimp_atof("0.104022")));
+}
+
+namespace {
+
+// read_mesh must throw InputError whose message starts with the file name and contains `expected`.
+void require_read_error(const std::string& path, const std::string& expected) {
+  INFO("reading " << path);
+  try {
+    read_mesh(path);
+    FAIL("no error");
+  } catch (const InputError& e) {
+    const std::string what = e.what();
+    INFO("message: " << what);
+    CHECK(what.rfind(path + ": ", 0) == 0);
+    CHECK(what.find(expected) != std::string::npos);
+    CHECK(what.find('\n') == std::string::npos);
+  }
+}
+
+}  // namespace
+
+TEST_CASE("malformed and missing mesh files are reported with the file and the problem", "[cli][mesh][errors]") {
+  ScratchDir dir;
+  require_read_error(dir / "missing.obj", "cannot open: No such file or directory");
+  std::filesystem::create_directory(dir / "folder.obj");
+  require_read_error(dir / "folder.obj", "is a directory");
+  write_text(dir / "mesh.xyz", "1 2 3\n");
+  require_read_error(dir / "mesh.xyz", "unknown mesh format '.xyz'");
+  write_text(dir / "empty.off", "");
+  require_read_error(dir / "empty.off", "empty file");
+  write_text(dir / "garbage.ply", "this is not a ply file\n");
+  require_read_error(dir / "garbage.ply", "line 1: malformed PLY: the first line is not 'ply'");
+  write_text(dir / "noend.ply", "ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\n");  // Assimp would hang
+  require_read_error(dir / "noend.ply", "malformed PLY: the header has no end_header line");
+  write_text(dir / "garbage.off", "OFF\nthree two one\n");
+  require_read_error(dir / "garbage.off", "cannot parse as OFF");
+  write_text(dir / "nan.obj", "v 0 0 0\nv 1 0 0\nv nan 1 0\nf 1 2 3\n");
+  require_read_error(dir / "nan.obj", "line 3: vertex 2 has a non-finite coordinate");
+  write_text(dir / "inf.off", "OFF\n3 1 0\n0 0 0\n1 0 inf\n0 1 0\n3 0 1 2\n");
+  require_read_error(dir / "inf.off", "vertex 1 has a non-finite coordinate");
+  write_text(dir / "index.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 7\n");
+  require_read_error(dir / "index.obj", "cannot parse as OBJ: OBJ: vertex index out of range");
+  write_text(dir / "index.off", "OFF\n3 1 0\n0 0 0\n1 0 0\n0 1 0\n3 0 1 9\n");
+  require_read_error(dir / "index.off", "cannot parse as OFF: OFF: Vertex index is out of range");  // Assimp only logs it
+  write_text(dir / "index.ply",
+             "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\n"
+             "element face 1\nproperty list uchar int vertex_indices\nend_header\n0 0 0\n1 0 0\n0 1 0\n3 0 1 7\n");
+  require_read_error(dir / "index.ply", "face 0 refers to vertex 7, but there are only 3");
+  write_text(dir / "count.obj", "v 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n");
+  require_read_error(dir / "count.obj", "line 1: a vertex needs 3 coordinates (x y z, optionally w, or x y z r g b), found 2");
+  // A binary PLY cut short in its vertex data.
+  Mesh m;
+  m.vertices.resize(3, 3);
+  m.vertices << 0, 0, 0, 1, 0, 0, 0, 1, 0;
+  m.add_face({0, 1, 2});
+  std::string ply = encode_mesh(m, "x.ply");
+  write_text(dir / "truncated.ply", ply.substr(0, ply.size() - 30));
+  require_read_error(dir / "truncated.ply", "malformed PLY: truncated in vertex 2 of 3");
+  std::string ascii = encode_mesh(m, "x.ply", {false, PlyEncoding::ascii});
+  write_text(dir / "truncated_ascii.ply", ascii.substr(0, ascii.size() - 12));  // Assimp alone fills in zeros
+  require_read_error(dir / "truncated_ascii.ply", "malformed PLY: truncated in vertex 2 of 3");
+  // gzip: not gzip at all, and cut short.
+  write_text(dir / "plain.ply.gz", ply);
+  require_read_error(dir / "plain.ply.gz", "corrupt gzip data");
+  const std::string gz = encode_mesh(m, "x.ply.gz");
+  write_text(dir / "short.ply.gz", gz.substr(0, gz.size() / 2));
+  require_read_error(dir / "short.ply.gz", "truncated gzip data");
+  write_text(dir / "nothing.obj", "# no vertices\n");
+  require_read_error(dir / "nothing.obj", "cannot parse as OBJ");
+}
+
+TEST_CASE("writing is all or nothing and does not overwrite without force", "[cli][mesh][errors]") {
+  ScratchDir dir;
+  const Mesh m = sample_mesh();
+  write_mesh(m, dir / "a.obj", {});
+  const std::string before = cli_test::read_text(dir / "a.obj");
+  try {
+    write_mesh(random_mesh(1, 10), dir / "a.obj", {});
+    FAIL("overwrote without force");
+  } catch (const InputError& e) {
+    CHECK(std::string(e.what()) == dir / "a.obj" + ": already exists (use --force to overwrite)");
+  }
+  CHECK(cli_test::read_text(dir / "a.obj") == before);
+  write_mesh(random_mesh(1, 10), dir / "a.obj", {/*force=*/true});
+  CHECK(cli_test::read_text(dir / "a.obj") != before);
+  CHECK(dir.files() == std::vector<std::string>{"a.obj"});  // no temporary left
+
+  // An output whose folder does not exist, or is a file.
+  for (const std::string& bad : {dir / "no/such/folder/b.obj", dir / "a.obj/b.obj"}) {
+    INFO(bad);
+    CHECK_THROWS_AS(check_output_path(bad, false), InputError);
+    CHECK_THROWS_WITH(write_mesh(m, bad, {}), Catch::StartsWith(bad + ": cannot write"));
+  }
+  CHECK_THROWS_WITH(write_mesh(m, dir / "c.stl", {}), Catch::Contains("unknown output format '.stl'"));
+  CHECK(dir.files() == std::vector<std::string>{"a.obj"});
+}
+
+TEST_CASE("gzip round trip, including concatenated members", "[cli][mesh]") {
+  const std::string text = "hello, mesh\n";
+  CHECK(gunzip(gzip(text), "t") == text);
+  CHECK(gunzip(gzip(text) + gzip(text), "t") == text + text);
+  CHECK(gunzip(gzip(""), "t").empty());
+}

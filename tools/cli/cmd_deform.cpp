@@ -1,0 +1,119 @@
+// `mlsdeform deform`: a mesh file and a handles file in, one deformed mesh (or one per animation frame) out.
+#include "commands.hpp"
+#include "error.hpp"
+#include "file_io.hpp"
+#include "handles_file.hpp"
+#include "mesh.hpp"
+#include "progress.hpp"
+
+#include <algorithm>
+#include <chrono>
+#include <cstdio>
+#include <filesystem>
+#include <optional>
+
+namespace mlsdeform::cli {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+double ms_since(Clock::time_point t) { return std::chrono::duration<double, std::milli>(Clock::now() - t).count(); }
+
+const char* name(Transform t) { return t == Transform::rigid ? "rigid" : t == Transform::similarity ? "similarity" : "affine"; }
+
+template <class T>
+int deform(const DeformArgs& a) {
+  check_output_format(a.out);
+  const Mesh mesh = read_mesh(a.mesh);
+  const HandlesFile handles = read_handles(a.handles);
+
+  const std::size_t frame_count = handles.animated() ? handles.frames.size() : 1;
+  std::vector<std::string> outputs;
+  for (std::size_t f = 0; f < frame_count; ++f) outputs.push_back(handles.animated() ? frame_path(a.out, f, frame_count) : a.out);
+  for (const auto& o : outputs) check_output_path(o, a.force);  // before any work: fail fast, write nothing
+
+  const ResolvedHandles<T> resolved = resolve_handles<T>(handles, mesh.vertices);
+  const Points<T> rest = mesh.vertices.cast<T>();
+  auto t0 = Clock::now();
+  std::optional<Deformer<T>> deformer;
+  try {
+    deformer.emplace(rest, resolved.rest, a.options);
+  } catch (const std::invalid_argument& e) {  // e.g. affine handles that do not span 3D
+    throw InputError(a.handles, e.what());
+  }
+  const double setup_ms = ms_since(t0);
+
+  if (!a.quiet) {
+    std::printf("%s: %lld vertices, %zu faces%s\n", a.mesh.c_str(), static_cast<long long>(mesh.vertex_count()), mesh.face_count(),
+                mesh.dropped_primitives ? (" (" + std::to_string(mesh.dropped_primitives) + " points/lines dropped)").c_str() : "");
+    std::printf("%s: %zu point and %zu segment handles%s\n", a.handles.c_str(), handles.points.size(), handles.segments.size(),
+                handles.animated() ? (", " + std::to_string(frame_count) + " frames").c_str() : "");
+    char threads[32];
+    std::snprintf(threads, sizeof threads, a.options.threads > 0 ? "%d threads" : "all cores", a.options.threads);
+    std::printf("deformer: %s, u = %g, %s, %s, %s backend, %s; set-up %.2f ms, %.1f MiB\n", name(a.options.transform),
+                a.options.weight_exponent, std::string(to_string(a.options.method)).c_str(),
+                std::is_same_v<T, float> ? "float" : "double", a.options.backend == Backend::simd ? "simd" : "scalar", threads,
+                setup_ms, double(deformer->memory_bytes()) / (1 << 20));
+  }
+
+  Mesh result = mesh;
+  Points<T> out(rest.rows(), 3);
+  std::vector<double> deform_ms;
+  std::vector<std::string> written;
+  Progress progress(frame_count, a.quiet || !handles.animated());
+  try {
+    for (std::size_t f = 0; f < frame_count; ++f) {
+      const std::string where = handles.animated() ? "/frames/" + std::to_string(f) : std::string();
+      t0 = Clock::now();
+      try {
+        deformer->deform(resolved.frames[f], out);
+      } catch (const std::invalid_argument& e) {
+        throw InputError(a.handles, e.what(), where);
+      }
+      deform_ms.push_back(ms_since(t0));
+      result.vertices = out.template cast<float>();
+      if (!result.vertices.allFinite())
+        throw InputError(a.handles, "the deformation produced non-finite coordinates (handles too far away or too close together?)",
+                         where);
+      t0 = Clock::now();
+      write_mesh(result, outputs[f], {a.force, a.ply_ascii ? PlyEncoding::ascii : PlyEncoding::binary, true});
+      written.push_back(outputs[f]);
+      progress.frame(f, deform_ms.back(), ms_since(t0), outputs[f]);
+    }
+  } catch (...) {
+    // All or nothing for an animation too: remove the frames this run already wrote.
+    progress.abort();
+    for (const auto& w : written) std::filesystem::remove(w);
+    throw;
+  }
+
+  if (!a.quiet) {
+    double total = 0;
+    for (double d : deform_ms) total += d;
+    const auto [lo, hi] = std::minmax_element(deform_ms.begin(), deform_ms.end());
+    if (frame_count == 1)
+      std::printf("deformed in %.3f ms -> %s\n", total, a.out.c_str());
+    else
+      std::printf("%zu frames deformed in %.1f ms: %.3f ms per frame (min %.3f, max %.3f), %.1f frames/s -> %s .. %s\n",
+                  frame_count, total, total / double(frame_count), *lo, *hi, 1000.0 * double(frame_count) / total,
+                  outputs.front().c_str(), outputs.back().c_str());
+  }
+  return 0;
+}
+
+}  // namespace
+
+std::string frame_path(const std::string& out, std::size_t frame, std::size_t frame_count) {
+  // Insert "_NNNN" before the format extension (".ply" or ".ply.gz").
+  const std::string ext = format_extension(out);
+  const std::size_t suffix = ext.empty() ? 0 : ext.size() + 1 + (is_gzip_path(out) ? 3 : 0);
+  const std::size_t digits = std::max<std::size_t>(4, std::to_string(frame_count > 0 ? frame_count - 1 : 0).size());
+  std::string number = std::to_string(frame);
+  number.insert(0, digits - std::min(digits, number.size()), '0');
+  return out.substr(0, out.size() - suffix) + "_" + number + out.substr(out.size() - suffix);
+}
+
+int run_deform(const DeformArgs& args) {
+  return args.precision == Precision::single ? deform<float>(args) : deform<double>(args);
+}
+
+}  // namespace mlsdeform::cli

@@ -1,0 +1,49 @@
+// mlsdeform CLI: the subcommands, separated from argument parsing (main.cpp) so that tests can call them.
+// Each returns the process exit code and throws InputError for bad input (exit code 2).
+#pragma once
+
+#include <mlsdeform/deformer.hpp>
+
+#include <string>
+
+namespace mlsdeform::cli {
+
+enum class Precision { single, double_ };
+
+struct DeformArgs {
+  std::string mesh, handles, out;
+  Options options;  ///< transform, weight_exponent, method, backend, threads, segment_weight
+  Precision precision = Precision::single;
+  bool force = false;
+  bool ply_ascii = false;
+  bool quiet = false;
+};
+int run_deform(const DeformArgs& args);
+
+/// "out.ply.gz", frame 7 of 120 -> "out_0007.ply.gz" (at least 4 digits, more when there are more frames).
+std::string frame_path(const std::string& out, std::size_t frame, std::size_t frame_count);
+
+struct DemoArgs {
+  std::string out_dir = "mlsdeform-demo-out";
+  std::string data_dir;  ///< empty: $MLSDEFORM_DATA_DIR, else the source tree's data/
+  int frames = 30;
+  int threads = 0;
+  Precision precision = Precision::single;
+  bool images = true;
+};
+int run_demo(const DemoArgs& args);
+
+struct FiguresArgs {
+  std::string out_dir;  ///< empty: the source tree's docs/figures
+  std::string data_dir;
+  std::string only;     ///< e.g. "1,5"; empty: all
+  bool keep_spec = false;
+};
+int run_figures(const FiguresArgs& args);
+
+/// The bundled data folder (data/): args value, else $MLSDEFORM_DATA_DIR, else the source tree's.
+std::string data_dir(const std::string& from_args);
+/// The default for `figures --out-dir`.
+std::string default_figures_dir();
+
+}  // namespace mlsdeform::cli

@@ -1,0 +1,30 @@
+// mlsdeform CLI: the one error type the user sees.
+#pragma once
+
+#include <stdexcept>
+#include <string>
+
+namespace mlsdeform::cli {
+
+/// A problem with the user's input or output (a missing file, a malformed mesh or handles file, an
+/// unwritable output...). main() prints it as one line, "mlsdeform: error: FILE: PROBLEM", and exits with 2.
+/// `where` is the JSON path or "line N" when known, and empty otherwise.
+class InputError : public std::runtime_error {
+ public:
+  InputError(const std::string& file, const std::string& problem, const std::string& where = {})
+      : std::runtime_error(format(file, problem, where)), file_(file), problem_(problem), where_(where) {}
+
+  const std::string& file() const { return file_; }
+  const std::string& problem() const { return problem_; }
+  const std::string& where() const { return where_; }
+
+ private:
+  static std::string format(const std::string& file, const std::string& problem, const std::string& where) {
+    std::string s = file.empty() ? std::string() : file + ": ";
+    if (!where.empty()) s += where + ": ";
+    return s + problem;
+  }
+  std::string file_, problem_, where_;
+};
+
+}  // namespace mlsdeform::cli

@@ -1,0 +1,235 @@
+#include "file_io.hpp"
+
+#include "error.hpp"
+
+#include <zlib.h>
+
+#include <fcntl.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <atomic>
+#include <cerrno>
+#include <csignal>
+#include <cstdio>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+
+namespace mlsdeform::cli {
+namespace {
+
+std::string errno_text(int e) { return std::strerror(e); }
+
+std::string parent_dir(const std::string& path) {
+  const std::filesystem::path p(path);
+  const auto parent = p.parent_path();
+  return parent.empty() ? std::string(".") : parent.string();
+}
+
+// The temporary file being written, removed by the signal handler if the user interrupts us. A fixed buffer:
+// the handler may only call async-signal-safe functions (unlink, signal, raise).
+char g_temp_path[4096];
+std::atomic<bool> g_handler_installed{false};
+
+extern "C" void remove_temp_and_reraise(int sig) {
+  if (g_temp_path[0] != '\0') ::unlink(g_temp_path);
+  std::signal(sig, SIG_DFL);
+  std::raise(sig);
+}
+
+void install_handler_once() {
+  if (g_handler_installed.exchange(true)) return;
+  std::signal(SIGINT, remove_temp_and_reraise);
+  std::signal(SIGTERM, remove_temp_and_reraise);
+  std::signal(SIGHUP, remove_temp_and_reraise);
+}
+
+}  // namespace
+
+std::string read_file(const std::string& path, std::size_t max_bytes) {
+  struct stat st {};
+  if (::stat(path.c_str(), &st) != 0) throw InputError(path, "cannot open: " + errno_text(errno));
+  if (S_ISDIR(st.st_mode)) throw InputError(path, "cannot read: is a directory");
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw InputError(path, "cannot open: " + errno_text(errno));
+  if (S_ISREG(st.st_mode) && std::size_t(st.st_size) > max_bytes)
+    throw InputError(path, "file too large (" + std::to_string(st.st_size) + " bytes)");
+  std::string data;
+  if (S_ISREG(st.st_mode)) data.reserve(std::size_t(st.st_size));
+  char buf[1 << 16];
+  while (in.read(buf, sizeof buf) || in.gcount() > 0) {
+    data.append(buf, std::size_t(in.gcount()));
+    if (data.size() > max_bytes) throw InputError(path, "file too large");
+  }
+  if (in.bad()) throw InputError(path, "read error: " + errno_text(errno));
+  return data;
+}
+
+bool is_gzip_path(std::string_view path) {
+  if (path.size() < 3) return false;
+  std::string tail(path.substr(path.size() - 3));
+  std::transform(tail.begin(), tail.end(), tail.begin(), [](unsigned char c) { return char(std::tolower(c)); });
+  return tail == ".gz";
+}
+
+std::string format_extension(std::string_view path) {
+  if (is_gzip_path(path)) path.remove_suffix(3);
+  const auto slash = path.find_last_of('/');
+  const auto name = slash == std::string_view::npos ? path : path.substr(slash + 1);
+  const auto dot = name.find_last_of('.');
+  if (dot == std::string_view::npos || dot == 0) return {};
+  std::string ext(name.substr(dot + 1));
+  std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return char(std::tolower(c)); });
+  return ext;
+}
+
+std::string gunzip(std::string_view compressed, const std::string& path) {
+  z_stream zs{};
+  if (inflateInit2(&zs, 15 + 32) != Z_OK) throw std::runtime_error("zlib: inflateInit2 failed");  // 32: gzip or zlib header
+  std::string out;
+  out.reserve(compressed.size() * 3);
+  const auto* next = reinterpret_cast<const Bytef*>(compressed.data());
+  std::size_t left = compressed.size();
+  char buf[1 << 16];
+  int ret = Z_OK;
+  for (;;) {
+    if (zs.avail_in == 0 && left > 0) {
+      const auto chunk = std::min<std::size_t>(left, 1u << 30);
+      zs.next_in = const_cast<Bytef*>(next);
+      zs.avail_in = uInt(chunk);
+      next += chunk;
+      left -= chunk;
+    }
+    zs.next_out = reinterpret_cast<Bytef*>(buf);
+    zs.avail_out = sizeof buf;
+    ret = inflate(&zs, Z_NO_FLUSH);
+    out.append(buf, sizeof buf - zs.avail_out);
+    if (ret == Z_STREAM_END) {
+      if (zs.avail_in == 0 && left == 0) break;
+      inflateReset(&zs);  // a further gzip member (as `cat a.gz b.gz` makes)
+      continue;
+    }
+    if (ret == Z_BUF_ERROR && zs.avail_in == 0 && left == 0) break;  // ran out of input mid-stream
+    if (ret != Z_OK) {
+      const std::string msg = zs.msg ? zs.msg : "error " + std::to_string(ret);
+      inflateEnd(&zs);
+      throw InputError(path, "corrupt gzip data (" + msg + ")");
+    }
+  }
+  inflateEnd(&zs);
+  if (ret != Z_STREAM_END) throw InputError(path, "truncated gzip data");
+  return out;
+}
+
+std::string gzip(std::string_view data) {
+  z_stream zs{};
+  if (deflateInit2(&zs, 6, Z_DEFLATED, 15 + 16, 8, Z_DEFAULT_STRATEGY) != Z_OK)  // 16: gzip header
+    throw std::runtime_error("zlib: deflateInit2 failed");
+  std::string out;
+  const auto* next = reinterpret_cast<const Bytef*>(data.data());
+  std::size_t left = data.size();
+  char buf[1 << 16];
+  int ret = Z_OK;
+  do {
+    if (zs.avail_in == 0 && left > 0) {
+      const auto chunk = std::min<std::size_t>(left, 1u << 30);
+      zs.next_in = const_cast<Bytef*>(next);
+      zs.avail_in = uInt(chunk);
+      next += chunk;
+      left -= chunk;
+    }
+    zs.next_out = reinterpret_cast<Bytef*>(buf);
+    zs.avail_out = sizeof buf;
+    ret = deflate(&zs, left == 0 ? Z_FINISH : Z_NO_FLUSH);
+    out.append(buf, sizeof buf - zs.avail_out);
+  } while (ret != Z_STREAM_END);
+  deflateEnd(&zs);
+  return out;
+}
+
+void check_output_path(const std::string& path, bool force) {
+  if (path.empty()) throw InputError(path, "empty output file name");
+  struct stat st {};
+  if (::stat(path.c_str(), &st) == 0) {
+    if (S_ISDIR(st.st_mode)) throw InputError(path, "cannot write: is a directory");
+    if (!force) throw InputError(path, "already exists (use --force to overwrite)");
+  }
+  const std::string dir = parent_dir(path);
+  if (::stat(dir.c_str(), &st) != 0) throw InputError(path, "cannot write: directory '" + dir + "': " + errno_text(errno));
+  if (!S_ISDIR(st.st_mode)) throw InputError(path, "cannot write: '" + dir + "' is not a directory");
+  if (::access(dir.c_str(), W_OK) != 0) throw InputError(path, "cannot write: directory '" + dir + "': " + errno_text(errno));
+}
+
+void write_file_atomic(const std::string& path, std::string_view bytes, bool force) {
+  install_handler_once();
+  static std::atomic<unsigned> counter{0};
+  const std::filesystem::path p(path);
+  std::string name = ".";
+  name += p.filename().string();
+  name += ".tmp-";
+  name += std::to_string(::getpid());
+  name += "-";
+  name += std::to_string(counter++);
+  const std::string temp = (p.parent_path() / name).string();
+  if (temp.size() >= sizeof g_temp_path) throw InputError(path, "cannot write: path too long");
+
+  std::memcpy(g_temp_path, temp.c_str(), temp.size() + 1);
+  const int fd = ::open(temp.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0666);
+  if (fd < 0) {
+    const int e = errno;
+    g_temp_path[0] = '\0';
+    throw InputError(path, "cannot write: " + errno_text(e));
+  }
+  auto fail = [&](int e) {
+    ::close(fd);
+    ::unlink(temp.c_str());
+    g_temp_path[0] = '\0';
+    throw InputError(path, "cannot write: " + errno_text(e));
+  };
+  const char* data = bytes.data();
+  std::size_t left = bytes.size();
+  while (left > 0) {
+    const ssize_t n = ::write(fd, data, left);
+    if (n < 0) {
+      if (errno == EINTR) continue;
+      fail(errno);
+    }
+    data += n;
+    left -= std::size_t(n);
+  }
+  if (::close(fd) != 0) {
+    const int e = errno;
+    ::unlink(temp.c_str());
+    g_temp_path[0] = '\0';
+    throw InputError(path, "cannot write: " + errno_text(e));
+  }
+
+  int rc;
+  if (force) {
+    rc = ::rename(temp.c_str(), path.c_str());
+  } else {
+    // No clobbering even if `path` appeared since check_output_path (another process, or a duplicate name).
+    rc = ::renameat2(AT_FDCWD, temp.c_str(), AT_FDCWD, path.c_str(), RENAME_NOREPLACE);
+    if (rc != 0 && (errno == EINVAL || errno == ENOSYS)) {  // a file system without RENAME_NOREPLACE
+      struct stat st {};
+      if (::stat(path.c_str(), &st) == 0) {
+        rc = -1;
+        errno = EEXIST;
+      } else {
+        rc = ::rename(temp.c_str(), path.c_str());
+      }
+    }
+  }
+  if (rc != 0) {
+    const int e = errno;
+    ::unlink(temp.c_str());
+    g_temp_path[0] = '\0';
+    if (e == EEXIST) throw InputError(path, "already exists (use --force to overwrite)");
+    throw InputError(path, "cannot write: " + errno_text(e));
+  }
+  g_temp_path[0] = '\0';
+}
+
+}  // namespace mlsdeform::cli

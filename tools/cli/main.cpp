@@ -1,0 +1,179 @@
+// mlsdeform: the command-line tool. Argument parsing (CLI11) and error reporting only; the subcommands are in
+// cmd_*.cpp. Exit codes: 0 success, 2 bad input or usage (one line on stderr naming the file and the
+// problem), 1 anything else (a bug or no memory).
+#include "commands.hpp"
+#include "error.hpp"
+#include "mesh.hpp"
+
+#include <mlsdeform/version.hpp>
+
+#include <CLI/CLI.hpp>
+
+#include <cmath>
+#include <cstdio>
+#include <utility>
+#include <vector>
+
+namespace {
+
+using namespace mlsdeform;
+using namespace mlsdeform::cli;
+
+std::string one_line(std::string s) {
+  for (auto& c : s)
+    if (c == '\n' || c == '\r') c = ' ';
+  while (!s.empty() && s.back() == ' ') s.pop_back();
+  return s;
+}
+
+const CLI::Validator exponent_check(
+    [](std::string& s) -> std::string {
+      try {
+        std::size_t used = 0;
+        const double u = std::stod(s, &used);
+        if (used == s.size() && std::isfinite(u) && u >= 1) return {};
+      } catch (const std::exception&) {
+      }
+      return "the weight exponent u must be a number >= 1, got '" + s + "'";
+    },
+    "U >= 1");
+
+// An option taking one of a few names ("rigid", "similarity", ...) into an enum. (Strings and IsMember rather
+// than CLI11's enum transformer: its --help shows the enums' numbers.)
+template <class E>
+CLI::Option* add_choice(CLI::App* app, const std::string& flags, E& target, const std::vector<std::pair<std::string, E>>& choices,
+                        const std::string& help) {
+  std::vector<std::string> names;
+  std::string current;
+  for (const auto& [n, e] : choices) {
+    names.push_back(n);
+    if (e == target) current = n;
+  }
+  return app
+      ->add_option_function<std::string>(
+          flags,
+          [&target, choices](const std::string& s) {
+            for (const auto& [n, e] : choices)
+              if (n == s) target = e;
+          },
+          help)
+      ->check(CLI::IsMember(names, CLI::ignore_case))
+      ->default_str(current);
+}
+
+const std::vector<std::pair<std::string, Precision>> precisions{{"float", Precision::single}, {"double", Precision::double_}};
+
+void add_common_deformer_options(CLI::App* c, Options& o, Precision& precision) {
+  std::vector<std::pair<std::string, RotationMethod>> methods;
+  for (auto r : all_rotation_methods) methods.emplace_back(std::string(to_string(r)), r);
+  add_choice<Transform>(c, "--transform,-t", o.transform,
+                        {{"rigid", Transform::rigid}, {"similarity", Transform::similarity}, {"affine", Transform::affine}},
+                        "the local transform fitted at each vertex (paper Sec. 4 and 6.1)");
+  c->add_option("--exponent,-u", o.weight_exponent, "the weight exponent u in w_i = |p_i - v|^-u (Fig. 5: 2, 3, 4)")
+      ->check(exponent_check)
+      ->default_str("2");
+  add_choice(c, "--method", o.method, methods, "the rotation solver (axis_angle: the paper's Sec. 4.3-4.6)");
+  add_choice(c, "--precision", precision, precisions, "floating-point type of the computation");
+  c->add_option("--threads,-j", o.threads, "worker threads; 0: all cores")->check(CLI::NonNegativeNumber)->default_str("0");
+  add_choice<Backend>(c, "--backend", o.backend, {{"simd", Backend::simd}, {"scalar", Backend::scalar}},
+                      "simd: the SIMD kernels (best ISA at run time); scalar: the reference");
+  add_choice<SegmentWeight>(c, "--segment-weight", o.segment_weight,
+                            {{"constant", SegmentWeight::paper_constant}, {"exact", SegmentWeight::exact_integral}},
+                            "segment handles: constant d^-u along a segment (the paper's Sec. 6.2) or the exact integral");
+}
+
+int run(int argc, char** argv) {
+  CLI::App app{"mlsdeform " + std::to_string(MLSDEFORM_VERSION_MAJOR) + "." + std::to_string(MLSDEFORM_VERSION_MINOR) + "." +
+                   std::to_string(MLSDEFORM_VERSION_PATCH) +
+                   ": as-rigid-as-possible deformation of 3D meshes by Moving Least Squares\n"
+                   "(Cuno, Esperanca, Oliveira, Cavalcanti, \"3D As-Rigid-As-Possible Deformations Using MLS\").",
+               "mlsdeform"};
+  app.set_version_flag("--version", std::to_string(MLSDEFORM_VERSION_MAJOR) + "." + std::to_string(MLSDEFORM_VERSION_MINOR) + "." +
+                                        std::to_string(MLSDEFORM_VERSION_PATCH));
+  app.require_subcommand(1);
+  app.footer(
+      "Examples:\n"
+      "  mlsdeform demo                                   deform the bundled meshes, print frame rates\n"
+      "  mlsdeform deform -m in.obj -H handles.json -o out.ply\n"
+      "  mlsdeform figures                                redraw the paper's figures in docs/figures/\n"
+      "Run 'mlsdeform SUBCOMMAND --help' for a subcommand's options. Exit status: 0 done, 2 bad input or usage,\n"
+      "1 internal error.");
+
+  DeformArgs d;
+  auto* deform = app.add_subcommand("deform", "Deform a mesh by the handles in a JSON file and write the result.");
+  deform->add_option("--mesh,-m", d.mesh, "input mesh: " + readable_formats())->required();
+  deform->add_option("--handles,-H", d.handles, "handles file (JSON): point and segment handles, targets, optional frames")
+      ->required();
+  deform->add_option("--out,-o", d.out,
+                     "output mesh, format by extension: " + writable_formats() +
+                         "; with frames, one file per frame: OUT_0000.EXT, OUT_0001.EXT, ...")
+      ->required();
+  add_common_deformer_options(deform, d.options, d.precision);
+  deform->add_flag("--force,-f", d.force, "overwrite existing output files");
+  deform->add_flag("--ply-ascii", d.ply_ascii, "write PLY as text (default: binary little-endian)");
+  deform->add_flag("--quiet,-q", d.quiet, "print nothing but errors");
+  deform->footer(
+      "The handles file (see README.md, \"Handles file\"):\n"
+      "  {\"points\":   [{\"vertex\": 12, \"target\": [0, 1, 0]}, {\"rest\": [0, 0, 0]}],\n"
+      "   \"segments\": [{\"vertices\": [3, 40], \"offset\": [0, 0.2, 0]}],\n"
+      "   \"frames\":   [{\"points\": [[0, 1.1, 0], null], \"segments\": [null]}]}\n"
+      "A handle is placed by a 0-based vertex index (in the file's vertex order) or a rest position; it moves to an\n"
+      "absolute \"target\" or by an \"offset\", else it stays. Each frame gives one entry per handle (null: its own\n"
+      "target). Outputs are written all or nothing (temporary file, then rename); existing files need --force.");
+
+  DemoArgs demo_args;
+  auto* demo = app.add_subcommand("demo",
+                                  "Deform a bundled mesh and the paper's primitives, print frames/s for the scalar and "
+                                  "SIMD backends, write the results and images to a folder.");
+  demo->add_option("--out-dir,-o", demo_args.out_dir, "folder for the results (created; its earlier results are replaced)")
+      ->default_str(demo_args.out_dir);
+  demo->add_option("--frames", demo_args.frames, "frames per animated scene")->check(CLI::Range(1, 100000))->default_str("30");
+  demo->add_option("--threads,-j", demo_args.threads, "worker threads; 0: all cores")->check(CLI::NonNegativeNumber)->default_str("0");
+  add_choice(demo, "--precision", demo_args.precision, precisions, "floating-point type of the computation");
+  demo->add_option("--data-dir", demo_args.data_dir, "folder with the bundled meshes (default: the source tree's data/)");
+  demo->add_flag("!--no-images", demo_args.images, "skip the PNG images (they need python3-matplotlib)");
+
+  FiguresArgs fig_args;
+  auto* figures = app.add_subcommand("figures",
+                                     "Redraw the paper's Fig. 1, 3, 4 and 5 as PNG images (with python3-matplotlib).");
+  figures->add_option("--out-dir,-o", fig_args.out_dir, "folder for the images")->default_str(default_figures_dir());
+  figures->add_option("--only", fig_args.only, "comma-separated figure numbers, e.g. 1,5 (default: all)");
+  figures->add_option("--data-dir", fig_args.data_dir, "folder with the bundled meshes (default: the source tree's data/)");
+  figures->add_flag("--keep-spec", fig_args.keep_spec, "also keep each figure's JSON description next to its PNG");
+
+  if (argc <= 1) {
+    std::fputs(app.help().c_str(), stderr);
+    return 2;
+  }
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    if (e.get_exit_code() == 0) return app.exit(e);  // --help, --version
+    const std::string sub = deform->parsed() ? " deform" : demo->parsed() ? " demo" : figures->parsed() ? " figures" : "";
+    std::fprintf(stderr, "mlsdeform: error: %s (see 'mlsdeform%s --help')\n", one_line(e.what()).c_str(), sub.c_str());
+    return 2;
+  }
+  if (deform->parsed()) return run_deform(d);
+  if (demo->parsed()) return run_demo(demo_args);
+  return run_figures(fig_args);
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  try {
+    return run(argc, argv);
+  } catch (const InputError& e) {
+    std::fflush(stdout);
+    std::fprintf(stderr, "mlsdeform: error: %s\n", one_line(e.what()).c_str());
+    return 2;
+  } catch (const std::bad_alloc&) {
+    std::fflush(stdout);
+    std::fprintf(stderr, "mlsdeform: error: out of memory\n");
+    return 1;
+  } catch (const std::exception& e) {
+    std::fflush(stdout);
+    std::fprintf(stderr, "mlsdeform: internal error: %s\n", one_line(e.what()).c_str());
+    return 1;
+  }
+}

@@ -1,0 +1,69 @@
+// mlsdeform CLI: a polygon mesh as read from and written to files.
+#pragma once
+
+#include <mlsdeform/types.hpp>
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+namespace mlsdeform::cli {
+
+/// Vertices in the file's own order (so that a handles file can name them by index) and polygon faces kept
+/// as they are (no triangulation). Coordinates are 32-bit floats, as every supported format stores them.
+struct Mesh {
+  PointsRowMajor<float> vertices;             ///< n x 3
+  std::vector<std::uint32_t> face_start{0};   ///< face f is face_indices[face_start[f] .. face_start[f+1])
+  std::vector<std::uint32_t> face_indices;
+  std::size_t dropped_primitives = 0;         ///< points and lines in the file, which are not kept
+
+  Eigen::Index vertex_count() const { return vertices.rows(); }
+  std::size_t face_count() const { return face_start.size() - 1; }
+  void add_face(std::initializer_list<std::uint32_t> f) {
+    face_indices.insert(face_indices.end(), f);
+    face_start.push_back(std::uint32_t(face_indices.size()));
+  }
+};
+
+/// Area-weighted vertex normals (Newell's polygon normal, so non-planar polygons work too), unit length;
+/// a vertex in no face, or only in degenerate ones, gets (0, 0, 0).
+PointsRowMajor<float> vertex_normals(const Mesh& mesh);
+
+/// Triangles of a fan triangulation of each polygon (for renderers), as vertex index triples.
+std::vector<std::uint32_t> triangulate(const Mesh& mesh);
+
+/// Formats by file name: .obj, .off, .ply (binary or ASCII), each optionally gzip-compressed (.gz). Files are
+/// parsed by Assimp (a .gz file is decompressed in memory first); they are written here, to control the
+/// vertex order and the number format exactly.
+///   read: the vertex order is the file's (for OBJ: the order of its `v` lines, counted from 0), every vertex
+///   is kept (even one no face uses), faces are polygons as written; points and lines are dropped.
+///   Throws InputError naming the file and the problem (with its line where known) on a missing or unreadable
+///   file, an unknown format, a parse error, no vertices, a face index out of range or a non-finite coordinate.
+Mesh read_mesh(const std::string& path);
+
+enum class PlyEncoding { binary, ascii };
+
+struct WriteOptions {
+  bool force = false;                        ///< overwrite an existing file
+  PlyEncoding ply = PlyEncoding::binary;     ///< for .ply and .ply.gz
+  bool normals = true;                       ///< write vertex normals where the format has them (not OFF)
+};
+
+/// The file's bytes for the format of `path`'s extension (compressed if it ends in .gz).
+std::string encode_mesh(const Mesh& mesh, const std::string& path, const WriteOptions& options = {});
+/// encode_mesh, then write_file_atomic: all or nothing.
+void write_mesh(const Mesh& mesh, const std::string& path, const WriteOptions& options = {});
+
+namespace detail {
+/// Assimp's text-to-float conversion (fast_atof, which is not correctly rounded): the writers pick, among the
+/// decimal texts of a float, one that Assimp reads back exactly, so that files round-trip bit for bit.
+float assimp_atof(const char* text);
+}  // namespace detail
+
+/// Throws InputError naming `path` if its extension is not a format write_mesh knows.
+void check_output_format(const std::string& path);
+/// "obj, off, ply, ply.gz, ..." for messages and --help.
+std::string readable_formats();
+std::string writable_formats();
+
+}  // namespace mlsdeform::cli

@@ -1,0 +1,379 @@
+#include "scenes.hpp"
+
+#include <Eigen/Geometry>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <numbers>
+#include <numeric>
+#include <stdexcept>
+
+namespace mlsdeform::cli {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+double seconds_since(Clock::time_point t) { return std::chrono::duration<double>(Clock::now() - t).count(); }
+
+constexpr double kPi = std::numbers::pi;
+double radians(double degrees) { return degrees * kPi / 180.0; }
+
+// Adds quad a b c d, flipped if needed so that its normal points away from `inside`.
+void add_quad(Mesh& m, std::uint32_t a, std::uint32_t b, std::uint32_t c, std::uint32_t d, const Eigen::Vector3d& inside) {
+  const Eigen::Vector3d pa = m.vertices.row(a).cast<double>(), pb = m.vertices.row(b).cast<double>(),
+                        pc = m.vertices.row(c).cast<double>();
+  const Eigen::Vector3d n = (pb - pa).cross(pc - pa);
+  if (n.dot(pa - inside) >= 0)
+    m.add_face({a, b, c, d});
+  else
+    m.add_face({d, c, b, a});
+}
+
+// Moves the rows of `p` by x -> R (x - pivot) + pivot + shift.
+Points<double> moved(const Points<double>& p, const Eigen::Matrix3d& R, const Eigen::Vector3d& pivot,
+                     const Eigen::Vector3d& shift = Eigen::Vector3d::Zero()) {
+  Points<double> q(p.rows(), 3);
+  for (Eigen::Index i = 0; i < p.rows(); ++i) q.row(i) = (R * (p.row(i).transpose() - pivot) + pivot + shift).transpose();
+  return q;
+}
+
+Points<double> rows_of(const Points<double>& p, const std::vector<Eigen::Index>& idx) {
+  Points<double> q(Eigen::Index(idx.size()), 3);
+  for (std::size_t i = 0; i < idx.size(); ++i) q.row(Eigen::Index(i)) = p.row(idx[i]);
+  return q;
+}
+
+Handles<double> points_only(Points<double> p) {
+  Handles<double> h;
+  h.points = std::move(p);
+  h.segment_a.resize(0, 3);
+  h.segment_b.resize(0, 3);
+  return h;
+}
+
+template <class T>
+Handles<T> cast(const Handles<double>& h) {
+  Handles<T> c;
+  c.points = h.points.cast<T>();
+  c.segment_a = h.segment_a.cast<T>();
+  c.segment_b = h.segment_b.cast<T>();
+  return c;
+}
+
+}  // namespace
+
+Points<double> to_points(const Mesh& mesh) { return mesh.vertices.cast<double>(); }
+
+Mesh with_vertices(const Mesh& mesh, const Points<double>& vertices) {
+  Mesh m = mesh;
+  m.vertices = vertices.cast<float>();
+  return m;
+}
+
+Mesh make_bar(int nx, int ny, int nz, double width, double height) {
+  Mesh m;
+  const double dx = width / nx, dy = height / ny, dz = width / nz;
+  std::vector<std::int64_t> id(std::size_t(nx + 1) * (ny + 1) * (nz + 1), -1);
+  auto at = [&](int i, int j, int k) -> std::int64_t& { return id[(std::size_t(j) * (nz + 1) + k) * (nx + 1) + i]; };
+  std::vector<Eigen::Vector3f> v;
+  for (int j = 0; j <= ny; ++j)
+    for (int k = 0; k <= nz; ++k)
+      for (int i = 0; i <= nx; ++i)
+        if (i == 0 || i == nx || j == 0 || j == ny || k == 0 || k == nz) {
+          at(i, j, k) = std::int64_t(v.size());
+          v.emplace_back(float(-width / 2 + i * dx), float(j * dy), float(-width / 2 + k * dz));
+        }
+  m.vertices.resize(Eigen::Index(v.size()), 3);
+  for (std::size_t i = 0; i < v.size(); ++i) m.vertices.row(Eigen::Index(i)) = v[i].transpose();
+  const Eigen::Vector3d centre(0, height / 2, 0);
+  auto q = [&](int i0, int j0, int k0, int i1, int j1, int k1, int i2, int j2, int k2, int i3, int j3, int k3) {
+    add_quad(m, std::uint32_t(at(i0, j0, k0)), std::uint32_t(at(i1, j1, k1)), std::uint32_t(at(i2, j2, k2)),
+             std::uint32_t(at(i3, j3, k3)), centre);
+  };
+  for (int s : {0, 1}) {
+    const int i = s ? nx : 0, j = s ? ny : 0, k = s ? nz : 0;
+    for (int a = 0; a < ny; ++a)
+      for (int b = 0; b < nz; ++b) q(i, a, b, i, a, b + 1, i, a + 1, b + 1, i, a + 1, b);
+    for (int a = 0; a < nx; ++a)
+      for (int b = 0; b < nz; ++b) q(a, j, b, a + 1, j, b, a + 1, j, b + 1, a, j, b + 1);
+    for (int a = 0; a < nx; ++a)
+      for (int b = 0; b < ny; ++b) q(a, b, k, a + 1, b, k, a + 1, b + 1, k, a, b + 1, k);
+  }
+  return m;
+}
+
+Mesh make_tube(int around, int rings, double radius, double height) {
+  Mesh m;
+  m.vertices.resize(Eigen::Index(around) * rings, 3);
+  for (int r = 0; r < rings; ++r)
+    for (int a = 0; a < around; ++a) {
+      const double t = 2 * kPi * a / around;
+      m.vertices.row(Eigen::Index(r) * around + a) << float(radius * std::cos(t)), float(height * r / (rings - 1)),
+          float(radius * std::sin(t));
+    }
+  for (int r = 0; r + 1 < rings; ++r)
+    for (int a = 0; a < around; ++a) {
+      const auto i = [&](int rr, int aa) { return std::uint32_t(rr * around + (aa % around)); };
+      add_quad(m, i(r, a), i(r, a + 1), i(r + 1, a + 1), i(r + 1, a),
+               Eigen::Vector3d(0, height * (r + 0.5) / (rings - 1), 0));
+    }
+  return m;
+}
+
+Scene human_bend_scene(const Mesh& human, int frames, double degrees, Transform transform) {
+  Scene s;
+  s.name = "human";
+  s.mesh = human;
+  s.options.transform = transform;
+  const Points<double> v = to_points(human);
+  const Eigen::Index n = v.rows();
+  if (n == 0) throw std::invalid_argument("human_bend_scene: empty mesh");
+  // Handles by landmark: top of the head, the two finger tips (T pose), toes and heels of each foot.
+  auto best = [&](auto score, auto keep) {
+    Eigen::Index arg = -1;
+    double top = -HUGE_VAL;
+    for (Eigen::Index i = 0; i < n; ++i)
+      if (keep(v.row(i)) && score(v.row(i)) > top) {
+        top = score(v.row(i));
+        arg = i;
+      }
+    if (arg < 0) throw std::invalid_argument("human_bend_scene: landmark not found");
+    return arg;
+  };
+  const double floor = v.col(1).minCoeff(), height = v.col(1).maxCoeff() - floor;
+  auto any = [](const auto&) { return true; };
+  auto foot = [&](int side) { return [&, side](const auto& p) { return p(1) < floor + 0.06 * height && side * p(0) > 0; }; };
+  const Eigen::Index head = best([](const auto& p) { return p(1); }, any);
+  const Eigen::Index left_hand = best([](const auto& p) { return -p(0); }, any);
+  const Eigen::Index right_hand = best([](const auto& p) { return p(0); }, any);
+  const Eigen::Index toes[2] = {best([](const auto& p) { return p(2); }, foot(-1)), best([](const auto& p) { return p(2); }, foot(1))};
+  const Eigen::Index heels[2] = {best([](const auto& p) { return -p(2); }, foot(-1)), best([](const auto& p) { return -p(2); }, foot(1))};
+  const std::vector<Eigen::Index> moving = {head, left_hand, right_hand};
+  const std::vector<Eigen::Index> fixed = {toes[0], toes[1], heels[0], heels[1]};
+  std::vector<Eigen::Index> all = moving;
+  all.insert(all.end(), fixed.begin(), fixed.end());
+  s.rest = points_only(rows_of(v, all));
+  const Eigen::Vector3d waist(0, floor + 0.56 * height, 0);
+  // The hands end in front of the knees, a third of their span apart: not a rigid motion of the handles, so
+  // that the three kinds of transform differ (Fig. 1).
+  const double span = v(right_hand, 0) - v(left_hand, 0);
+  const Eigen::Vector3d hand_goal[2] = {{-span / 6, floor + 0.3 * height, 0.25 * height}, {span / 6, floor + 0.3 * height, 0.25 * height}};
+  for (int f = 1; f <= frames; ++f) {
+    const double t = double(f) / frames;
+    const Eigen::Matrix3d R = Eigen::AngleAxisd(radians(degrees * t), Eigen::Vector3d::UnitX()).toRotationMatrix();
+    Points<double> q = s.rest.points;
+    q.row(0) = moved(v.row(head), R, waist);
+    q.row(1) = (1 - t) * v.row(left_hand) + t * hand_goal[0].transpose();
+    q.row(2) = (1 - t) * v.row(right_hand) + t * hand_goal[1].transpose();
+    s.frames.push_back(points_only(q));
+  }
+  s.description = "human (data/human_man.obj) bending " + std::to_string(int(degrees)) +
+                  " degrees forward, hands to the knees, feet fixed";
+  return s;
+}
+
+Scene bar_twist_scene(int steps, double degrees) {
+  Scene s;
+  s.name = "bar_twist";
+  constexpr int nx = 16, ny = 88, nz = 16;
+  const double width = 1.0, height = 5.5;
+  s.mesh = make_bar(nx, ny, nz, width, height);
+  const Points<double> v = to_points(s.mesh);
+  // Handles: the side vertices of the two outermost rings at each end: 4 rings of 64 = Table 2's 256.
+  std::vector<Eigen::Index> bottom, top;
+  const double dy = height / ny, half = width / 2;
+  for (Eigen::Index i = 0; i < v.rows(); ++i) {
+    const int j = int(std::lround(v(i, 1) / dy));
+    const bool side = std::abs(std::abs(v(i, 0)) - half) < 1e-6 || std::abs(std::abs(v(i, 2)) - half) < 1e-6;
+    if (!side) continue;
+    if (j <= 1) bottom.push_back(i);
+    if (j >= ny - 1) top.push_back(i);
+  }
+  std::vector<Eigen::Index> all = bottom;
+  all.insert(all.end(), top.begin(), top.end());
+  s.rest = points_only(rows_of(v, all));
+  const auto nb = Eigen::Index(bottom.size());
+  for (int f = 1; f <= steps; ++f) {
+    const Eigen::Matrix3d R = Eigen::AngleAxisd(radians(degrees * f / steps), Eigen::Vector3d::UnitY()).toRotationMatrix();
+    Points<double> q = s.rest.points;
+    q.bottomRows(q.rows() - nb) = moved(rows_of(v, top), R, Eigen::Vector3d::Zero());
+    s.frames.push_back(points_only(q));
+  }
+  s.successive = true;
+  s.description = "bar (Table 2: 6146 vertices, 256 handles) twisted " + std::to_string(int(degrees)) + " degrees in " +
+                  std::to_string(steps) + " successive torsions";
+  return s;
+}
+
+Scene cylinder_scene(double u, int frames, double degrees) {
+  Scene s;
+  s.name = "cylinder";
+  constexpr int around = 23, rings = 46, group = 7;
+  const double radius = 0.5, height = 3.0;
+  s.mesh = make_tube(around, rings, radius, height);
+  const Points<double> v = to_points(s.mesh);
+  std::vector<Eigen::Index> bottom, top;
+  for (int r = 0; r < group; ++r)
+    for (int a = 0; a < around; ++a) {
+      bottom.push_back(Eigen::Index(r) * around + a);
+      top.push_back(Eigen::Index(rings - group + r) * around + a);
+    }
+  std::vector<Eigen::Index> all = bottom;
+  all.insert(all.end(), top.begin(), top.end());
+  s.rest = points_only(rows_of(v, all));
+  s.options.weight_exponent = u;
+  const Eigen::Vector3d pivot(0, height * (rings - 1 - (group - 1) / 2.0) / (rings - 1), 0);  // centre of the top group
+  for (int f = 1; f <= frames; ++f) {
+    const Eigen::Matrix3d R = Eigen::AngleAxisd(radians(degrees * f / frames), Eigen::Vector3d::UnitZ()).toRotationMatrix();
+    Points<double> q = s.rest.points;
+    q.bottomRows(Eigen::Index(top.size())) = moved(rows_of(v, top), R, pivot);
+    s.frames.push_back(points_only(q));
+  }
+  char u_text[16];
+  std::snprintf(u_text, sizeof u_text, "%g", u);
+  s.description = "cylinder (Table 2: 1058 vertices, 322 handles), top group rotated " + std::to_string(int(degrees)) +
+                  " degrees, u = " + u_text;
+  return s;
+}
+
+Scene bar_bend_scene(int variant, int frames) {
+  Scene s;
+  constexpr int nx = 8, ny = 48, nz = 8;
+  const double w = 1.0, L = 6.0;
+  s.mesh = make_bar(nx, ny, nz, w, L);
+  // The top end's motion at time t in [0, 1]: rotated by -t 90 degrees about z (the bar's axis turns from +y
+  // towards +x) and moved to where bending the whole bar into a circular arc of that angle would put it.
+  auto top_motion = [&](double t, const Points<double>& p) {
+    const double a = t * kPi / 2;
+    const Eigen::Matrix3d Ra = Eigen::AngleAxisd(-a, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+    const double r = a > 0 ? L / a : 0;
+    const Eigen::Vector3d end = a > 0 ? Eigen::Vector3d(r - r * std::cos(a), r * std::sin(a), 0) : Eigen::Vector3d(0, L, 0);
+    return moved(p, Ra, Eigen::Vector3d(0, L, 0), end - Eigen::Vector3d(0, L, 0));
+  };
+  Handles<double> rest;
+  rest.segment_a.resize(0, 3);
+  rest.segment_b.resize(0, 3);
+  Eigen::Index moving_from = 0;  // rows of points (or segments) at the top end start here
+  if (variant == 0) {
+    s.name = "bend_points_few";
+    // Two points at each end, across the bar.
+    rest.points.resize(4, 3);
+    rest.points << -w / 2, 0, 0, w / 2, 0, 0, -w / 2, L, 0, w / 2, L, 0;
+    moving_from = 2;
+    s.description = "bar bent 90 degrees with 4 point handles";
+  } else if (variant == 1) {
+    s.name = "bend_points_many";
+    // The corners and edge midpoints of each end face, at each end and a quarter of the way in.
+    std::vector<Eigen::Vector3d> ring;
+    for (int a = -1; a <= 1; ++a)
+      for (int b = -1; b <= 1; ++b)
+        if (a || b) ring.emplace_back(a * w / 2, 0, b * w / 2);
+    const double levels[4] = {0, L / 8, L - L / 8, L};
+    rest.points.resize(Eigen::Index(4 * ring.size()), 3);
+    for (int l = 0; l < 4; ++l)
+      for (std::size_t i = 0; i < ring.size(); ++i)
+        rest.points.row(Eigen::Index(l * ring.size() + i)) = (ring[i] + Eigen::Vector3d(0, levels[l], 0)).transpose();
+    moving_from = Eigen::Index(2 * ring.size());
+    s.description = "bar bent 90 degrees with 32 point handles";
+  } else {
+    s.name = "bend_segments";
+    // One segment across each end face, as in variant 0's point pairs, and one along the axis at each end.
+    rest.segment_a.resize(4, 3);
+    rest.segment_b.resize(4, 3);
+    rest.segment_a << -w / 2, 0, 0, 0, 0, 0, -w / 2, L, 0, 0, L - L / 8, 0;
+    rest.segment_b << w / 2, 0, 0, 0, L / 8, 0, w / 2, L, 0, 0, L, 0;
+    rest.points.resize(0, 3);
+    moving_from = 2;
+    s.description = "bar bent 90 degrees with 4 segment handles";
+  }
+  s.rest = rest;
+  for (int f = 1; f <= frames; ++f) {
+    const double t = double(f) / frames;
+    Handles<double> q = rest;
+    if (variant < 2) {
+      q.points.bottomRows(q.points.rows() - moving_from) = top_motion(t, rest.points.bottomRows(rest.points.rows() - moving_from));
+    } else {
+      q.segment_a.bottomRows(2) = top_motion(t, rest.segment_a.bottomRows(2));
+      q.segment_b.bottomRows(2) = top_motion(t, rest.segment_b.bottomRows(2));
+    }
+    s.frames.push_back(q);
+  }
+  return s;
+}
+
+Points<double> weighted_centroids(const Points<double>& vertices, const Handles<double>& rest, const Handles<double>& moved_h,
+                                  double u) {
+  Points<double> out(vertices.rows(), 3);
+  for (Eigen::Index i = 0; i < vertices.rows(); ++i) {
+    const Eigen::Vector3d v = vertices.row(i).transpose();
+    Eigen::Vector3d sum = Eigen::Vector3d::Zero();
+    double wsum = 0;
+    bool exact = false;
+    for (Eigen::Index k = 0; k < rest.point_count() && !exact; ++k) {
+      const double d = (rest.points.row(k).transpose() - v).norm();
+      if (d == 0) {
+        out.row(i) = moved_h.points.row(k);
+        exact = true;
+        break;
+      }
+      const double w = std::pow(d, -u);
+      sum += w * moved_h.points.row(k).transpose();
+      wsum += w;
+    }
+    for (Eigen::Index k = 0; k < rest.segment_count() && !exact; ++k) {
+      const Eigen::Vector3d a = rest.segment_a.row(k).transpose(), b = rest.segment_b.row(k).transpose();
+      const double t = std::clamp((v - a).dot(b - a) / (b - a).squaredNorm(), 0.0, 1.0);
+      const double d = (a + t * (b - a) - v).norm();
+      const Eigen::Vector3d mid = (moved_h.segment_a.row(k) + moved_h.segment_b.row(k)).transpose() / 2;  // Sec. 6.2
+      if (d == 0) {
+        out.row(i) = mid.transpose();
+        exact = true;
+        break;
+      }
+      const double w = std::pow(d, -u);
+      sum += w * mid;
+      wsum += w;
+    }
+    if (!exact) out.row(i) = (sum / wsum).transpose();
+  }
+  return out;
+}
+
+double SceneRun::frames_per_second() const {
+  const double total = std::accumulate(frame_seconds.begin(), frame_seconds.end(), 0.0);
+  return total > 0 ? double(frame_seconds.size()) / total : 0.0;
+}
+
+template <class T>
+SceneRun run_scene(const Scene& scene, Backend backend, int threads) {
+  SceneRun run;
+  Options options = scene.options;
+  options.backend = backend;
+  options.threads = threads;
+  std::vector<Handles<T>> frames;
+  frames.reserve(scene.frames.size());
+  for (const auto& f : scene.frames) frames.push_back(cast<T>(f));
+
+  Points<T> previous = to_points(scene.mesh).cast<T>(), out(previous.rows(), 3);
+  auto t0 = Clock::now();
+  Deformer<T> deformer(previous, cast<T>(scene.rest), options);
+  run.setup_seconds = seconds_since(t0);
+  for (std::size_t f = 0; f < frames.size(); ++f) {
+    if (scene.successive && f > 0) {
+      previous.swap(out);
+      t0 = Clock::now();
+      deformer.reset_rest_pose(previous, frames[f - 1]);
+      run.setup_seconds += seconds_since(t0);
+    }
+    t0 = Clock::now();
+    deformer.deform(frames[f], out);
+    run.frame_seconds.push_back(seconds_since(t0));
+  }
+  run.result = frames.empty() ? previous.template cast<double>() : out.template cast<double>();
+  return run;
+}
+
+template SceneRun run_scene<float>(const Scene&, Backend, int);
+template SceneRun run_scene<double>(const Scene&, Backend, int);
+
+}  // namespace mlsdeform::cli
