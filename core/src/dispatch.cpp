@@ -39,7 +39,9 @@ Isa initial_isa() {
       throw std::invalid_argument("MLSDEFORM_ISA=" + std::string(forced) + ": this CPU cannot run it");
     return isa;
   }
-  return supported_isas().back();
+  for (Isa isa : {Isa::avx512, Isa::avx2, Isa::sse4_2})  // best first; no allocation on the first deform()
+    if (cpu_runs(isa)) return isa;
+  return Isa::scalar;
 }
 
 std::atomic<int>& current() {
