@@ -46,9 +46,12 @@ def draw(spec):
     import matplotlib.pyplot as plt
     from mpl_toolkits.mplot3d.art3d import Poly3DCollection, Line3DCollection
 
+    import textwrap
     rows, cols = spec["rows"], spec["cols"]
     pw, ph = spec["panel_size"]
-    fig = plt.figure(figsize=(pw * cols, ph * rows + (0.5 if spec.get("title") else 0) + (0.35 if spec.get("caption") else 0)),
+    title = textwrap.wrap(spec.get("title", ""), width=int(pw * cols * 9))  # ~9 characters per inch at 12 pt
+    title_height = 0.15 + 0.25 * len(title) if title else 0.0  # inches
+    fig = plt.figure(figsize=(pw * cols, ph * rows + title_height + (0.35 if spec.get("caption") else 0)),
                      dpi=spec.get("dpi", 110))
 
     # The union of all panels' extents, so that before and after share one scale.
@@ -133,9 +136,9 @@ def draw(spec):
             ax.set_box_aspect(tuple(2 * half))
 
     top = 1.0
-    if spec.get("title"):
-        fig.suptitle(spec["title"], fontsize=12)
-        top = 1.0 - 0.5 / fig.get_figheight()
+    if title:
+        fig.suptitle("\n".join(title), fontsize=12, y=1.0 - 0.08 / fig.get_figheight(), va="top")
+        top = 1.0 - title_height / fig.get_figheight()
     bottom = 0.0
     if legend:
         fig.legend(legend.values(), legend.keys(), loc="lower center", ncol=min(len(legend), 5), fontsize=8, frameon=False,

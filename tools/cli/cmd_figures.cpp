@@ -40,7 +40,7 @@ Figure figure_1(const Mesh& human) {
   }
   for (auto& p : fig.panels) {
     p.elev = 8;
-    p.azim = -25;
+    p.azim = -40;
   }
   return fig;
 }
@@ -68,8 +68,9 @@ Figure figure_3() {
 Figure figure_4() {
   Figure fig;
   fig.title = "Fig. 4: deforming with (a), (b) point handles and (c) segment handles";
-  fig.caption = "A bar (1666 vertices) bent 90 degrees: its upper end is rotated and moved along an arc, its lower end stays. "
-                "Top row: handles at rest; bottom row: result and targets.";
+  fig.caption = "A bar (1666 vertices) bent 90 degrees: its upper end rotated and moved along an arc, its lower end fixed; "
+                "rigid, u = 2. (a) two points per end, (b) 16 per end, (c) two segments per end along the side edges. "
+                "Top: handles at rest; bottom: result and targets.";
   fig.rows = 2;
   fig.cols = 3;
   fig.panel_width = 3.0;

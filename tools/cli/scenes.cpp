@@ -277,11 +277,12 @@ Scene bar_bend_scene(int variant, int frames) {
     s.description = "bar bent 90 degrees with 32 point handles";
   } else {
     s.name = "bend_segments";
-    // One segment across each end face, as in variant 0's point pairs, and one along the axis at each end.
+    // At each end, two segments along opposite side edges, an eighth of the bar long: as few primitives as
+    // (a) has points, and each pins down a direction.
     rest.segment_a.resize(4, 3);
     rest.segment_b.resize(4, 3);
-    rest.segment_a << -w / 2, 0, 0, 0, 0, 0, -w / 2, L, 0, 0, L - L / 8, 0;
-    rest.segment_b << w / 2, 0, 0, 0, L / 8, 0, w / 2, L, 0, 0, L, 0;
+    rest.segment_a << -w / 2, 0, 0, w / 2, 0, 0, -w / 2, L - L / 8, 0, w / 2, L - L / 8, 0;
+    rest.segment_b << -w / 2, L / 8, 0, w / 2, L / 8, 0, -w / 2, L, 0, w / 2, L, 0;
     rest.points.resize(0, 3);
     moving_from = 2;
     s.description = "bar bent 90 degrees with 4 segment handles";
@@ -358,6 +359,8 @@ SceneRun run_scene(const Scene& scene, Backend backend, int threads) {
   auto t0 = Clock::now();
   Deformer<T> deformer(previous, cast<T>(scene.rest), options);
   run.setup_seconds = seconds_since(t0);
+  // One untimed frame first: the first call pays for page faults on `out` and for starting TBB's workers.
+  if (!frames.empty()) deformer.deform(frames[0], out);
   for (std::size_t f = 0; f < frames.size(); ++f) {
     if (scene.successive && f > 0) {
       previous.swap(out);
