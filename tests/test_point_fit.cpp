@@ -186,12 +186,10 @@ TEMPLATE_TEST_CASE("point fits: weights", "[point_fit]", float, double) {
   }
 }
 
-// KNOWN CORE FAILURE (reported to the lead; core/src/point_fit.cpp): fit() divides the weights by their sum,
-// which overflows to infinity when the (finite) weights are large, e.g. 12 weights of max()/4. Every
-// weight then becomes 0, H = 0, and the fit silently returns the identity with scale 1 and a wrong
-// translation instead of the transform (no exception either). Dividing by the largest weight first (it is
-// already computed as `wmax`) keeps the sum finite (<= n).
-TEMPLATE_TEST_CASE("point fits: huge weights whose sum overflows", "[point_fit][known_core_failure]", float, double) {
+// Regression: point_fit.cpp once divided the weights by their sum, which overflows to infinity for large
+// finite weights (e.g. 12 weights of max()/4): every weight became 0, H = 0, and the fit silently returned
+// the identity with scale 1 and a wrong translation.
+TEMPLATE_TEST_CASE("point fits: huge weights whose sum overflows", "[point_fit]", float, double) {
   using T = TestType;
   Rng rng(kDefaultSeed + 1);
   for (RotationMethod m : all_rotation_methods) {
