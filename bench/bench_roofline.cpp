@@ -224,7 +224,8 @@ void bm_fit(benchmark::State& state, mlsdeform::Isa isa, std::size_t n, int thre
   for (std::size_t i = 0; i < n; i += std::max<std::size_t>(1, n / 4096)) {
     Eigen::Matrix3f Hi, Ri;
     for (std::size_t e = 0; e < 9; ++e) Hi(e / 3, e % 3) = H[e * n + i], Ri(e / 3, e % 3) = R[e * n + i];
-    const bench::Verdict v = bench::judge(Ri, Hi, bench::reference(Hi));
+    const bench::Verdict v =
+        bench::judge(Ri, Hi, bench::reference(Hi), bench::Judge::method(mlsdeform::RotationMethod::axis_angle));
     if (!v.ok) {
       mlsdeform::set_isa(saved);
       state.SkipWithError(("fit " + std::to_string(i) + " off the reference: " + v.describe()).c_str());

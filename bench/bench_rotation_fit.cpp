@@ -3,8 +3,9 @@
 // random rotations of weighted noisy point sets, a fifth of them mirrored so that det H < 0), generated once.
 //
 // Every benchmark first runs its method over the whole set and checks each result against the long-double
-// SVD reference (bench/reference.hpp: angle, trace and orthonormality tolerances derived there); a single
-// mismatch skips the benchmark with an error naming the case. Timing then repeats the whole pass; one
+// SVD reference with the project's accuracy bounds (bench/reference.hpp: tests/support's reference and
+// bounds, the ones the accuracy suite applies, plus a derived bound for QCP); a single mismatch skips the
+// benchmark with an error naming the case. Timing then repeats the whole pass; one
 // iteration = 10^6 fits, streamed from memory (72 bytes of H per fit in double, 36 in float), one core.
 //
 // Names: fit/<float|double>/<method>/<path>, path = "scalar" for fit_rotation (the library's scalar
@@ -93,7 +94,7 @@ const Data& data() {
 /// Check every result of `fit` against the reference (in parallel: untimed). Returns an empty string when
 /// all pass, else a message naming the first failing case; `worst` gets the largest error/tolerance ratio.
 template <class T, class Fit>
-std::string validate(const Fit& fit, bench::ErrorModel model, std::vector<Matrix3<T>>& out, double& worst) {
+std::string validate(const Fit& fit, const bench::Judge& how, std::vector<Matrix3<T>>& out, double& worst) {
   const Data& d = data();
   const auto& H = d.template H<T>();
   const auto& ref = d.template ref<T>();
@@ -105,7 +106,7 @@ std::string validate(const Fit& fit, bench::ErrorModel model, std::vector<Matrix
       [&](const tbb::blocked_range<std::size_t>& r, double w) {
         for (std::size_t i = r.begin(); i < r.end(); ++i) {
           out[i] = fit(H[i]);
-          const bench::Verdict v = bench::judge(out[i], H[i], ref[i], model);
+          const bench::Verdict v = bench::judge(out[i], H[i], ref[i], how);
           w = std::max(w, static_cast<double>(v.worst_ratio()));
           if (!v.ok) {
             std::lock_guard lock(m);
@@ -126,12 +127,12 @@ std::string validate(const Fit& fit, bench::ErrorModel model, std::vector<Matrix
 
 /// The common body: validate, then time whole passes over the set.
 template <class T, class Fit>
-void run_fit(benchmark::State& state, bench::ErrorModel model, const Fit& fit) {
+void run_fit(benchmark::State& state, const bench::Judge& how, const Fit& fit) {
   const auto& H = data().template H<T>();
   const std::size_t n = H.size();
   std::vector<Matrix3<T>> out(n);
   double worst = 0;
-  if (const std::string err = validate<T>(fit, model, out, worst); !err.empty()) {
+  if (const std::string err = validate<T>(fit, how, out, worst); !err.empty()) {
     state.SkipWithError(err.c_str());
     return;
   }
@@ -155,12 +156,12 @@ void register_scalar() {
   for (RotationMethod m : mlsdeform::all_rotation_methods) {
     const std::string name = std::string("fit/") + type_name<T>() + "/" + std::string(mlsdeform::to_string(m)) + "/scalar";
     benchmark::RegisterBenchmark(name.c_str(), [m](benchmark::State& s) {
-      run_fit<T>(s, bench::error_model(m), [m](const Matrix3<T>& H) { return mlsdeform::fit_rotation<T>(H, m); });
+      run_fit<T>(s, bench::Judge::method(m), [m](const Matrix3<T>& H) { return mlsdeform::fit_rotation<T>(H, m); });
     })->Unit(benchmark::kMillisecond);
   }
   const std::string name = std::string("fit/") + type_name<T>() + "/qcp/scalar";
   benchmark::RegisterBenchmark(name.c_str(), [](benchmark::State& s) {
-    run_fit<T>(s, bench::ErrorModel::polynomial_root,
+    run_fit<T>(s, bench::Judge::qcp(),
                [](const Matrix3<T>& H) { return bench::fit_rotation_qcp<T>(H); });
     // Mean Newton steps, for the record (counted outside the timed loop).
     const auto& Hs = data().template H<T>();
@@ -213,7 +214,7 @@ std::vector<T> soa_prefix(std::size_t m) {
 /// Check a batched result (n = all cases) against the references (in parallel: untimed); empty string
 /// when all pass.
 template <class T>
-std::string validate_soa(const std::vector<T>& R, double& worst) {
+std::string validate_soa(const std::vector<T>& R, RotationMethod method, double& worst) {
   const Data& d = data();
   const auto& H = d.template H<T>();
   const auto& ref = d.template ref<T>();
@@ -227,7 +228,7 @@ std::string validate_soa(const std::vector<T>& R, double& worst) {
         for (std::size_t i = r.begin(); i < r.end(); ++i) {
           Matrix3<T> Ri;
           for (std::size_t e = 0; e < 9; ++e) Ri(e / 3, e % 3) = R[e * n + i];
-          const bench::Verdict v = bench::judge(Ri, H[i], ref[i]);
+          const bench::Verdict v = bench::judge(Ri, H[i], ref[i], bench::Judge::method(method));
           w = std::max(w, static_cast<double>(v.worst_ratio()));
           if (!v.ok) {
             std::lock_guard lock(m);
@@ -260,7 +261,7 @@ void run_batched(benchmark::State& state, mlsdeform::Isa isa, RotationMethod met
   mlsdeform::BatchStats stats;
   mlsdeform::fit_rotations<T>(H.data(), R.data(), n, method, 0, &stats);
   double worst = 0;
-  if (const std::string err = validate_soa<T>(R, worst); !err.empty()) {
+  if (const std::string err = validate_soa<T>(R, method, worst); !err.empty()) {
     state.SkipWithError(err.c_str());
     return;
   }

@@ -92,6 +92,14 @@ def fmt(x, digits=3):
     return f"{x:.{digits}g}"
 
 
+def count(x):
+    """A count from a context string, with thousands separators."""
+    try:
+        return f"{int(x):,}"
+    except (TypeError, ValueError):
+        return "?"
+
+
 def ratio(a, b):
     if a is None or b is None or b == 0:
         return None
@@ -148,6 +156,7 @@ def main():
         ["load average", f"before the run: {run.get('load_before', '?')}; after: {run.get('load_after', '?')} "
                          "(2 cores shared with other engineers' builds: a load above ~0.5 inflates wall-clock times)"],
         ["command", f"`{run.get('command', 'tools/bench_report.sh')}`"],
+        ["library source", "commit " + run.get("commit", "?")],
         ["wall time of the suite", run.get("suite_seconds", "?") + " s"],
     ]))
     md.append("\nGoogle Benchmark from Debian 12 prints `***WARNING*** Library was built as DEBUG. Timings may be "
@@ -205,8 +214,8 @@ def main():
     # Rotation fit
     # ----------------------------------------------------------------------------------------------------
     md.append("## Rotation fit: ns per fit\n")
-    md.append(f"`bench/bench_rotation_fit.cpp`: the same {rot.context.get('cases', '?')} random correlation matrices "
-              f"for every method ({rot.context.get('cases_det_negative', '?')} with det H < 0; seed "
+    md.append(f"`bench/bench_rotation_fit.cpp`: the same {count(rot.context.get('cases'))} random correlation matrices "
+              f"for every method ({count(rot.context.get('cases_det_negative'))} with det H < 0; seed "
               f"{rot.context.get('case_seed', '?')}), one core. `scalar` is `fit_rotation` one matrix at a time "
               "(the library's scalar reference, baseline x86-64 flags; QCP is `bench/qcp.hpp`); `batch:<isa>` "
               "is `fit_rotations` on the structure-of-arrays set, forced to that ISA. Streamed: the whole set "
@@ -246,7 +255,7 @@ def main():
                   "the lanes; scalar fallback): " + ", ".join(
                       f"{t} {fmt(rot.get(f'fit/{t}/axis_angle/batch:{best_isa}', 'lanes_near_double'))} / "
                       f"{fmt(rot.get(f'fit/{t}/axis_angle/batch:{best_isa}', 'lanes_scalar_fallback'))}"
-                      for t in ["float", "double"]) + f" of {rot.context.get('cases', '?')}.\n")
+                      for t in ["float", "double"]) + f" of {count(rot.context.get('cases'))}.\n")
         # Speed-ups
         rows = []
         for t in ["float", "double"]:

@@ -60,6 +60,8 @@ cmd="tools/bench_report.sh"
   echo "load_after=$(load)"
   echo "suite_seconds=$((end - start))"
   echo "command=$cmd"
+  dirty=$(git status --porcelain -- core kernels CMakeLists.txt cmake 2>/dev/null | wc -l)
+  echo "commit=$(git rev-parse --short HEAD 2>/dev/null || echo unknown)$( ((dirty)) && echo " plus uncommitted changes to $dirty library files")"
 } >"$out/run.txt"
 # Debian's python3-matplotlib lives under /usr/bin/python3; a python3 earlier on PATH (pyenv, venv) may
 # lack it.
