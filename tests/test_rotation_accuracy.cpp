@@ -332,15 +332,15 @@ TEST_CASE("every method on H whose largest entry is subnormal", "[accuracy][fini
   log.summarise();
 }
 
-// KNOWN CORE FAILURE (reported to the lead; core/src/axis_angle.hpp, rotation_axis): axis_angle with a
-// repeated largest singular value and det H < 0 (H = U diag(s, s, t) V^T, det < 0, t slightly below s).
+// Regression cases (they failed before core/src/axis_angle.hpp sent clustered H to a symmetric eigensolver,
+// top_eigenvector): axis_angle with a repeated largest singular value and det H < 0 (H = U diag(s, s, t) V^T, det < 0, t slightly below s).
 // Then K's top eigenvalues are 2s - t and a double t just below it (a cluster of three), and the result can
 // be far from the optimum with a real trace loss. Found by docs/accuracy.md's run (10^5 cases per family,
 // seed 20261121; repeated_sv indices below, `make_case<T>(Family::repeated_sv, 20261121, index)`); the
 // default suite run draws too few of them to hit these. Judged with the suite's own bounds for axis_angle
 // (c_b = 64): every one of them is beyond it.
 TEST_CASE("axis_angle: repeated largest singular value with det H < 0 (reproducers)",
-          "[accuracy][axis_angle][known_core_failure]") {
+          "[accuracy][axis_angle]") {
   struct Repro {
     const char* what;
     Matrix3<float> Hf;

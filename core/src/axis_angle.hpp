@@ -33,6 +33,7 @@
 #include <mlsdeform/rotation.hpp>
 
 #include <Eigen/Core>
+#include <Eigen/Eigenvalues>
 #include <Eigen/Geometry>
 
 #include <algorithm>
@@ -273,16 +274,38 @@ void strongest_column(const Eigen::Matrix<T, 4, 4>& adj, int& k, T& dk) {
 }
 
 /// Near a point reflection (det H < 0 and s1^2, s2^2, s3^2 spread less than their mean: the top three
-/// eigenvalues of K then cluster within 2 (s1 - s3)) the quartic's coefficients fix y only to eps ||K||^3 / w^2 (w the cluster
-/// width), and the adjugate columns mix in two other eigenvectors, which the two-column Ritz step cannot
-/// both remove. There one more pass at the Rayleigh quotient rho(q) (backward stable, and accurate to w
-/// theta^2 for an error theta in q) squares theta; a pass is kept only if it raises rho (at an exactly
-/// multiple root the adjugate is rounding noise, and its Ritz vector lowers rho).
+/// eigenvalues of K then cluster within 2 (s1 - s3)) the quartic's coefficients fix y only to eps ||K||^3 / w^2
+/// (w the cluster width, down to eps^(1/3) relative), and the adjugate's columns mix three eigenvectors, which
+/// two-column Rayleigh-Ritz cannot separate: such H go to top_eigenvector (a symmetric eigensolver), in the
+/// SIMD kernels through the scalar fallback (counted in BatchStats::scalar_fallback).
 template <class T>
 bool clustered_top_three(const Invariants<T>& inv) {
   if (!(inv.det < T(0))) return false;
   const T shift = inv.norm2 / T(3), p = inv.c2 - inv.norm2 * shift;  // as in largest_eigenvalue_HtH
   return -p / T(3) < shift * shift / T(4);                            // m < shift / 2
+}
+
+/// The slow path for clustered lanes: the top eigenvector of K from a symmetric eigensolver (backward
+/// stable), or, where the top eigenvalue is multiple to rounding (8 eps a), the vector of its eigenspace
+/// closest to e0 (or e_m, as in ritz_top). Used where the top three eigenvalues of K cluster: there the
+/// quartic's root is only good to eps^(1/3) and two-column Rayleigh-Ritz cannot separate three vectors.
+template <class T>
+Eigen::Matrix<T, 4, 1> top_eigenvector(const Eigen::Matrix<T, 4, 4>& K, T a) {
+  using Vec4 = Eigen::Matrix<T, 4, 1>;
+  constexpr T eps = std::numeric_limits<T>::epsilon();
+  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix<T, 4, 4>> es(K);  // eigenvalues ascending
+  const T top = es.eigenvalues()(3);
+  int first = 3;
+  while (first > 0 && es.eigenvalues()(first - 1) >= top - T(8) * eps * a) --first;
+  if (first == 3) return es.eigenvectors().col(3);
+  Vec4 proj = Vec4::Zero();
+  for (int j = first; j < 4; ++j) proj += es.eigenvectors().col(j).cwiseAbs2();
+  int m;
+  const T pm = proj.maxCoeff(&m);
+  if (proj(0) >= T(0.25) * pm) m = 0;
+  Vec4 q = Vec4::Zero();
+  for (int j = first; j < 4; ++j) q += es.eigenvectors().col(j) * es.eigenvectors()(m, j);
+  return q;
 }
 
 /// Eq. (14), generalised: the (unnormalised) quaternion (q0, q_vec) of the optimal rotation.
@@ -314,6 +337,10 @@ Eigen::Matrix<T, 4, 1> rotation_axis(const Matrix3<T>& H, const Invariants<T>& i
   // Cofactors are sums of six products of three entries of K - y I (|entries| <= a + y <= 3a): their
   // rounding is a few eps a^3, and the shifted adjugate must stand above 64 eps a^3.
   const T a3 = a * a * a;
+  if (clustered_top_three(inv)) {
+    if (path) *path = 3;
+    return top_eigenvector(K, a);
+  }
   int k;
   T dk, gap;
   Eigen::Matrix<T, 4, 4> adj = adjugate4(shifted_davenport(H, inv, y));
@@ -334,10 +361,10 @@ Eigen::Matrix<T, 4, 1> rotation_axis(const Matrix3<T>& H, const Invariants<T>& i
   //  - gap between a / 16 and sqrt(eps) a (kappa between ~30 and 1/sqrt(eps)): y carried eps a^2 / g,
   //    leaving eps a / g of the far eigenvectors in the Ritz plane; a pass at rho brings that to eps.
   //    (Beyond 1/sqrt(eps) a pass is no better than the rounding of the adjugate itself, eps a / g.)
-  //  - the top three eigenvalues cluster (clustered_top_three), or the adjugate was rounding noise.
+  //  - the adjugate was rounding noise.
   // A pass is kept unless rho drops beyond its rounding (8 eps a): at an exactly multiple root the
   // adjugate is noise and its Ritz vector lowers rho by O(a); NaN (an all-zero adjugate) too.
-  const bool refine = noise || clustered_top_three(inv) || (!(gap > a / T(16)) && gap > sqrt(eps) * a);
+  const bool refine = noise || (!(gap > a / T(16)) && gap > sqrt(eps) * a);
   if (refine) {
     T rho = q.dot(K * q) / q.squaredNorm();
     for (int pass = 0; pass < 2; ++pass) {
