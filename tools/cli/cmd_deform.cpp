@@ -22,6 +22,7 @@ const char* name(Transform t) { return t == Transform::rigid ? "rigid" : t == Tr
 
 template <class T>
 int deform(const DeformArgs& a) {
+  const Isa isa = checked_active_isa();
   check_output_format(a.out);
   const Mesh mesh = read_mesh(a.mesh);
   const HandlesFile handles = read_handles(a.handles);
@@ -51,7 +52,8 @@ int deform(const DeformArgs& a) {
     std::snprintf(threads, sizeof threads, a.options.threads > 0 ? "%d threads" : "all cores", a.options.threads);
     std::printf("deformer: %s, u = %g, %s, %s, %s backend, %s; set-up %.2f ms, %.1f MiB\n", name(a.options.transform),
                 a.options.weight_exponent, std::string(to_string(a.options.method)).c_str(),
-                std::is_same_v<T, float> ? "float" : "double", a.options.backend == Backend::simd ? "simd" : "scalar", threads,
+                std::is_same_v<T, float> ? "float" : "double",
+                a.options.backend == Backend::simd ? ("simd (" + std::string(to_string(isa)) + ")").c_str() : "scalar", threads,
                 setup_ms, double(deformer->memory_bytes()) / (1 << 20));
   }
 
@@ -110,6 +112,14 @@ std::string frame_path(const std::string& out, std::size_t frame, std::size_t fr
   std::string number = std::to_string(frame);
   number.insert(0, digits - std::min(digits, number.size()), '0');
   return out.substr(0, out.size() - suffix) + "_" + number + out.substr(out.size() - suffix);
+}
+
+Isa checked_active_isa() {
+  try {
+    return active_isa();
+  } catch (const std::invalid_argument& e) {  // MLSDEFORM_ISA names an unknown or unsupported instruction set
+    throw InputError("MLSDEFORM_ISA", e.what());
+  }
 }
 
 int run_deform(const DeformArgs& args) {

@@ -7,6 +7,8 @@
 #include "render.hpp"
 #include "scenes.hpp"
 
+#include <mlsdeform/batch.hpp>
+
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
@@ -36,6 +38,8 @@ int demo(const DemoArgs& a) {
   fs::create_directories(out_dir, ec);
   if (ec || !fs::is_directory(out_dir)) throw InputError(a.out_dir, "cannot create the output folder: " + ec.message());
   std::printf("mlsdeform demo: results go to %s/\n", out_dir.string().c_str());
+  std::printf("SIMD backend: %s, %zu lanes of %s\n", std::string(to_string(checked_active_isa())).c_str(),
+              simd_lanes(std::is_same_v<T, double>), std::is_same_v<T, float> ? "float" : "double");
   std::printf("precision %s, %s; frames/s count Deformer::deform only (set-up excluded)\n\n",
               std::is_same_v<T, float> ? "float" : "double",
               a.threads > 0 ? (std::to_string(a.threads) + " threads").c_str()

@@ -2,6 +2,7 @@
 // Each returns the process exit code and throws InputError for bad input (exit code 2).
 #pragma once
 
+#include <mlsdeform/batch.hpp>
 #include <mlsdeform/deformer.hpp>
 
 #include <string>
@@ -40,6 +41,9 @@ struct FiguresArgs {
   bool keep_spec = false;
 };
 int run_figures(const FiguresArgs& args);
+
+/// mlsdeform::active_isa(), with a bad MLSDEFORM_ISA reported as InputError rather than as a bug.
+Isa checked_active_isa();
 
 /// The bundled data folder (data/): args value, else $MLSDEFORM_DATA_DIR, else the source tree's.
 std::string data_dir(const std::string& from_args);
