@@ -35,10 +35,10 @@ METHODS = ["axis_angle", "horn_quaternion", "horn_matrix", "kanatani", "svd", "q
 METHOD_NOTES = {
     "axis_angle": "the paper's method (Sec. 4), library",
     "horn_quaternion": "Horn 1987, library (Eigen 4x4 eigensolver; batched: Jacobi in lanes)",
-    "horn_matrix": "Horn et al. 1988, library (judged by the normal-matrix error model)",
+    "horn_matrix": "Horn et al. 1988, library",
     "kanatani": "Kanatani 1994, library (Eigen JacobiSVD)",
     "svd": "Arun/Umeyama, library (Eigen JacobiSVD)",
-    "qcp": "QCP (Theobald 2005; Liu et al. 2010), `bench/qcp.hpp` (polynomial-root error model)",
+    "qcp": "QCP (Theobald 2005; Liu et al. 2010), `bench/qcp.hpp`",
     "paper_eq14_literal": "the paper's (14)-(15) as written (`bench/paper_literal.hpp`, not a library method)",
 }
 
@@ -163,6 +163,11 @@ def main():
               "affected.` (and records `library_build_type: debug`): that is the packaged libbenchmark's own "
               "build type, which only affects its bookkeeping between timed loops, not the code measured here, "
               "which is built Release. Harmless.\n")
+    md.append("**Timing.** Single-threaded benchmarks report the benchmark thread's CPU time (Google Benchmark's "
+              "default), which another process taking turns on the same core does not inflate much; multi-threaded "
+              "ones (names with `threads:N` or `simd all`, and every `kernel/deform`) report wall-clock time, since "
+              "TBB's workers do the work. Wall-clock figures, and hence every ratio against a multi-threaded run, "
+              "are only as good as the machine is quiet: see the load average above.\n")
     md.append("Every benchmark checks its results before timing and skips with an error on a mismatch: rotation "
               "fits against a long-double SVD reference (`bench/reference.hpp`, tolerances derived there), "
               "deformations against the same formula in double (`bench/naive_mls.hpp`, `deform_tolerance`). "
@@ -220,8 +225,11 @@ def main():
               "(the library's scalar reference, baseline x86-64 flags; QCP is `bench/qcp.hpp`); `batch:<isa>` "
               "is `fit_rotations` on the structure-of-arrays set, forced to that ISA. Streamed: the whole set "
               "from memory; hot: the first 4,096 matrices repeated (in L2, as in the deformer, which builds "
-              "each H in registers). Worst err/tol: the largest ratio of error to tolerance over all checks "
-              "(must be <= 1).\n")
+              "each H in registers). Checks: every result against the long-double SVD reference with the accuracy "
+              "suite's bounds (`tests/support/accuracy_bounds.hpp`: backward-error constant c_b = 16, 64 for "
+              "axis_angle and horn_matrix); QCP with c_b = 16 plus the error of a root taken from the "
+              "polynomial's coefficients (`bench/reference.hpp`). Worst err/tol: the largest ratio of error to "
+              "bound over all checks (<= 1 to pass).\n")
     rows = []
     for m in METHODS:
         row = [f"`{m}`", METHOD_NOTES[m]]
@@ -316,7 +324,8 @@ def main():
               "`Eigen::JacobiSVD` written from the paper (`bench/naive_mls.hpp`), 1 core; `scalar`: `Deformer` "
               "with `Backend::scalar`, 1 thread; `simd 1t` / `simd all`: `Backend::simd`, 1 thread / all "
               f"{ctx.get('hardware_threads', '?')} threads. The paper's figures are from a Pentium 4 at 3.2 GHz "
-              "(2009) and include OpenGL rendering. Wall-clock time (UseRealTime).\n")
+              "(2009) and include OpenGL rendering. Single-thread variants are timed by the thread's CPU time, "
+              "`simd all` by wall-clock time (see Timing below).\n")
     rows = []
     for model, (nv, nh, src) in MODELS.items():
         g = lambda v, k="fps": t2.get(f"table2/{model}/{v}", k)  # noqa: E731
