@@ -150,8 +150,13 @@ struct SegmentScene {
   Points<double> vertices;
 };
 
-/// Vertices of the segment scene (the direct evaluation of the sampled handles costs O(J^2) per vertex).
+/// Vertices of the segment scene (the direct evaluation of the sampled handles costs O(J^2) per vertex; fewer
+/// under AddressSanitizer, which the sanitizer build of tools/dev.sh runs).
+#if defined(__SANITIZE_ADDRESS__)
+constexpr int kArmVertices = 40;
+#else
 constexpr int kArmVertices = 150;
+#endif
 
 SegmentScene segment_scene(std::mt19937_64& g) {
   SegmentScene s;
