@@ -129,6 +129,20 @@ TEMPLATE_TEST_CASE("fit_rotations: n = 0, bad input, threads", "[batch]", float,
   H[4 * n + 123] = std::numeric_limits<T>::quiet_NaN();
   CHECK_THROWS_WITH(fit_rotations(H.data(), R3.data(), n), Catch::Contains("matrix 123, entry (1, 1)"));
   CHECK(R3 == std::vector<T>(9 * n, T(5)));  // nothing written
+  // The finite check works on exponent bits: infinities of either sign and the very last entry are caught,
+  // while the largest finite and the subnormal values pass.
+  constexpr T inf = std::numeric_limits<T>::infinity();
+  for (T bad : {inf, -inf, -std::numeric_limits<T>::quiet_NaN()}) {
+    std::vector<T> Hb = make_cases<T>(n, 7);
+    Hb[9 * n - 1] = bad;
+    CHECK_THROWS_WITH(fit_rotations(Hb.data(), R3.data(), n), Catch::Contains("matrix 19999, entry (2, 2)"));
+  }
+  std::vector<T> Hf = make_cases<T>(n, 7);
+  Hf[5] = std::numeric_limits<T>::max();
+  Hf[6] = -std::numeric_limits<T>::max();
+  Hf[7] = std::numeric_limits<T>::denorm_min();
+  Hf[8] = -std::numeric_limits<T>::min() / T(2);
+  CHECK_NOTHROW(fit_rotations(Hf.data(), R3.data(), n));
 }
 
 TEST_CASE("ISA names and forcing", "[batch]") {
