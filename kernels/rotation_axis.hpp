@@ -199,10 +199,10 @@ struct RotationAxis : Simd<T, A> {
       fallback = near_double & !(c.dk > V(T(64) * eps) * a3);
     }
     // scalar: clustered lanes go to top_eigenvector (here: to the scalar fallback), and
-    // refine = noise || (!(gap > a / 16) && gap > sqrt(eps) a); the noise lanes (fallback) are redone by the
+    // refine = noise || (!(gap > a / 64) && gap > sqrt(eps) a); the noise lanes (fallback) are redone by the
     // scalar code, which runs its own passes.
     fallback = fallback | clustered;
-    M refine = ~fallback & ~(gap > a / V(T(16))) & (gap > sqrt_eps * a);
+    M refine = ~fallback & ~(gap > a / V(T(64))) & (gap > sqrt_eps * a);
     if (xsimd::any(refine)) {
       V rho = dot(q, mul(K, q)) / dot(q, q);
       for (int pass = 0; pass < 2 && xsimd::any(refine); ++pass) {
