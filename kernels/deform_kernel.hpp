@@ -37,7 +37,7 @@ struct DeformKernel : Simd<T, A> {
   /// w = (dref2 / d2)^(u/2); u = 2 (the default) needs no power.
   MLSDEFORM_KERNEL_INLINE static V relative_weight(V r2, T half_u) {
     if (half_u == T(1)) return r2;
-    return xsimd::exp2(V(half_u) * xsimd::log2(r2));
+    return exp2(V(half_u) * log2(r2));
   }
 
   /// The rotation stage shared by both weight storages: R from H (fit or Horn-Jacobi), mu, and
@@ -51,13 +51,13 @@ struct DeformKernel : Simd<T, A> {
       HornJacobi<T, A>::fit(hn, r);
     } else {
       const M fallback = FitRotations<T, A>::fit(hn, r, stats);
-      if (xsimd::any(fallback)) FitRotations<T, A>::scalar_lanes(fallback, hn, r, stats);
+      if (any(fallback)) FitRotations<T, A>::scalar_lanes(fallback, hn, r, stats);
     }
     V mu = scale;
     if (fr.transform == 1) {
       V tr = r[0] * h[0];
       for (int i = 1; i < 9; ++i) tr = tr + r[i] * h[i];
-      mu = xsimd::select(D > V(T(0)), tr / D, scale);  // scalar: if (D > 0) mu = trace(R^T H) / D
+      mu = select(D > V(T(0)), tr / D, scale);  // scalar: if (D > 0) mu = trace(R^T H) / D
     }
     for (int i = 0; i < 3; ++i) {
       const V rv = r[3 * i] * vh[0] + r[3 * i + 1] * vh[1] + r[3 * i + 2] * vh[2];
@@ -107,7 +107,7 @@ struct DeformKernel : Simd<T, A> {
     apply_rotation(fr, h, qs, vh, D, V(fr.world_scale), out, stats);
     // Vertices on a handle (scalar: write q_j exactly); padding lanes have snap = -1.
     const V snap = V::load_aligned(fr.snap + v0);
-    if (xsimd::any(snap >= V(T(0)))) {
+    if (any(snap >= V(T(0)))) {
       alignas(64) T buf[3][W], sb[W];
       for (int c = 0; c < 3; ++c) out[c].store_aligned(buf[c]);
       snap.store_aligned(sb);

@@ -21,10 +21,10 @@ struct FitRotations : Simd<T, A> {
   /// h: 9 lanes of H (row-major entries), not yet normalised; r: the rotations. Lanes with H = 0 get the
   /// identity. Returns the lanes the scalar code must redo (their r is unspecified) and counts.
   MLSDEFORM_KERNEL_INLINE static M fit(V (&h)[9], V (&r)[9], RotationStats& stats) {
-    V m = xsimd::abs(h[0]);
-    for (int i = 1; i < 9; ++i) m = xsimd::max(m, xsimd::abs(h[i]));
+    V m = abs(h[0]);
+    for (int i = 1; i < 9; ++i) m = max(m, abs(h[i]));
     const M zero = m == V(T(0));
-    const V scale = Simd<T, A>::pow2_inverse_exponent(xsimd::select(zero, V(T(1)), m));
+    const V scale = Simd<T, A>::pow2_inverse_exponent(select(zero, V(T(1)), m));
     for (int i = 0; i < 9; ++i) h[i] = h[i] * scale;
     const typename Q::Invariants inv = Q::invariants(h);
     const V y = Q::maximum_root(inv);
@@ -32,16 +32,16 @@ struct FitRotations : Simd<T, A> {
     M near_double, fallback;
     const typename RA::Vec4 q = RA::rotation_axis(K, y, Q::clustered_top_three(inv), near_double, fallback);
     SinCos<T, A>::rotation_from_quaternion(q.v[0], q.v[1], q.v[2], q.v[3], r);
-    for (int i = 0; i < 9; ++i) r[i] = xsimd::select(zero, V(i % 4 == 0 ? T(1) : T(0)), r[i]);
+    for (int i = 0; i < 9; ++i) r[i] = select(zero, V(i % 4 == 0 ? T(1) : T(0)), r[i]);
     near_double = near_double & !zero;
     fallback = fallback & !zero;
-    if (xsimd::any(near_double)) stats.near_double += count(near_double);
+    if (any(near_double)) stats.near_double += count(near_double);
     return fallback;
   }
 
   static std::size_t count(M m) {
     alignas(64) T tmp[W];
-    xsimd::select(m, V(T(1)), V(T(0))).store_aligned(tmp);
+    select(m, V(T(1)), V(T(0))).store_aligned(tmp);
     std::size_t c = 0;
     for (std::size_t i = 0; i < W; ++i) c += tmp[i] != T(0);
     return c;
@@ -54,7 +54,7 @@ struct FitRotations : Simd<T, A> {
       h[i].store_aligned(hb[i]);
       r[i].store_aligned(rb[i]);
     }
-    xsimd::select(fallback, V(T(1)), V(T(0))).store_aligned(fb);
+    select(fallback, V(T(1)), V(T(0))).store_aligned(fb);
     for (std::size_t lane = 0; lane < W; ++lane) {
       if (fb[lane] == T(0)) continue;
       T h9[9], r9[9];
@@ -71,7 +71,7 @@ struct FitRotations : Simd<T, A> {
     V h[9], r[9];
     for (int i = 0; i < 9; ++i) h[i] = V::load_unaligned(H + std::size_t(i) * stride + offset);
     const M fallback = fit(h, r, stats);
-    if (xsimd::any(fallback)) scalar_lanes(fallback, h, r, stats);
+    if (any(fallback)) scalar_lanes(fallback, h, r, stats);
     for (int i = 0; i < 9; ++i) r[i].store_unaligned(R + std::size_t(i) * stride + offset);
   }
 

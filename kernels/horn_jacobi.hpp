@@ -20,10 +20,10 @@ struct HornJacobi : Simd<T, A> {
   static constexpr int sweeps = sizeof(T) == 4 ? 5 : 6;
 
   MLSDEFORM_KERNEL_INLINE static void fit(V (&h)[9], V (&r)[9]) {
-    V m = xsimd::abs(h[0]);
-    for (int i = 1; i < 9; ++i) m = xsimd::max(m, xsimd::abs(h[i]));
+    V m = abs(h[0]);
+    for (int i = 1; i < 9; ++i) m = max(m, abs(h[i]));
     const M zero = m == V(T(0));
-    const V scale = Simd<T, A>::pow2_inverse_exponent(xsimd::select(zero, V(T(1)), m));
+    const V scale = Simd<T, A>::pow2_inverse_exponent(select(zero, V(T(1)), m));
     for (int i = 0; i < 9; ++i) h[i] = h[i] * scale;
     const typename QuarticRoot<T, A>::Invariants inv = QuarticRoot<T, A>::invariants(h);
     typename RotationAxis<T, A>::Mat4 K = RotationAxis<T, A>::davenport(h, inv.E, inv.z0, inv.z1, inv.z2);
@@ -41,25 +41,25 @@ struct HornJacobi : Simd<T, A> {
     V w = v[0][0], x0 = v[1][0], x1 = v[2][0], x2 = v[3][0];
     for (int j = 1; j < 4; ++j) {
       const M better = a[j][j] > best;
-      best = xsimd::select(better, a[j][j], best);
-      w = xsimd::select(better, v[0][j], w);
-      x0 = xsimd::select(better, v[1][j], x0);
-      x1 = xsimd::select(better, v[2][j], x1);
-      x2 = xsimd::select(better, v[3][j], x2);
+      best = select(better, a[j][j], best);
+      w = select(better, v[0][j], w);
+      x0 = select(better, v[1][j], x0);
+      x1 = select(better, v[2][j], x1);
+      x2 = select(better, v[3][j], x2);
     }
     SinCos<T, A>::rotation_from_quaternion(w, x0, x1, x2, r);
-    for (int i = 0; i < 9; ++i) r[i] = xsimd::select(zero, V(i % 4 == 0 ? T(1) : T(0)), r[i]);
+    for (int i = 0; i < 9; ++i) r[i] = select(zero, V(i % 4 == 0 ? T(1) : T(0)), r[i]);
   }
 
   /// One Jacobi rotation annihilating a[p][q]; v accumulates the eigenvectors (columns).
   MLSDEFORM_KERNEL_INLINE static void rotate(V (&a)[4][4], V (&v)[4][4], int p, int q) {
     const V apq = a[p][q];
     const M skip = apq == V(T(0));
-    const V theta = (a[q][q] - a[p][p]) / (V(T(2)) * xsimd::select(skip, V(T(1)), apq));
-    const V t0 = V(T(1)) / (xsimd::abs(theta) + xsimd::sqrt(theta * theta + V(T(1))));
+    const V theta = (a[q][q] - a[p][p]) / (V(T(2)) * select(skip, V(T(1)), apq));
+    const V t0 = V(T(1)) / (abs(theta) + sqrt(theta * theta + V(T(1))));
     // theta^2 may overflow to inf for a tiny a_pq: then t0 = 0, the rotation is the identity (as it should be).
-    const V t = xsimd::select(skip, V(T(0)), xsimd::select(theta < V(T(0)), -t0, t0));
-    const V c = V(T(1)) / xsimd::sqrt(t * t + V(T(1))), s = t * c;
+    const V t = select(skip, V(T(0)), select(theta < V(T(0)), -t0, t0));
+    const V c = V(T(1)) / sqrt(t * t + V(T(1))), s = t * c;
     a[p][p] = a[p][p] - t * apq;
     a[q][q] = a[q][q] + t * apq;
     a[p][q] = a[q][p] = V(T(0));

@@ -79,11 +79,11 @@ struct QuarticRoot : Simd<T, A> {
     const V p = inv.c2 - inv.norm2 * shift;
     const V q = V(T(-2)) * shift * shift * shift + shift * inv.c2 - inv.det * inv.det;
     const M regular = p < V(T(0));  // else a triple root: mu = shift
-    const V m = xsimd::sqrt(xsimd::max(-p / V(T(3)), V(T(0))));
-    V r = xsimd::select(regular, V(T(-0.5)) * q / (m * m * m), V(T(0)));
-    r = xsimd::min(xsimd::max(r, V(T(-1))), V(T(1)));
-    const V t = V(T(2)) * m * cos_small(xsimd::acos(r) / V(T(3)));
-    return xsimd::select(regular, shift + t, shift);
+    const V m = sqrt(max(-p / V(T(3)), V(T(0))));
+    V r = select(regular, V(T(-0.5)) * q / (m * m * m), V(T(0)));
+    r = min(max(r, V(T(-1))), V(T(1)));
+    const V t = V(T(2)) * m * cos_small(acos(r) / V(T(3)));
+    return select(regular, shift + t, shift);
   }
 
   /// Eq. (13): the largest root y = s1 + s2 + sign(det H) s3. `iterations` counts the loop trips.
@@ -91,20 +91,20 @@ struct QuarticRoot : Simd<T, A> {
     // cbrt(eps), as in the scalar code: the closed form's worst-case relative accuracy.
     constexpr T cbrt_eps = sizeof(T) == 4 ? T(4.92156660e-3) : T(6.0554544523933395e-6);
     const V mu1 = largest_eigenvalue_HtH(inv);
-    const V s1 = xsimd::sqrt(xsimd::max(mu1, V(T(0))));
+    const V s1 = sqrt(max(mu1, V(T(0))));
     const M s1pos = s1 > V(T(0));
-    const V rest = inv.norm2 - mu1 + xsimd::select(s1pos, V(T(2)) * inv.det / s1, V(T(0)));
-    const V y_closed = s1 + xsimd::sqrt(xsimd::max(rest, V(T(0))));
+    const V rest = inv.norm2 - mu1 + select(s1pos, V(T(2)) * inv.det / s1, V(T(0)));
+    const V y_closed = s1 + sqrt(max(rest, V(T(0))));
     const V a = V(T(-2)) * inv.norm2, b = V(T(-8)) * inv.det, c = inv.norm2 * inv.norm2 - V(T(4)) * inv.c2;
     auto P = [&](V y) { return ((y * y + a) * y + b) * y + c; };
     auto dP = [&](V y) { return (V(T(4)) * y * y + V(T(2)) * a) * y + b; };
-    const V norm = xsimd::sqrt(inv.norm2);
-    const V upper = xsimd::sqrt(V(T(3))) * norm;
+    const V norm = sqrt(inv.norm2);
+    const V upper = sqrt(V(T(3))) * norm;
     // scalar: y = near_ok ? near : (P(far) >= 0 ? far : upper)
-    const V near = xsimd::min(y_closed + V(T(64) * eps) * norm, upper);
-    const V far = xsimd::min(y_closed + V(T(4) * cbrt_eps) * norm, upper);
+    const V near = min(y_closed + V(T(64) * eps) * norm, upper);
+    const V far = min(y_closed + V(T(4) * cbrt_eps) * norm, upper);
     const M near_ok = (P(near) >= V(T(0))) & (dP(near) > V(T(4) * Simd<T, A>::sqrt_eps) * inv.norm2 * norm);
-    V y = xsimd::select(near_ok, near, xsimd::select(P(far) >= V(T(0)), far, upper));
+    V y = select(near_ok, near, select(P(far) >= V(T(0)), far, upper));
     constexpr T inf = std::numeric_limits<T>::infinity();
     V last_step(inf);
     M active = Simd<T, A>::all_true();
@@ -114,9 +114,9 @@ struct QuarticRoot : Simd<T, A> {
       const V step = P(y) / d;
       // scalar: if (!(d > 0) || !(step > 0) || !(step <= last_step) || !(y - step < y)) break;
       active = active & (d > V(T(0))) & (step > V(T(0))) & (step <= last_step) & ((y - step) < y);
-      if (xsimd::none(active)) break;
-      y = xsimd::select(active, y - step, y);
-      last_step = xsimd::select(active, step, last_step);
+      if (none(active)) break;
+      y = select(active, y - step, y);
+      last_step = select(active, step, last_step);
     }
     if (iterations) *iterations = it;
     return y;

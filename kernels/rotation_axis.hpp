@@ -76,8 +76,8 @@ struct RotationAxis : Simd<T, A> {
   };
   MLSDEFORM_KERNEL_INLINE static Columns strongest_column(const Mat4& adj) {
     Columns c;
-    const V d[4] = {xsimd::abs(adj.k[0]), xsimd::abs(adj.k[5]), xsimd::abs(adj.k[10]), xsimd::abs(adj.k[15])};
-    c.dk = xsimd::max(xsimd::max(d[0], d[1]), xsimd::max(d[2], d[3]));
+    const V d[4] = {abs(adj.k[0]), abs(adj.k[5]), abs(adj.k[10]), abs(adj.k[15])};
+    c.dk = max(max(d[0], d[1]), max(d[2], d[3]));
     c.k[0] = d[0] >= V(T(0.25)) * c.dk;
     M taken = c.k[0];
     for (int j = 1; j < 4; ++j) {
@@ -91,8 +91,8 @@ struct RotationAxis : Simd<T, A> {
   MLSDEFORM_KERNEL_INLINE static Vec4 column(const Mat4& adj, const M (&pick)[4]) {
     Vec4 col;
     for (int i = 0; i < 4; ++i)
-      col.v[i] = xsimd::select(pick[0], adj(i, 0),
-                               xsimd::select(pick[1], adj(i, 1), xsimd::select(pick[2], adj(i, 2), adj(i, 3))));
+      col.v[i] = select(pick[0], adj(i, 0),
+                               select(pick[1], adj(i, 1), select(pick[2], adj(i, 2), adj(i, 3))));
     return col;
   }
 
@@ -110,7 +110,7 @@ struct RotationAxis : Simd<T, A> {
   MLSDEFORM_KERNEL_INLINE static Vec4 ritz_top(const Mat4& adj, const Columns& c, const Mat4& K, V a, V& gap) {
     const Vec4 ck = column(adj, c.k);
     Vec4 b1, b2;
-    const V inv1 = V(T(1)) / xsimd::sqrt(dot(ck, ck));
+    const V inv1 = V(T(1)) / sqrt(dot(ck, ck));
     for (int i = 0; i < 4; ++i) b1.v[i] = ck.v[i] * inv1;
     // l: the largest remainder |c_j|^2 - (b1 . c_j)^2 over j != k (first index on ties; scalar: rem > best).
     M l[4];
@@ -121,7 +121,7 @@ struct RotationAxis : Simd<T, A> {
       for (int i = 0; i < 4; ++i) cj.v[i] = adj(i, j);
       const V p = dot(b1, cj), rem = dot(cj, cj) - p * p;
       l[j] = ~c.k[j] & (rem > best);
-      best = xsimd::select(l[j], rem, best);
+      best = select(l[j], rem, best);
       taken = taken | l[j];
     }
     // Keep only the last index that improved (the first maximum); NaN lanes: the scalar's default.
@@ -137,19 +137,19 @@ struct RotationAxis : Simd<T, A> {
     const M line_only = !(dot(b2, b2) > V(T(64 * 64) * eps * eps) * dot(cl, cl));
     p = dot(b1, b2);  // twice is enough
     for (int i = 0; i < 4; ++i) b2.v[i] = b2.v[i] - b1.v[i] * p;
-    const V inv2 = V(T(1)) / xsimd::sqrt(dot(b2, b2));
+    const V inv2 = V(T(1)) / sqrt(dot(b2, b2));
     for (int i = 0; i < 4; ++i) b2.v[i] = b2.v[i] * inv2;
     const Vec4 Kb1 = mul(K, b1), Kb2 = mul(K, b2);
     const V B11 = dot(b1, Kb1), B12 = dot(b1, Kb2), B22 = dot(b2, Kb2);
     const V d = V(T(0.5)) * (B11 - B22);
-    const V r = xsimd::sqrt(d * d + B12 * B12);
+    const V r = sqrt(d * d + B12 * B12);
     constexpr T inf = std::numeric_limits<T>::infinity();
-    gap = xsimd::select(line_only, V(inf), V(T(2)) * r);
+    gap = select(line_only, V(inf), V(T(2)) * r);
     // scalar: if (!(r > 8 eps a)) { the plane's vector closest to e0 (or e_m) }
     const M is_double = !(r > V(T(8) * eps) * a);
     V proj[4];
     for (int i = 0; i < 4; ++i) proj[i] = b1.v[i] * b1.v[i] + b2.v[i] * b2.v[i];
-    const V pm = xsimd::max(xsimd::max(proj[0], proj[1]), xsimd::max(proj[2], proj[3]));
+    const V pm = max(max(proj[0], proj[1]), max(proj[2], proj[3]));
     M pick[4];
     pick[0] = proj[0] >= V(T(0.25)) * pm;
     taken = pick[0];
@@ -159,16 +159,16 @@ struct RotationAxis : Simd<T, A> {
     }
     V b1m = b1.v[3], b2m = b2.v[3];
     for (int j = 2; j >= 0; --j) {
-      b1m = xsimd::select(pick[j], b1.v[j], b1m);
-      b2m = xsimd::select(pick[j], b2.v[j], b2m);
+      b1m = select(pick[j], b1.v[j], b1m);
+      b2m = select(pick[j], b2.v[j], b2m);
     }
     const M d_pos = d >= V(T(0));
-    const V f1 = xsimd::select(d_pos, d + r, B12), f2 = xsimd::select(d_pos, B12, r - d);
+    const V f1 = select(d_pos, d + r, B12), f2 = select(d_pos, B12, r - d);
     Vec4 q;
     for (int i = 0; i < 4; ++i) {
       const V ritz = f1 * b1.v[i] + f2 * b2.v[i];
       const V dbl = b1.v[i] * b1m + b2.v[i] * b2m;
-      q.v[i] = xsimd::select(line_only, b1.v[i], xsimd::select(is_double, dbl, ritz));
+      q.v[i] = select(line_only, b1.v[i], select(is_double, dbl, ritz));
     }
     return q;
   }
@@ -177,8 +177,8 @@ struct RotationAxis : Simd<T, A> {
   /// was rounding noise even when shifted (a triple root), which the scalar code redoes; `near_double` those
   /// that took the shifted evaluation. `clustered`: the lanes whose top three eigenvalues of K cluster.
   MLSDEFORM_KERNEL_INLINE static Vec4 rotation_axis(const Mat4& K, V y, M clustered, M& near_double, M& fallback) {
-    V a = xsimd::abs(K.k[0]);
-    for (int i = 1; i < 16; ++i) a = xsimd::max(a, xsimd::abs(K.k[i]));
+    V a = abs(K.k[0]);
+    for (int i = 1; i < 16; ++i) a = max(a, abs(K.k[i]));
     const V a3 = a * a * a;
     const V sqrt_eps(Simd<T, A>::sqrt_eps);
     Mat4 adj = adjugate(shifted(K, y));
@@ -189,13 +189,13 @@ struct RotationAxis : Simd<T, A> {
     const M regular = c.dk > sqrt_eps * a3;
     near_double = !regular;
     fallback = M(false);
-    if (xsimd::any(near_double)) {
+    if (any(near_double)) {
       adj = adjugate(shifted(K, y + sqrt_eps * a));
       c = strongest_column(adj);
       V gap1;
       const Vec4 q1 = ritz_top(adj, c, K, a, gap1);
-      for (int i = 0; i < 4; ++i) q.v[i] = xsimd::select(regular, q.v[i], q1.v[i]);
-      gap = xsimd::select(regular, gap, gap1);
+      for (int i = 0; i < 4; ++i) q.v[i] = select(regular, q.v[i], q1.v[i]);
+      gap = select(regular, gap, gap1);
       fallback = near_double & !(c.dk > V(T(64) * eps) * a3);
     }
     // scalar: clustered lanes go to top_eigenvector (here: to the scalar fallback), and
@@ -203,17 +203,17 @@ struct RotationAxis : Simd<T, A> {
     // scalar code, which runs its own passes.
     fallback = fallback | clustered;
     M refine = ~fallback & ~(gap > a / V(T(64))) & (gap > sqrt_eps * a);
-    if (xsimd::any(refine)) {
+    if (any(refine)) {
       V rho = dot(q, mul(K, q)) / dot(q, q);
-      for (int pass = 0; pass < 2 && xsimd::any(refine); ++pass) {
+      for (int pass = 0; pass < 2 && any(refine); ++pass) {
         adj = adjugate(shifted(K, rho));
         c = strongest_column(adj);
         V unused;
         const Vec4 next = ritz_top(adj, c, K, a, unused);
         const V rho_next = dot(next, mul(K, next)) / dot(next, next);
         refine = refine & (rho_next >= rho - V(T(8) * eps) * a);
-        for (int i = 0; i < 4; ++i) q.v[i] = xsimd::select(refine, next.v[i], q.v[i]);
-        rho = xsimd::select(refine, rho_next, rho);
+        for (int i = 0; i < 4; ++i) q.v[i] = select(refine, next.v[i], q.v[i]);
+        rho = select(refine, rho_next, rho);
       }
     }
     return q;

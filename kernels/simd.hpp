@@ -15,16 +15,127 @@
 
 namespace mlsdeform::kernels {
 
-template <class T, class A>
-struct Simd {
-  using V = xsimd::batch<T, A>;
-  using M = xsimd::batch_bool<T, A>;
-  static constexpr std::size_t W = V::size;
+/// Tag for Simd<T, Twin<A>>: two batches of arch A side by side, processed together by every operation,
+/// so that the core has a second, independent dependency chain to issue while the first waits on a
+/// division or square root. Worth it where few vectors are live at once: the batched Horn-Jacobi baseline
+/// (1.3-1.5x faster); not for the axis/angle fit, which then spills registers (see isa_instance.inc).
+template <class A>
+struct Twin {};
+
+/// Two batches of arch A as one vector of twice the width (lo = lanes [0, n), hi = [n, 2n)).
+template <class B>
+struct Pair {
+  B lo, hi;
+  using value_type = typename B::value_type;
+  static constexpr std::size_t size = 2 * B::size;
+  Pair() = default;
+  Pair(value_type x) : lo(x), hi(x) {}  // broadcast, as batch(x)
+  Pair(B l, B h) : lo(l), hi(h) {}
+  static Pair load_aligned(const value_type* p) { return {B::load_aligned(p), B::load_aligned(p + B::size)}; }
+  static Pair load_unaligned(const value_type* p) { return {B::load_unaligned(p), B::load_unaligned(p + B::size)}; }
+  void store_aligned(value_type* p) const { lo.store_aligned(p), hi.store_aligned(p + B::size); }
+  void store_unaligned(value_type* p) const { lo.store_unaligned(p), hi.store_unaligned(p + B::size); }
+};
+
+template <class B>
+struct PairMask {
+  B lo, hi;
+  PairMask() = default;
+  explicit PairMask(bool x) : lo(x), hi(x) {}
+  PairMask(B l, B h) : lo(l), hi(h) {}
+};
+
+#define MLSDEFORM_PAIR_BINARY(R, OP, X)                                                                       \
+  template <class B>                                                                                          \
+  MLSDEFORM_KERNEL_INLINE auto operator OP(const X<B>& a, const X<B>& b) {                                    \
+    return R{a.lo OP b.lo, a.hi OP b.hi};                                                                     \
+  }
+#define MLSDEFORM_PAIR_COMPARE(OP)                                                                            \
+  template <class B>                                                                                          \
+  MLSDEFORM_KERNEL_INLINE auto operator OP(const Pair<B>& a, const Pair<B>& b) {                              \
+    using BM = decltype(a.lo OP b.lo);                                                                        \
+    return PairMask<BM>{a.lo OP b.lo, a.hi OP b.hi};                                                          \
+  }
+MLSDEFORM_PAIR_BINARY(Pair<B>, +, Pair)
+MLSDEFORM_PAIR_BINARY(Pair<B>, -, Pair)
+MLSDEFORM_PAIR_BINARY(Pair<B>, *, Pair)
+MLSDEFORM_PAIR_BINARY(Pair<B>, /, Pair)
+MLSDEFORM_PAIR_COMPARE(<)
+MLSDEFORM_PAIR_COMPARE(<=)
+MLSDEFORM_PAIR_COMPARE(>)
+MLSDEFORM_PAIR_COMPARE(>=)
+MLSDEFORM_PAIR_COMPARE(==)
+MLSDEFORM_PAIR_BINARY(PairMask<B>, &, PairMask)
+MLSDEFORM_PAIR_BINARY(PairMask<B>, |, PairMask)
+MLSDEFORM_PAIR_BINARY(PairMask<B>, ^, PairMask)
+#undef MLSDEFORM_PAIR_BINARY
+#undef MLSDEFORM_PAIR_COMPARE
+template <class B>
+MLSDEFORM_KERNEL_INLINE Pair<B> operator-(const Pair<B>& a) { return {-a.lo, -a.hi}; }
+template <class B>
+MLSDEFORM_KERNEL_INLINE PairMask<B> operator~(const PairMask<B>& a) { return {~a.lo, ~a.hi}; }
+template <class B>
+MLSDEFORM_KERNEL_INLINE PairMask<B> operator!(const PairMask<B>& a) { return {!a.lo, !a.hi}; }
+
+// The element-wise functions the kernels call (unqualified, so that a batch finds xsimd's by argument-
+// dependent lookup and a Pair these).
+template <class B>
+MLSDEFORM_KERNEL_INLINE Pair<B> abs(const Pair<B>& a) { return {xsimd::abs(a.lo), xsimd::abs(a.hi)}; }
+template <class B>
+MLSDEFORM_KERNEL_INLINE Pair<B> sqrt(const Pair<B>& a) { return {xsimd::sqrt(a.lo), xsimd::sqrt(a.hi)}; }
+template <class B>
+MLSDEFORM_KERNEL_INLINE Pair<B> acos(const Pair<B>& a) { return {xsimd::acos(a.lo), xsimd::acos(a.hi)}; }
+template <class B>
+MLSDEFORM_KERNEL_INLINE Pair<B> exp2(const Pair<B>& a) { return {xsimd::exp2(a.lo), xsimd::exp2(a.hi)}; }
+template <class B>
+MLSDEFORM_KERNEL_INLINE Pair<B> log2(const Pair<B>& a) { return {xsimd::log2(a.lo), xsimd::log2(a.hi)}; }
+template <class B>
+MLSDEFORM_KERNEL_INLINE Pair<B> max(const Pair<B>& a, const Pair<B>& b) {
+  return {xsimd::max(a.lo, b.lo), xsimd::max(a.hi, b.hi)};
+}
+template <class B>
+MLSDEFORM_KERNEL_INLINE Pair<B> min(const Pair<B>& a, const Pair<B>& b) {
+  return {xsimd::min(a.lo, b.lo), xsimd::min(a.hi, b.hi)};
+}
+template <class BM, class B>
+MLSDEFORM_KERNEL_INLINE Pair<B> select(const PairMask<BM>& m, const Pair<B>& a, const Pair<B>& b) {
+  return {xsimd::select(m.lo, a.lo, b.lo), xsimd::select(m.hi, a.hi, b.hi)};
+}
+template <class BM>
+MLSDEFORM_KERNEL_INLINE bool any(const PairMask<BM>& m) { return xsimd::any(m.lo | m.hi); }
+template <class BM>
+MLSDEFORM_KERNEL_INLINE bool none(const PairMask<BM>& m) { return xsimd::none(m.lo | m.hi); }
+
+/// What every vector type shares: constants and the batch walk over a 3 x 3 x n layout.
+template <class T, std::size_t Width>
+struct SimdCommon {
+  static constexpr std::size_t W = Width;
   static constexpr T eps = std::numeric_limits<T>::epsilon();
   /// sqrt(eps) as a literal (2^-11.5, 2^-26): no std::sqrt may be emitted in an ISA object.
   static constexpr T sqrt_eps = sizeof(T) == 4 ? T(3.45266983e-4f) : T(1.4901161193847656e-8);
 
-  MLSDEFORM_KERNEL_INLINE static V splat(T x) { return V(x); }
+  /// Calls f(src, dst, stride, offset) for each batch of W matrices of [begin, end) in a 3 x 3 x n layout;
+  /// a partial last batch goes through a zero-padded copy (padding lanes hold H = 0).
+  template <class F>
+  static void for_each_batch(const T* H, T* R, std::size_t stride, std::size_t begin, std::size_t end, F&& f) {
+    std::size_t i = begin;
+    for (; i + W <= end; i += W) f(H, R, stride, i);
+    if (i == end) return;
+    alignas(64) T hb[9 * W] = {}, rb[9 * W];
+    const std::size_t rem = end - i;
+    for (std::size_t e = 0; e < 9; ++e)
+      for (std::size_t j = 0; j < rem; ++j) hb[e * W + j] = H[e * stride + i + j];
+    f(static_cast<const T*>(hb), static_cast<T*>(rb), W, std::size_t(0));
+    for (std::size_t e = 0; e < 9; ++e)
+      for (std::size_t j = 0; j < rem; ++j) R[e * stride + i + j] = rb[e * W + j];
+  }
+};
+
+template <class T, class A>
+struct Simd : SimdCommon<T, xsimd::batch<T, A>::size> {
+  using V = xsimd::batch<T, A>;
+  using M = xsimd::batch_bool<T, A>;
+
   MLSDEFORM_KERNEL_INLINE static M all_true() { return V(T(0)) == V(T(0)); }
 
   /// 2^-e with e = the exponent of m (m > 0 finite), so that m * 2^-e is in [1, 2): the exact power-of-two
@@ -41,21 +152,17 @@ struct Simd {
     e = xsimd::max(e, VI(I(1) << mant));          // subnormal m: scale by 2^(emax-1)
     return xsimd::bitwise_cast<V>(VI(bias2 << mant) - e);
   }
+};
 
-  /// Calls f(src, dst, stride, offset) for each batch of W matrices of [begin, end) in a 3 x 3 x n layout;
-  /// a partial last batch goes through a zero-padded copy (padding lanes hold H = 0).
-  template <class F>
-  static void for_each_batch(const T* H, T* R, std::size_t stride, std::size_t begin, std::size_t end, F&& f) {
-    std::size_t i = begin;
-    for (; i + W <= end; i += W) f(H, R, stride, i);
-    if (i == end) return;
-    alignas(64) T hb[9 * W] = {}, rb[9 * W];
-    const std::size_t rem = end - i;
-    for (std::size_t e = 0; e < 9; ++e)
-      for (std::size_t j = 0; j < rem; ++j) hb[e * W + j] = H[e * stride + i + j];
-    f(static_cast<const T*>(hb), static_cast<T*>(rb), W, std::size_t(0));
-    for (std::size_t e = 0; e < 9; ++e)
-      for (std::size_t j = 0; j < rem; ++j) R[e * stride + i + j] = rb[e * W + j];
+/// Two interleaved batches of arch A (see Twin): the same interface, twice the width.
+template <class T, class A>
+struct Simd<T, Twin<A>> : SimdCommon<T, 2 * xsimd::batch<T, A>::size> {
+  using V = Pair<xsimd::batch<T, A>>;
+  using M = PairMask<xsimd::batch_bool<T, A>>;
+
+  MLSDEFORM_KERNEL_INLINE static M all_true() { return M(true); }
+  MLSDEFORM_KERNEL_INLINE static V pow2_inverse_exponent(V m) {
+    return {Simd<T, A>::pow2_inverse_exponent(m.lo), Simd<T, A>::pow2_inverse_exponent(m.hi)};
   }
 };
 
