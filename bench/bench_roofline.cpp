@@ -121,7 +121,10 @@ void bm_fma(benchmark::State& state, double (*loop)(std::int64_t), int accumulat
   }
   for (auto _ : state) benchmark::DoNotOptimize(loop(kIters));
   const double flops = 2.0 * lanes * accumulators * static_cast<double>(kIters);
-  state.counters["GFLOPs"] = benchmark::Counter(flops * 1e-9, benchmark::Counter::kIsIterationInvariantRate);
+  // With ->Threads(N), Google Benchmark sums this counter over the N threads and also multiplies by the
+  // iterations of all N threads: kAvgThreads removes the double count, leaving the sum of the threads' rates.
+  state.counters["GFLOPs"] = benchmark::Counter(
+      flops * 1e-9, benchmark::Counter::kIsIterationInvariantRate | benchmark::Counter::kAvgThreads);
 }
 
 // ---------------------------------------------------------------------------------------------------------

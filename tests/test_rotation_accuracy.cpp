@@ -92,16 +92,6 @@ struct FailureLog {
       CHECK(n == 0);
     }
   }
-  // The stress families whose matrices span hundreds of binades (wide_exponents) or weights spanning many
-  // orders of magnitude (wide_weights), for the two methods whose error is not a single backward-stable
-  // step: a handful of cases per 10^3 at kappa 1e4..1e8 exceed the bound by up to ~10x (axis_angle, double)
-  // or break down (horn_matrix: the normal matrix H^T H underflows and squares kappa). Reported, counted in
-  // docs/accuracy.md, and not hidden: every other family of these methods is held to the bound.
-  static bool known_limitation(const std::string& key) {
-    const bool method = key.find("axis_angle") != std::string::npos || key.find("horn_matrix") != std::string::npos;
-    const bool family = key.find("wide_exponents") != std::string::npos || key.find("wide_weights") != std::string::npos;
-    return method && family;
-  }
 };
 
 template <class T>
@@ -304,7 +294,7 @@ void suite(RotationMethod m) {
 // then a count.
 
 // Held to c_b = 64 (accuracy_bounds.hpp); the stress families wide_exponents / wide_weights are reported as a
-// known limitation (FailureLog::known_limitation).
+// known limitation (known_limitation in tests/support/accuracy_bounds.hpp).
 TEST_CASE("accuracy: axis_angle (the paper's method)", "[accuracy][axis_angle]") {
   suite(RotationMethod::axis_angle);
 }
