@@ -18,7 +18,7 @@ namespace mlsdeform::kernels {
 /// Tag for Simd<T, Twin<A>>: two batches of arch A side by side, processed together by every operation,
 /// so that the core has a second, independent dependency chain to issue while the first waits on a
 /// division or square root. Worth it where few vectors are live at once: the batched Horn-Jacobi baseline
-/// (1.3-1.5x faster); not for the axis/angle fit, which then spills registers (see isa_instance.inc).
+/// (1.3-1.5x faster); not for the axis/angle fit, which twinned ran slower (see isa_instance.inc).
 template <class A>
 struct Twin {};
 
