@@ -91,8 +91,7 @@ struct RotationAxis : Simd<T, A> {
   MLSDEFORM_KERNEL_INLINE static Vec4 column(const Mat4& adj, const M (&pick)[4]) {
     Vec4 col;
     for (int i = 0; i < 4; ++i)
-      col.v[i] = select(pick[0], adj(i, 0),
-                               select(pick[1], adj(i, 1), select(pick[2], adj(i, 2), adj(i, 3))));
+      col.v[i] = select(pick[0], adj(i, 0), select(pick[1], adj(i, 1), select(pick[2], adj(i, 2), adj(i, 3))));
     return col;
   }
 

@@ -20,12 +20,14 @@
 
 #include <cmath>
 #include <cstdint>
+#include <initializer_list>
 #include <iostream>
 #include <limits>
 #include <map>
 #include <numbers>
 #include <sstream>
 #include <string>
+#include <utility>
 #include <vector>
 
 using namespace mlsdeform;
@@ -239,7 +241,8 @@ std::vector<std::pair<std::string, Matrix3<T>>> hostile_matrices(bool subnormal_
       for (T v : {T(1), T(-1), big, -small}) {
         Matrix3<T> H = Matrix3<T>::Zero();
         H(r, j) = v;
-        cases.emplace_back("single entry (" + std::to_string(r) + "," + std::to_string(j) + ") = " + std::to_string(double(v)), H);
+        cases.emplace_back(
+            "single entry (" + std::to_string(r) + "," + std::to_string(j) + ") = " + std::to_string(double(v)), H);
       }
   {
     Matrix3<T> H;  // mixed magnitudes across the whole range
@@ -322,78 +325,67 @@ TEST_CASE("every method on H whose largest entry is subnormal", "[accuracy][fini
   log.summarise();
 }
 
+/// Matrix3<T> from 9 entries in row-major order.
+template <class T>
+Matrix3<T> row_major(std::initializer_list<T> v) {
+  Matrix3<T> H;
+  auto it = v.begin();
+  for (int r = 0; r < 3; ++r)
+    for (int c = 0; c < 3; ++c) H(r, c) = *it++;
+  return H;
+}
+
+/// The suite's verdict on axis_angle for one matrix ("" when within every bound).
+template <class T>
+std::string axis_angle_violations(const Matrix3<T>& H) {
+  const Reference ref = reference(H);
+  return violations<T>(measure(fit_rotation(H, RotationMethod::axis_angle), H, ref), ref, RotationMethod::axis_angle);
+}
+
 // Regression cases (they failed before core/src/axis_angle.hpp sent clustered H to a symmetric eigensolver,
-// top_eigenvector): axis_angle with a repeated largest singular value and det H < 0 (H = U diag(s, s, t) V^T, det < 0, t slightly below s).
-// Then K's top eigenvalues are 2s - t and a double t just below it (a cluster of three), and the result can
-// be far from the optimum with a real trace loss. Found by docs/accuracy.md's run (10^5 cases per family,
-// seed 20261121; repeated_sv indices below, `make_case<T>(Family::repeated_sv, 20261121, index)`); the
-// default suite run draws too few of them to hit these. Judged with the suite's own bounds for axis_angle
-// (c_b = 64): every one of them is beyond it.
+// top_eigenvector): axis_angle with a repeated largest singular value and det H < 0 (H = U diag(s, s, t) V^T,
+// t slightly below s). Then K's top eigenvalues are 2s - t and a double t just below it (a cluster of three),
+// and the result can be far from the optimum with a real trace loss. Found by docs/accuracy.md's run (10^5
+// cases per family, seed 20261121; repeated_sv indices below, `make_case<T>(Family::repeated_sv, 20261121,
+// index)`); the default suite run draws too few of them to hit these. Judged with the suite's own bounds for
+// axis_angle (c_b = 64): every one of them was beyond it.
 TEST_CASE("axis_angle: repeated largest singular value with det H < 0 (reproducers)",
           "[accuracy][axis_angle]") {
-  struct Repro {
-    const char* what;
-    Matrix3<float> Hf;
-    Matrix3<double> Hd;
-    bool is_float;
-  };
-  auto f = [](std::initializer_list<float> v) {
-    Matrix3<float> H;
-    auto it = v.begin();
-    for (int r = 0; r < 3; ++r)
-      for (int c = 0; c < 3; ++c) H(r, c) = *it++;
-    return H;
-  };
-  auto d = [](std::initializer_list<double> v) {
-    Matrix3<double> H;
-    auto it = v.begin();
-    for (int r = 0; r < 3; ++r)
-      for (int c = 0; c < 3; ++c) H(r, c) = *it++;
-    return H;
-  };
-  const Repro cases[] = {
+  const std::pair<const char*, Matrix3<float>> float_cases[] = {
       // s = 0.99964, 0.99964, 0.999482, kappa 6.4e3: 2.04 rad off, trace loss 1.1e3 eps ||H||.
       {"float repeated_sv 7476",
-       f({-0x1.1c6586p-1f, 0x1.e66a9ep-3f, 0x1.97c52ep-1f, 0x1.9e8e04p-1f, 0x1.7b8994p-2f, 0x1.d11bcep-2f,
-          0x1.7ff2b2p-3f, -0x1.cb747ap-1f, 0x1.97cd36p-2f}),
-       {}, true},
+       row_major<float>({-0x1.1c6586p-1f, 0x1.e66a9ep-3f, 0x1.97c52ep-1f, 0x1.9e8e04p-1f, 0x1.7b8994p-2f,
+                         0x1.d11bcep-2f, 0x1.7ff2b2p-3f, -0x1.cb747ap-1f, 0x1.97cd36p-2f})},
       // s = 0.892561, 0.892561, 0.890805, kappa 508: 1.31 rad off, trace loss 7.1e3 eps ||H||.
       {"float repeated_sv 9056",
-       f({-0x1.5722dcp-6f, 0x1.b60714p-1f, 0x1.037c48p-2f, 0x1.5c11cap-1f, 0x1.6f53ecp-3f, -0x1.183d5ap-1f,
-          0x1.278c48p-1f, -0x1.71852cp-3f, 0x1.4ffb3cp-1f}),
-       {}, true},
+       row_major<float>({-0x1.5722dcp-6f, 0x1.b60714p-1f, 0x1.037c48p-2f, 0x1.5c11cap-1f, 0x1.6f53ecp-3f,
+                         -0x1.183d5ap-1f, 0x1.278c48p-1f, -0x1.71852cp-3f, 0x1.4ffb3cp-1f})},
       // s = 0.899249, 0.899249, 0.898949, kappa 3.0e3: 0.25 rad off (bound 0.079).
       {"float repeated_sv 3602",
-       f({-0x1.eaabf4p-3f, 0x1.aa354ep-1f, 0x1.ee52b6p-3f, 0x1.ba6a96p-1f, 0x1.af5314p-3f, 0x1.0ddf22p-3f,
-          -0x1.0ae59ep-4f, -0x1.117e02p-2f, 0x1.b64d5ap-1f}),
-       {}, true},
-      // s = 0.93331, 0.93331, 0.933305, kappa 1.7e5: 4.0e-7 rad off (bound 8.3e-9).
-      {"double repeated_sv 25198", {},
-       d({0x1.14e0542badcaap-3, 0x1.a2668c7140db4p-2, 0x1.a803d5bf4d7eep-1, 0x1.575fcdb7bb8a8p-1,
-          0x1.105a2bcea664bp-1, -0x1.7cd9b95b42152p-2, 0x1.45089009b24efp-1, -0x1.4c45ad0b674e9p-1,
-          0x1.bb8172c4232a1p-3}),
-       false},
-      // s = 0.440907, 0.354181, 0.354181, det < 0 (optimum not unique): trace loss 342 eps ||H|| (bound 318).
-      {"double repeated_sv 25808", {},
-       d({0x1.f5586d028dfcap-5, -0x1.d54ba5be53e8cp-4, 0x1.52429005e11afp-2, 0x1.b664c81e7cd56p-2,
-          -0x1.108cbd57fe8cbp-5, -0x1.2a99c2d015118p-4, -0x1.500384b3f6715p-4, -0x1.565713972842p-2,
-          -0x1.af619b8a82caep-4}),
-       false},
+       row_major<float>({-0x1.eaabf4p-3f, 0x1.aa354ep-1f, 0x1.ee52b6p-3f, 0x1.ba6a96p-1f, 0x1.af5314p-3f,
+                         0x1.0ddf22p-3f, -0x1.0ae59ep-4f, -0x1.117e02p-2f, 0x1.b64d5ap-1f})},
   };
-  for (const Repro& r : cases) {
-    std::string v;
-    if (r.is_float) {
-      const Reference ref = reference(r.Hf);
-      v = violations<float>(measure(fit_rotation(r.Hf, RotationMethod::axis_angle), r.Hf, ref), ref,
-                            RotationMethod::axis_angle);
-    } else {
-      const Reference ref = reference(r.Hd);
-      v = violations<double>(measure(fit_rotation(r.Hd, RotationMethod::axis_angle), r.Hd, ref), ref,
-                             RotationMethod::axis_angle);
+  const std::pair<const char*, Matrix3<double>> double_cases[] = {
+      // s = 0.93331, 0.93331, 0.933305, kappa 1.7e5: 4.0e-7 rad off (bound 8.3e-9).
+      {"double repeated_sv 25198",
+       row_major<double>({0x1.14e0542badcaap-3, 0x1.a2668c7140db4p-2, 0x1.a803d5bf4d7eep-1, 0x1.575fcdb7bb8a8p-1,
+                          0x1.105a2bcea664bp-1, -0x1.7cd9b95b42152p-2, 0x1.45089009b24efp-1,
+                          -0x1.4c45ad0b674e9p-1, 0x1.bb8172c4232a1p-3})},
+      // s = 0.440907, 0.354181, 0.354181, det < 0 (optimum not unique): trace loss 342 eps ||H|| (bound 318).
+      {"double repeated_sv 25808",
+       row_major<double>({0x1.f5586d028dfcap-5, -0x1.d54ba5be53e8cp-4, 0x1.52429005e11afp-2, 0x1.b664c81e7cd56p-2,
+                          -0x1.108cbd57fe8cbp-5, -0x1.2a99c2d015118p-4, -0x1.500384b3f6715p-4,
+                          -0x1.565713972842p-2, -0x1.af619b8a82caep-4})},
+  };
+  auto check = [](const auto& cases) {
+    for (const auto& [what, H] : cases) {
+      const std::string v = axis_angle_violations(H);
+      INFO(what << ":" << v);
+      CHECK(v.empty());
     }
-    INFO(r.what << ":" << v);
-    CHECK(v.empty());
-  }
+  };
+  check(float_cases);
+  check(double_cases);
 }
 
 // KNOWN CORE FAILURE (reported to the lead; core/src/axis_angle.hpp): three coplanar points in double,
@@ -408,9 +400,7 @@ TEST_CASE("axis_angle: three coplanar points, double, kappa 2e4 (reproducer)",
   H << -0x1.dd8422e0ca639p-7, 0x1.3fe63d7696e59p-4, -0x1.dd2b853ca4a34p-4, -0x1.1f67292ca715dp-3,
       0x1.7fa7cb8ced28bp-1, -0x1.1e089e4fced31p+0, 0x1.da973e9396783p-10, -0x1.395efcf53904fp-7,
       0x1.d2c7a5e02c79p-7;
-  const Reference ref = reference(H);
-  const std::string v =
-      violations<double>(measure(fit_rotation(H, RotationMethod::axis_angle), H, ref), ref, RotationMethod::axis_angle);
+  const std::string v = axis_angle_violations(H);
   INFO("coplanar 61231:" << v);
   CHECK(v.empty());
 }

@@ -43,8 +43,7 @@ Matrix3<T> fit_rotation_horn_matrix(const Matrix3<T>& H) {
   // an error of up to eps kappa^2 in R. u = H v / |H v| carries that mixing only scaled by s3 / s2, so
   // alternating v_k = H^T u_k / |H^T u_k| and u_k = H v_k / |H v_k| (subspace iteration on the same
   // factorisation, three rounds) brings R = sum_k u_k v_k^T back to eps kappa.
-  Vector3<T> w1 = v1, w2 = v2;
-  bool refined = false;
+  Vector3<T> w1 = v1, w2 = v2;  // stay v1, v2 when the first round cannot start (rank 1)
   for (int round = 0; round < 3; ++round) {
     Vector3<T> a1 = H.transpose() * u1, a2 = H.transpose() * u2;
     const T n1 = a1.norm();
@@ -53,19 +52,15 @@ Matrix3<T> fit_rotation_horn_matrix(const Matrix3<T>& H) {
     a2 -= a1 * a1.dot(a2);
     if (!(a2.norm() > tiny)) break;
     a2.normalize();
-    w1 = a1, w2 = a2, refined = true;
+    w1 = a1, w2 = a2;
     Vector3<T> b1 = H * w1, b2 = H * w2;
     b1.normalize();
     b2 -= b1 * b1.dot(b2);
     if (!(b2.norm() > tiny)) break;
     u1 = b1, u2 = b2.normalized();
   }
-  if (refined) {
-    const Vector3<T> u3 = u1.cross(u2), w3 = w1.cross(w2);
-    return u1 * w1.transpose() + u2 * w2.transpose() + u3 * w3.transpose();
-  }
-  const Vector3<T> u3 = u1.cross(u2), v3 = v1.cross(v2);
-  return u1 * v1.transpose() + u2 * v2.transpose() + u3 * v3.transpose();
+  const Vector3<T> u3 = u1.cross(u2), w3 = w1.cross(w2);
+  return u1 * w1.transpose() + u2 * w2.transpose() + u3 * w3.transpose();
 }
 
 /// Kanatani 1994: with the correlation matrix K = sum_i w_i phat_i qhat_i^T = H^T and its SVD

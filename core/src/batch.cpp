@@ -8,9 +8,9 @@
 
 #include <atomic>
 #include <bit>
+#include <cmath>
 #include <cstdint>
 #include <limits>
-#include <cmath>
 #include <stdexcept>
 #include <string>
 #include <type_traits>

@@ -3,11 +3,12 @@
 //
 // eps = std::numeric_limits<T>::epsilon(). Two constants state what "small multiple" means,
 // counted from the operations the methods perform, not from measured errors:
-//   c_b = 16  backward error (per method: see c_b() below): each method returns (up to the departure from orthonormality below) the exact
-//             optimum for some H + dH with ||dH||_F <= c_b eps ||H||_F. fit_rotation's normalisation by a
-//             power of two is exact; after it every entry of H reaches the result through at most ~16
-//             roundings (axis_angle: invariants <= 5, 4x4 cofactors <= 8, quaternion to matrix <= 3; the
-//             Jacobi/QR solvers: a few per sweep, 2-3 sweeps on a 3x3), and first-order errors add.
+//   c_b = 16  backward error (per method: see c_b() below): each method returns (up to the departure from
+//             orthonormality below) the exact optimum for some H + dH with ||dH||_F <= c_b eps ||H||_F.
+//             fit_rotation's normalisation by a power of two is exact; after it every entry of H reaches the
+//             result through at most ~16 roundings (axis_angle: invariants <= 5, 4x4 cofactors <= 8,
+//             quaternion to matrix <= 3; the Jacobi/QR solvers: a few per sweep, 2-3 sweeps on a 3x3), and
+//             first-order errors add.
 //   c_o = 64  orthonormality: max_ij |(R^T R - I)_ij| <= c_o eps. An entry of R is a sum of products of
 //             order-1 numbers: <= 8 roundings for the quaternion-to-matrix formula (5)/(15), and up to ~30
 //             plane rotations of ~2 eps each accumulated into U and V for the SVD/eigen solvers; an entry of
@@ -70,10 +71,6 @@ long double tol_det() {
 template <class T>
 long double tol_trace_loss(long double cb) {
   return (2 * std::numbers::sqrt3_v<long double> * cb + 1.5L * c_o) * eps<T>;
-}
-template <class T>
-long double tol_trace_loss(RotationMethod m) {
-  return tol_trace_loss<T>(c_b(m));
 }
 /// Relative to ||H||_F.
 template <class T>
