@@ -5,7 +5,8 @@
 //   w_i = |p_i - v|^-u (points); segments: the paper's constant d^-u with W_i and midpoint centroids (Sec. 6.2)
 //   p*, q* (eq. 2), H = sum w qhat phat^T / S (eq. 6), R = fit_rotation(H, svd), mu = trace(R^T H) / D
 //   (Sec. 6.1), v' = q* + mu R (v - p*); affine: v' = q* + H G^-1 (v - p*), G = sum w phat phat^T / S.
-// A vertex at distance 0 from a handle maps to its target.
+// A vertex at distance 0 from a point handle maps to its target; one on a segment takes the map's limit there
+// (that segment alone, constant weight).
 //
 // Error bound of the precomputed path in precision T against the exact result (first order, per vertex;
 // eps = eps(T), m = J + 16: J rounded additions of the per-vertex sums plus at most 16 roundings of each
@@ -206,16 +207,30 @@ DirectVertex direct_vertex(const Vec3d& v, const Handles<T>& rest, const Handles
     const Vec3d a = ph[k + 2 * i].p, b = ph[k + 2 * i + 1].p;
     tseg[i] = std::clamp((v - a).dot(b - a) / (b - a).squaredNorm(), 0.0, 1.0);
     dseg[i] = (a + tseg[i] * (b - a) - v).norm();
-    if (dseg[i] == 0) {
-      r.out = (1 - tseg[i]) * ph[k + 2 * i].q + tseg[i] * ph[k + 2 * i + 1].q;
-      r.snapped = true;
-      return r;
-    }
     d_min = std::min(d_min, dseg[i]);
   }
-  for (Eigen::Index i = 0; i < k; ++i) w[i] = std::pow(d_min / dist[i], u);
+  // On a segment (d_min = 0) the map takes its limit there: that segment alone, with constant weight (the
+  // others' relative weights vanish). For rigid this is not the interpolation of the segment's targets when
+  // the move stretches it; similarity and affine reproduce (1 - t) c + t d.
+  const bool on_segment = d_min == 0;
+  r.snapped = on_segment;
+  if (on_segment && o.transform == Transform::affine) {  // G is singular there; its limit interpolates
+    for (Eigen::Index i = 0; i < s; ++i)
+      if (dseg[i] == 0) {
+        r.out = (1 - tseg[i]) * ph[k + 2 * i].q + tseg[i] * ph[k + 2 * i + 1].q;
+        return r;
+      }
+  }
+  for (Eigen::Index i = 0; i < k; ++i) w[i] = on_segment ? 0.0 : std::pow(d_min / dist[i], u);
+  bool taken = false;
   for (Eigen::Index i = 0; i < s; ++i) {
-    dseg[i] = std::pow(d_min / dseg[i], u);           // now the segment's weight, (d_min / d)^u
+    // Now the segment's weight, (d_min / d)^u.
+    if (on_segment) {
+      dseg[i] = dseg[i] == 0 && !taken ? 1.0 : 0.0;
+      taken = taken || dseg[i] == 1.0;
+    } else {
+      dseg[i] = std::pow(d_min / dseg[i], u);
+    }
     w[k + 2 * i] = w[k + 2 * i + 1] = dseg[i] / 2;  // Sec. 6.2: midpoint centroids with weight d^-u
   }
   double S = 0;
@@ -345,7 +360,8 @@ Comparison compare_with_direct(const Points<T>& out, const Points<T>& rest_verti
     const double dev = (got - d.out).norm();
     if (d.snapped) {
       ++c.snapped;
-      // Interpolation: the target itself, exactly for points; (1-t) c + t d rounded in T for segments.
+      // Interpolation: the target itself, exactly for points; on segments (1-t) c + t d, or the rigid limit
+      // q* + R vhat (a rank-1 fit, exact to a few eps), rounded in T.
       if (dev > 8 * eps_t * (d.out.norm() + l)) ++c.failures;
       c.max_dev = std::max(c.max_dev, dev);
       continue;

@@ -167,3 +167,45 @@ TEMPLATE_TEST_CASE("stateful targets validate their index and coordinates", "[de
                   std::invalid_argument);
   CHECK(def.targets().points == sc.handles.points);  // unchanged by the failed calls
 }
+
+TEMPLATE_TEST_CASE("the stateful session writes interleaved output like the column-major one", "[deformer]", float,
+                   double) {
+  using T = TestType;
+  std::mt19937_64 g(seed());
+  const Scene<T> sc = random_scene<T>(g, 50, 4, 1);
+  Deformer<T> def(sc.vertices, sc.handles, {});
+  def.set_point_target(1, sc.handles.points.row(1).transpose() + Vector3<T>(T(0.25), 0, 0));
+  Points<T> expected;
+  def.deform(expected);
+  PointsRowMajor<T> buffer(def.vertex_count(), 3);
+  def.deform(InterleavedView<T>(buffer.data(), buffer.rows(), 3));
+  CHECK(buffer == PointsRowMajor<T>(expected));  // the same kernel, only the output strides differ
+  PointsRowMajor<T> small = PointsRowMajor<T>::Constant(def.vertex_count() - 1, 3, T(7));
+  CHECK_THROWS_AS(def.deform(InterleavedView<T>(small.data(), small.rows(), 3)), std::invalid_argument);
+  CHECK((small.array() == T(7)).all());
+}
+
+TEMPLATE_TEST_CASE("a moved-from session throws std::logic_error instead of crashing", "[deformer][errors]", float,
+                   double) {
+  using T = TestType;
+  std::mt19937_64 g(seed());
+  const Scene<T> sc = random_scene<T>(g, 20, 3);
+  Deformer<T> a(sc.vertices, sc.handles, {});
+  Deformer<T> b(std::move(a));
+  Points<T> out;
+  PointsRowMajor<T> buffer(20, 3);
+  CHECK_THROWS_AS(a.deform(out), std::logic_error);
+  CHECK_THROWS_AS(a.deform(sc.handles, out), std::logic_error);
+  CHECK_THROWS_AS(a.deform(sc.handles, InterleavedView<T>(buffer.data(), 20, 3)), std::logic_error);
+  CHECK_THROWS_AS(a.set_point_target(0, Vector3<T>::Zero()), std::logic_error);
+  CHECK_THROWS_AS(a.targets(), std::logic_error);
+  CHECK_THROWS_AS(a.vertex_count(), std::logic_error);
+  CHECK_THROWS_AS(a.memory_bytes(), std::logic_error);
+  CHECK_THROWS_WITH(a.options(), Catch::Contains("moved from"));
+  CHECK(out.rows() == 0);
+  b.deform(out);  // the new owner works
+  CHECK(out.rows() == 20);
+  a = std::move(b);  // assigning a live session makes it usable again
+  CHECK(a.vertex_count() == 20);
+  CHECK_THROWS_AS(b.vertex_count(), std::logic_error);
+}

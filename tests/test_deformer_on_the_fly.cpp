@@ -89,5 +89,21 @@ TEST_CASE("on-the-fly weights: unsupported settings are refused, automatic follo
   CHECK(Deformer<float>(s.vertices, s.rest, o).uses_precomputed_weights());  // 2000 x 8 x 16 B << 32 MiB
   o.precompute_budget_bytes = 1000;
   CHECK(!Deformer<float>(s.vertices, s.rest, o).uses_precomputed_weights());
-  CHECK(Deformer<float>(s.vertices, seg, o).uses_precomputed_weights());  // segments: precomputed anyway
+  // Segments and affine have no on-the-fly weights: over the budget they are refused, naming the budget.
+  CHECK_THROWS_WITH(Deformer<float>(s.vertices, seg, o), Catch::Contains("precompute_budget_bytes"));
+  o.transform = Transform::affine;
+  CHECK_THROWS_WITH(Deformer<float>(s.vertices, s.rest, o), Catch::Contains("precompute_budget_bytes"));
+  // Within the budget, or asked for explicitly, they are precomputed; automatic never exceeds the budget.
+  o.precompute_budget_bytes = std::size_t(1) << 20;
+  const Deformer<float> affine(s.vertices, s.rest, o);
+  CHECK(affine.uses_precomputed_weights());
+  o.transform = Transform::rigid;
+  const Deformer<float> segments(s.vertices, seg, o);
+  CHECK(segments.uses_precomputed_weights());
+  // The table (2000 vertices padded to 2000, 10 pseudo-handles, 16 bytes) is the bulk of memory_bytes().
+  CHECK(segments.memory_bytes() >= std::size_t(2000) * 10 * 16);
+  CHECK(segments.memory_bytes() <= std::size_t(1) << 20);
+  o.precompute_budget_bytes = 1000;
+  o.weight_storage = WeightStorage::precomputed;
+  CHECK(Deformer<float>(s.vertices, seg, o).uses_precomputed_weights());
 }

@@ -297,14 +297,16 @@ TEMPLATE_TEST_CASE("exact_integral segments agree with the segments densely samp
     }
 }
 
-TEMPLATE_TEST_CASE("exact_integral differs from paper_constant, and both interpolate segments", "[deformer][segment]",
-                   float, double) {
+TEMPLATE_TEST_CASE("exact_integral differs from paper_constant; segments interpolate where the map's limit does",
+                   "[deformer][segment]", float, double) {
   using T = TestType;
   std::mt19937_64 g(seed());
   const SegmentScene s = segment_scene(g);
   const Handles<T> rest = cast<T>(s.rest), moved = cast<T>(s.moved);
   Points<T> vertices = s.vertices.cast<T>();
-  // A vertex on the interior of segment 0 (t = 1/4) maps to (3/4) c + (1/4) d with either weight.
+  // A vertex on the interior of segment 0 (t = 1/4) maps to (3/4) c + (1/4) d with exact_integral weights,
+  // and with paper_constant ones for similarity and affine; rigid paper_constant takes the rigid fit to the
+  // segment alone there (deformer_data.hpp), which interpolates only if the move keeps the segment's length.
   vertices.row(0) = T(0.75) * rest.segment_a.row(0) + T(0.25) * rest.segment_b.row(0);
   for (Transform tr : all_transforms) {
     Points<T> a, b;
@@ -315,9 +317,10 @@ TEMPLATE_TEST_CASE("exact_integral differs from paper_constant, and both interpo
     o.segment_weight = SegmentWeight::exact_integral;
     Deformer<T>(vertices, rest, o).deform(moved, b);
     const Vector3<T> target = T(0.75) * moved.segment_a.row(0).transpose() + T(0.25) * moved.segment_b.row(0).transpose();
-    // t is the closest-point parameter of the rounded vertex: a few eps of the coordinates (|x| <= 3).
+    // t is the closest-point parameter of the rounded vertex: a few eps of the coordinates (|x| <= 3); the
+    // paper_constant limit adds the rank-1 fit (16 eps |vhat|, |vhat| <= 3) and the rounding of q* + mu R vhat.
     const T tol = 16 * std::numeric_limits<T>::epsilon() * 3;
-    CHECK((a.row(0).transpose() - target).norm() <= tol);
+    if (tr != Transform::rigid) CHECK((a.row(0).transpose() - target).norm() <= 3 * tol);
     CHECK((b.row(0).transpose() - target).norm() <= tol);
     CHECK((a - b).rowwise().norm().maxCoeff() > T(1e-3));  // different weights, visibly different shapes
   }

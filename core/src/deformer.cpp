@@ -243,8 +243,18 @@ void precompute_block(detail::DeformerData<T>& data, std::size_t b, const Points
     std::fill(A.begin(), A.end(), Vec3d::Zero());
     Vec3d p_star, vhat = Vec3d::Zero();
     double D = 0;
-    if (d_min <= snap) {
-      // Interpolation (Sec. 3: f(p_i) = q_i): all weight on the nearest handle, A = 0, vhat = 0.
+    Eigen::Matrix3d G_vertex = Eigen::Matrix3d::Zero();  // G = sum_j A_j phat_j^T, symmetric (affine; D = trace)
+    // At a handle (closer than `snap`) the vertex takes the map's limit there, so that the map is continuous:
+    //   point handle, or segment with exact_integral weights: the weight concentrates at the closest point,
+    //     and the limit is the interpolation f(p_i) = q_i (Sec. 3), (1 - t) c + t d on a segment;
+    //   segment with paper_constant weights: the segment's weight is constant along it (Sec. 6.2), so the
+    //     limit is the fit to that segment alone (every other weight vanishes relative to it): p* and q* its
+    //     midpoints, H = (d - c)(b - a)^T / 12. Rigid maps a stretched segment rigidly, not onto c..d, so
+    //     interpolating there would be a jump; similarity and affine reproduce (1 - t) c + t d.
+    const bool snapped = d_min <= snap;
+    const bool interpolate = snapped && (nearest < k || exact);
+    if (interpolate) {
+      // All weight on the nearest handle, A = 0, vhat = 0.
       if (nearest < k) {
         omega[nearest] = 1;
         p_star = rh.P[nearest];
@@ -257,14 +267,18 @@ void precompute_block(detail::DeformerData<T>& data, std::size_t b, const Points
       }
     } else {
       // Weights relative to the nearest handle (weights.hpp): the nearest has weight 1, all are in [0, 1].
+      // Snapped to a paper_constant segment: only that segment, with relative weight 1 (the limit above).
       double S = 0;
       for (std::size_t p = 0; p < k; ++p) {
-        omega[p] = detail::relative_weight(d_min / dist[p], u);
+        omega[p] = snapped ? 0.0 : detail::relative_weight(d_min / dist[p], u);
         S += omega[p];
       }
       for (std::size_t q = 0; q < s; ++q) {
-        mom[q] = exact ? detail::segment_moments_exact(geo[q], d_min, u)
-                       : detail::segment_moments_constant(geo[q], d_min, u);
+        if (snapped)
+          mom[q] = q + k == nearest ? detail::segment_moments_of_constant(1.0, geo[q].tc) : detail::SegmentMoments{};
+        else
+          mom[q] = exact ? detail::segment_moments_exact(geo[q], d_min, u)
+                         : detail::segment_moments_constant(geo[q], d_min, u);
         S += mom[q].I0 + 2 * mom[q].I1 + mom[q].I2;
       }
       // Weighted centroid p* (eq. 2; Sec. 6.2: segment end points weighted by int w (1-t) and int w t).
@@ -276,11 +290,26 @@ void precompute_block(detail::DeformerData<T>& data, std::size_t b, const Points
       p_star.setZero();
       for (std::size_t j = 0; j < J; ++j) p_star += omega[j] * rh.P[j];
       // A_j (deformer_data.hpp): sum_j q_j A_j^T = sum_i w_i qhat_i phat_i^T / S, with the segments' W_i.
-      for (std::size_t p = 0; p < k; ++p) A[p] = omega[p] * (rh.P[p] - p_star);
+      // Segments about their closest point pc = p(tc): phat(t) = g + (t - tc) e with g = pc - p* and e = b - a,
+      // so A_c = int w (1 - t) phat / S = (g (I0 + I1) + e ((1 - tc) J1 - J2)) / S and
+      // A_d = int w t phat / S = (g (I1 + I2) + e (tc J1 + J2)) / S: near a segment g, J1 and J2 are small
+      // and each term keeps its relative accuracy (as I0 ahat + I1 bhat the O(1) end points would cancel).
+      // The segment's share of G = sum_i int w phat phat^T / S (affine) and of D = trace G (similarity) is
+      // (J0 g g^T + J1 (g e^T + e g^T) + J2 e e^T) / S likewise, J0 = I0 + 2 I1 + I2.
+      Eigen::Matrix3d G = Eigen::Matrix3d::Zero();
+      for (std::size_t p = 0; p < k; ++p) {
+        A[p] = omega[p] * (rh.P[p] - p_star);
+        G += A[p] * (rh.P[p] - p_star).transpose();
+      }
       for (std::size_t q = 0; q < s; ++q) {
-        const Vec3d ahat = rh.P[k + 2 * q] - p_star, bhat = rh.P[k + 2 * q + 1] - p_star;
-        A[k + 2 * q] = (mom[q].I0 * ahat + mom[q].I1 * bhat) / S;
-        A[k + 2 * q + 1] = (mom[q].I1 * ahat + mom[q].I2 * bhat) / S;
+        const detail::SegmentMoments& m = mom[q];
+        const Vec3d a = rh.P[k + 2 * q], e = rh.P[k + 2 * q + 1] - a;
+        const double tc = geo[q].tc;
+        const Vec3d g = (a + tc * e) - p_star;
+        A[k + 2 * q] = (g * (m.I0 + m.I1) + e * ((1 - tc) * m.J1 - m.J2)) / S;
+        A[k + 2 * q + 1] = (g * (m.I1 + m.I2) + e * (tc * m.J1 + m.J2)) / S;
+        const double J0 = m.I0 + 2 * m.I1 + m.I2;
+        G += (J0 * g * g.transpose() + m.J1 * (g * e.transpose() + e * g.transpose()) + m.J2 * e * e.transpose()) / S;
       }
       // sum_j A_j = 0 exactly, but the rounding error of p* (eps times the scene size, shared by every
       // phat_j) enters each A_j as -omega_j dp* and their sum as -dp*: near a handle, where every A_j is
@@ -292,7 +321,8 @@ void precompute_block(detail::DeformerData<T>& data, std::size_t b, const Points
       for (std::size_t j = 0; j < J; ++j) A[j] -= omega[j] * sum_A;
       vhat = v - p_star;
       // Sec. 6.1: D = sum_i w_i |phat_i|^2 / S (segments: int w |phat(t)|^2 / S).
-      for (std::size_t j = 0; j < J; ++j) D += A[j].dot(rh.P[j] - p_star);
+      D = G.trace();
+      G_vertex = 0.5 * (G + G.transpose());
     }
     // H matters only up to a positive factor (the rotation fit is scale-invariant and mu = trace(R^T H) / D,
     // and for affine only H G^-1 does), so A and D are scaled per vertex by a power of two 2^s that brings
@@ -305,6 +335,7 @@ void precompute_block(detail::DeformerData<T>& data, std::size_t b, const Points
     for (std::size_t j = 0; j < J; ++j)
       for (int c = 0; c < 3; ++c) A[j][c] = std::ldexp(A[j][c], s_v);
     D = std::ldexp(D, s_v);
+    G_vertex *= std::ldexp(1.0, s_v);
     if (affine) {
       // Normal equations: L G = H with G = sum_j A_j phat_j^T (symmetric positive definite when the handles
       // span 3D), so v' = q* + H G^-1 vhat = sum_j (omega_j + A_j . G^-1 vhat) q_j. G is solved through its
@@ -313,10 +344,7 @@ void precompute_block(detail::DeformerData<T>& data, std::size_t b, const Points
       // rounding noise.
       Vec3d x = Vec3d::Zero();
       if (vhat != Vec3d::Zero()) {
-        Eigen::Matrix3d G = Eigen::Matrix3d::Zero();
-        for (std::size_t j = 0; j < J; ++j) G += A[j] * (rh.P[j] - p_star).transpose();
-        G = 0.5 * (G + G.transpose()).eval();
-        const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> es(G);
+        const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> es(G_vertex);
         const Vec3d lambda = es.eigenvalues();
         const double cut = 64 * std::numeric_limits<double>::epsilon() * lambda[2];
         for (int c = 0; c < 3; ++c)
@@ -345,8 +373,9 @@ void precompute_block(detail::DeformerData<T>& data, std::size_t b, const Points
 }
 
 /// WeightStorage (deformer.hpp): on the fly is implemented for rigid and similarity with point handles
-/// only. `automatic` picks it when the precomputed table (16 bytes per vertex and handle in float, 32 in
-/// double) would exceed precompute_budget_bytes (default 32 MiB, about a last-level cache): beyond the cache
+/// only. `automatic` picks it (and refuses settings without it) when the precomputed table (16 bytes per
+/// vertex and handle in float, 32 in double; affine 4 and 8) would exceed precompute_budget_bytes (default
+/// 32 MiB, about a last-level cache), so that it never allocates more than the budget: beyond the cache
 /// the table streams from memory every frame, and recomputing the weights (two passes of a few tens of flops
 /// per handle) costs about as much as reading 16-32 bytes per handle (bench/bench_scaling.cpp measures both).
 template <class T>
@@ -358,8 +387,19 @@ bool use_on_the_fly(const Options& o, const RestHandles& rh, std::size_t padded)
                                 (o.transform == Transform::affine ? "the affine transform" : "segment handles") +
                                 "); use precomputed or automatic");
   if (o.weight_storage != WeightStorage::automatic) return o.weight_storage == WeightStorage::on_the_fly;
-  const double table = double(padded) * double(rh.P.size()) * 4 * sizeof(T);
-  return supported && table > double(o.precompute_budget_bytes);
+  const double components = o.transform == Transform::affine ? 1 : 4;
+  const double table = double(padded) * double(rh.P.size()) * components * sizeof(T);
+  if (!(table > double(o.precompute_budget_bytes))) return false;
+  if (supported) return true;
+  char msg[512];
+  std::snprintf(msg, sizeof msg,
+                "Deformer: the weight table would take %.1f MiB (%zu vertices x %zu pseudo-handles), over "
+                "precompute_budget_bytes = %.1f MiB, and on-the-fly weights support only rigid and similarity "
+                "transforms with point handles (got %s); raise Options::precompute_budget_bytes (CLI: "
+                "--weight-budget MiB) or set WeightStorage::precomputed to allow it",
+                table / 1048576.0, padded, rh.P.size(), double(o.precompute_budget_bytes) / 1048576.0,
+                o.transform == Transform::affine ? "the affine transform" : "segment handles");
+  throw std::invalid_argument(msg);
 }
 
 /// The on-the-fly session data: the rest vertices and handles in the local frame, each vertex's squared
@@ -536,6 +576,18 @@ Deformer<T>::Deformer(const Points<T>& rest_vertices, const Handles<T>& rest_han
 }
 
 template <class T>
+typename Deformer<T>::Impl& Deformer<T>::impl() {
+  if (!impl_) throw std::logic_error("Deformer: this session was moved from; assign a new one before use");
+  return *impl_;
+}
+
+template <class T>
+const typename Deformer<T>::Impl& Deformer<T>::impl() const {
+  if (!impl_) throw std::logic_error("Deformer: this session was moved from; assign a new one before use");
+  return *impl_;
+}
+
+template <class T>
 Deformer<T>::~Deformer() = default;
 template <class T>
 Deformer<T>::Deformer(Deformer&&) noexcept = default;
@@ -544,11 +596,11 @@ Deformer<T>& Deformer<T>::operator=(Deformer&&) noexcept = default;
 
 template <class T>
 void Deformer<T>::deform(const Handles<T>& moved_handles, Points<T>& out) const {
-  check_moved(moved_handles, impl_->rest);
-  const auto n = static_cast<Eigen::Index>(impl_->data.n);
+  check_moved(moved_handles, impl().rest);
+  const auto n = static_cast<Eigen::Index>(impl().data.n);
   if (out.rows() != n) out.resize(n, 3);
-  if (impl_->run_simd(moved_handles, out.data(), 1, static_cast<std::size_t>(n))) return;
-  impl_->run(moved_handles, [&out](std::size_t v, T x, T y, T z) {
+  if (impl().run_simd(moved_handles, out.data(), 1, static_cast<std::size_t>(n))) return;
+  impl().run(moved_handles, [&out](std::size_t v, T x, T y, T z) {
     const auto r = static_cast<Eigen::Index>(v);
     out(r, 0) = x;
     out(r, 1) = y;
@@ -558,12 +610,12 @@ void Deformer<T>::deform(const Handles<T>& moved_handles, Points<T>& out) const 
 
 template <class T>
 void Deformer<T>::deform(const Handles<T>& moved_handles, InterleavedView<T> out) const {
-  check_moved(moved_handles, impl_->rest);
-  if (out.rows() != static_cast<Eigen::Index>(impl_->data.n))
+  check_moved(moved_handles, impl().rest);
+  if (out.rows() != static_cast<Eigen::Index>(impl().data.n))
     throw std::invalid_argument("Deformer: the interleaved output has " + std::to_string(out.rows()) +
-                                " rows but the model has " + std::to_string(impl_->data.n) + " vertices");
-  if (impl_->run_simd(moved_handles, out.data(), 3, 1)) return;
-  impl_->run(moved_handles, [&out](std::size_t v, T x, T y, T z) {
+                                " rows but the model has " + std::to_string(impl().data.n) + " vertices");
+  if (impl().run_simd(moved_handles, out.data(), 3, 1)) return;
+  impl().run(moved_handles, [&out](std::size_t v, T x, T y, T z) {
     const auto r = static_cast<Eigen::Index>(v);
     out(r, 0) = x;
     out(r, 1) = y;
@@ -573,54 +625,59 @@ void Deformer<T>::deform(const Handles<T>& moved_handles, InterleavedView<T> out
 
 template <class T>
 void Deformer<T>::set_point_target(Eigen::Index i, const Vector3<T>& target) {
-  if (i < 0 || i >= impl_->targets.points.rows())
+  if (i < 0 || i >= impl().targets.points.rows())
     throw std::out_of_range("Deformer::set_point_target: index " + std::to_string(i) + " but " +
-                            std::to_string(impl_->targets.points.rows()) + " point handles");
+                            std::to_string(impl().targets.points.rows()) + " point handles");
   if (!target.allFinite() || target.cwiseAbs().maxCoeff() > coordinate_limit<T>())
     throw std::invalid_argument("Deformer::set_point_target: non-finite or too large coordinate");
-  impl_->targets.points.row(i) = target.transpose();
+  impl().targets.points.row(i) = target.transpose();
 }
 
 template <class T>
 void Deformer<T>::set_segment_target(Eigen::Index i, const Vector3<T>& a, const Vector3<T>& b) {
-  if (i < 0 || i >= impl_->targets.segment_a.rows())
+  if (i < 0 || i >= impl().targets.segment_a.rows())
     throw std::out_of_range("Deformer::set_segment_target: index " + std::to_string(i) + " but " +
-                            std::to_string(impl_->targets.segment_a.rows()) + " segment handles");
+                            std::to_string(impl().targets.segment_a.rows()) + " segment handles");
   if (!a.allFinite() || !b.allFinite() || a.cwiseAbs().maxCoeff() > coordinate_limit<T>() ||
       b.cwiseAbs().maxCoeff() > coordinate_limit<T>())
     throw std::invalid_argument("Deformer::set_segment_target: non-finite or too large coordinate");
-  impl_->targets.segment_a.row(i) = a.transpose();
-  impl_->targets.segment_b.row(i) = b.transpose();
+  impl().targets.segment_a.row(i) = a.transpose();
+  impl().targets.segment_b.row(i) = b.transpose();
 }
 
 template <class T>
 const Handles<T>& Deformer<T>::targets() const {
-  return impl_->targets;
+  return impl().targets;
 }
 
 template <class T>
 void Deformer<T>::deform(Points<T>& out) const {
-  deform(impl_->targets, out);
+  deform(impl().targets, out);
+}
+
+template <class T>
+void Deformer<T>::deform(InterleavedView<T> out) const {
+  deform(impl().targets, out);
 }
 
 template <class T>
 void Deformer<T>::reset_rest_pose(const Points<T>& rest_vertices, const Handles<T>& rest_handles) {
   // Strong guarantee: build everything first, then commit with non-throwing moves.
-  detail::DeformerData<T> data = precompute(rest_vertices, rest_handles, impl_->options, impl_->arena.get());
+  detail::DeformerData<T> data = precompute(rest_vertices, rest_handles, impl().options, impl().arena.get());
   Handles<T> rest = rest_handles, targets = rest_handles;
-  impl_->data = std::move(data);
-  impl_->rest = std::move(rest);
-  impl_->targets = std::move(targets);
+  impl().data = std::move(data);
+  impl().rest = std::move(rest);
+  impl().targets = std::move(targets);
 }
 
 template <class T>
 Eigen::Index Deformer<T>::vertex_count() const {
-  return static_cast<Eigen::Index>(impl_->data.n);
+  return static_cast<Eigen::Index>(impl().data.n);
 }
 
 template <class T>
 const Options& Deformer<T>::options() const {
-  return impl_->options;
+  return impl().options;
 }
 
 template <class T>
@@ -630,12 +687,12 @@ std::size_t Deformer<T>::memory_bytes() const {
   const auto handle_values = [](const Handles<T>& h) {
     return static_cast<std::size_t>(h.points.size() + h.segment_a.size() + h.segment_b.size());
   };
-  return impl_->data.bytes() + (handle_values(impl_->rest) + handle_values(impl_->targets)) * sizeof(T);
+  return impl().data.bytes() + (handle_values(impl().rest) + handle_values(impl().targets)) * sizeof(T);
 }
 
 template <class T>
 bool Deformer<T>::uses_precomputed_weights() const {
-  return !impl_->data.on_the_fly;
+  return !impl().data.on_the_fly;
 }
 
 template class Deformer<float>;

@@ -96,15 +96,25 @@ inline SegmentGeometry segment_geometry(const Eigen::Vector3d& v, const Eigen::V
   return g;
 }
 
-/// The moments (I0, I1, I2) of the weight along a segment, see the file comment.
+/// The moments (I0, I1, I2) of the weight along a segment, see the file comment, and its first and second
+/// moments about the closest point tc, J1 = int w (t - tc) dt and J2 = int w (t - tc)^2 dt. Near a segment
+/// with exact_integral weights, w is a peak of width ~ d around tc: the weighted spread about p* is O(d^2),
+/// which combinations of I0, I1, I2 with the end points (O(1) each) would give only as a difference of O(1)
+/// terms (error eps, not eps d^2); J1 and J2 carry it directly (deformer.cpp).
 struct SegmentMoments {
   double I0 = 0, I1 = 0, I2 = 0;
+  double J1 = 0, J2 = 0;
 };
+
+/// The moments of the constant weight w on [0, 1], closest point tc.
+inline SegmentMoments segment_moments_of_constant(double w, double tc) {
+  const double a = 1 - tc;
+  return {w / 3.0, w / 6.0, w / 3.0, w * (0.5 - tc), w * (a * a * a + tc * tc * tc) / 3.0};
+}
 
 /// Paper's simplification (Sec. 6.2): constant weight (d_min / d)^u.
 inline SegmentMoments segment_moments_constant(const SegmentGeometry& g, double d_min, double u) {
-  const double w = relative_weight(d_min / g.d, u);
-  return {w / 3.0, w / 6.0, w / 3.0};
+  return segment_moments_of_constant(relative_weight(d_min / g.d, u), g.tc);
 }
 
 /// Number of Gauss-Legendre nodes per piece of the composite rule below.
@@ -135,7 +145,7 @@ inline SegmentMoments segment_moments_exact(const SegmentGeometry& g, double d_m
     while (x0 < len) {
       const double x1 = std::min(x0 == 0 ? kappa * g.d : (1 + kappa) * x0, len);
       const double mid = 0.5 * (x0 + x1), half = 0.5 * (x1 - x0);
-      double s0 = 0, s1 = 0, s2 = 0;
+      double s0 = 0, s1 = 0, s2 = 0, c1 = 0, c2 = 0;
       for (int k = 0; k < kSegmentQuadratureNodes; ++k) {
         const double x = mid + half * rule.x[k];
         const double r = g.off + x;
@@ -148,12 +158,16 @@ inline SegmentMoments segment_moments_exact(const SegmentGeometry& g, double d_m
         s0 += w * omt * omt;
         s1 += w * t * omt;
         s2 += w * t * t;
+        c1 += w * dt;  // times side below: t - tc = side dt
+        c2 += w * dt * dt;
       }
       // dt = dx / L.
       const double scale = half / g.L;
       m.I0 += scale * s0;
       m.I1 += scale * s1;
       m.I2 += scale * s2;
+      m.J1 += side * scale * c1;
+      m.J2 += scale * c2;
       x0 = x1;
     }
   }

@@ -31,7 +31,9 @@ enum class Backend {
 
 /// Where the per-vertex, per-handle weights come from each frame.
 enum class WeightStorage {
-  /// precomputed while the table fits in `precompute_budget_bytes`, on the fly beyond (where supported)
+  /// precomputed while the table fits in `precompute_budget_bytes`, on the fly beyond where supported (rigid
+  /// and similarity with point handles); never a table beyond the budget: settings without on-the-fly
+  /// weights whose table would exceed it are refused (std::invalid_argument naming the size and the budget)
   automatic,
   /// stream the precomputed omega_i and A_i = w_i phat_i (16 bytes per vertex and handle in float, 32 in
   /// double; affine: 4 / 8 bytes)
@@ -64,13 +66,14 @@ struct Options {
   /// Worker threads for deform(); 0 means all cores.
   int threads = 0;
   WeightStorage weight_storage = WeightStorage::automatic;
-  /// The automatic choice precomputes while the weight table needs at most this many bytes.
+  /// WeightStorage::automatic allocates a weight table of at most this many bytes (see WeightStorage).
   std::size_t precompute_budget_bytes = std::size_t(32) << 20;
 };
 
 /// A deformation session (Sec. 5): the constructor precomputes everything that depends only on the rest
 /// pose; deform() does only what depends on the moved handles. Thread-compatible: deform() is const and
-/// may run concurrently on distinct outputs.
+/// may run concurrently on distinct outputs. A moved-from session holds nothing: every member function but
+/// destruction and assignment throws std::logic_error.
 template <class T>
 class Deformer {
  public:
@@ -97,6 +100,8 @@ class Deformer {
   void set_segment_target(Eigen::Index i, const Vector3<T>& a, const Vector3<T>& b);
   const Handles<T>& targets() const;
   void deform(Points<T>& out) const;
+  /// The same, writing interleaved xyz (vertex_count() rows; std::invalid_argument otherwise).
+  void deform(InterleavedView<T> out) const;
 
   /// A new rest pose (vertices and/or handles): redoes the precomputation; targets reset to the rest handles.
   void reset_rest_pose(const Points<T>& rest_vertices, const Handles<T>& rest_handles);
@@ -111,6 +116,9 @@ class Deformer {
  private:
   struct Impl;
   std::unique_ptr<Impl> impl_;
+  /// *impl_, or std::logic_error for a moved-from session.
+  Impl& impl();
+  const Impl& impl() const;
 };
 
 extern template class Deformer<float>;

@@ -4,6 +4,10 @@
 #include <mlsdeform/rotation.hpp>
 #include <mlsdeform/types.hpp>
 
+#include <stdexcept>
+#include <string>
+#include <type_traits>
+
 namespace mlsdeform {
 
 /// x -> scale * rotation * x + translation.
@@ -30,5 +34,41 @@ template <class T>
 SimilarityTransform<T> fit_similarity(const Eigen::Ref<const Points<T>>& p, const Eigen::Ref<const Points<T>>& q,
                                       const Eigen::Ref<const Eigen::Matrix<T, Eigen::Dynamic, 1>>& w,
                                       RotationMethod method = RotationMethod::axis_angle);
+
+namespace detail {
+/// p (n x 3, any storage order or expression) as Points<T>; std::invalid_argument if it has not 3 columns.
+template <class T, class P>
+Points<T> as_points(const Eigen::MatrixBase<P>& p, const char* fn, const char* what) {
+  if (p.cols() != 3)
+    throw std::invalid_argument(std::string(fn) + ": " + what + " must have 3 columns (got " +
+                                std::to_string(p.cols()) + ")");
+  return Points<T>(p);
+}
+}  // namespace detail
+
+/// fit_rigid and fit_similarity of any Eigen arguments (n x 3 matrices in any storage order, expressions, and a
+/// vector of weights) with the same float or double entries: T is deduced, no explicit fit_rigid<T> needed.
+template <class P, class Q, class W>
+SimilarityTransform<typename P::Scalar> fit_rigid(const Eigen::MatrixBase<P>& p, const Eigen::MatrixBase<Q>& q,
+                                                  const Eigen::MatrixBase<W>& w,
+                                                  RotationMethod method = RotationMethod::axis_angle) {
+  using T = typename P::Scalar;
+  static_assert(std::is_same_v<T, typename Q::Scalar> && std::is_same_v<T, typename W::Scalar>,
+                "fit_rigid: p, q and w must have the same scalar type");
+  return fit_rigid<T>(detail::as_points<T>(p, "fit_rigid", "p"), detail::as_points<T>(q, "fit_rigid", "q"),
+                      Eigen::Matrix<T, Eigen::Dynamic, 1>(w.reshaped()), method);
+}
+
+template <class P, class Q, class W>
+SimilarityTransform<typename P::Scalar> fit_similarity(const Eigen::MatrixBase<P>& p, const Eigen::MatrixBase<Q>& q,
+                                                       const Eigen::MatrixBase<W>& w,
+                                                       RotationMethod method = RotationMethod::axis_angle) {
+  using T = typename P::Scalar;
+  static_assert(std::is_same_v<T, typename Q::Scalar> && std::is_same_v<T, typename W::Scalar>,
+                "fit_similarity: p, q and w must have the same scalar type");
+  return fit_similarity<T>(detail::as_points<T>(p, "fit_similarity", "p"),
+                           detail::as_points<T>(q, "fit_similarity", "q"),
+                           Eigen::Matrix<T, Eigen::Dynamic, 1>(w.reshaped()), method);
+}
 
 }  // namespace mlsdeform

@@ -13,7 +13,10 @@
 
 #include <Eigen/Core>
 
+#include <stdexcept>
+#include <string>
 #include <string_view>
+#include <type_traits>
 
 namespace mlsdeform {
 
@@ -58,5 +61,24 @@ Matrix3<T> fit_rotation(const Matrix3<T>& H, RotationMethod method = RotationMet
 
 extern template Matrix3<float> fit_rotation<float>(const Matrix3<float>&, RotationMethod);
 extern template Matrix3<double> fit_rotation<double>(const Matrix3<double>&, RotationMethod);
+
+/// fit_rotation of any 3 x 3 Eigen expression with float or double entries (q * p.transpose(), a block, a
+/// row-major or dynamic-size matrix), evaluated into a Matrix3 first. Throws std::invalid_argument if a
+/// dynamic-size argument is not 3 x 3.
+template <class Derived>
+  requires(!std::is_same_v<Derived, Matrix3<typename Derived::Scalar>>)
+Matrix3<typename Derived::Scalar> fit_rotation(const Eigen::MatrixBase<Derived>& H,
+                                               RotationMethod method = RotationMethod::axis_angle) {
+  using T = typename Derived::Scalar;
+  static_assert(std::is_same_v<T, float> || std::is_same_v<T, double>, "fit_rotation: float or double entries");
+  static_assert(Derived::RowsAtCompileTime == 3 || Derived::RowsAtCompileTime == Eigen::Dynamic,
+                "fit_rotation: H must have 3 rows");
+  static_assert(Derived::ColsAtCompileTime == 3 || Derived::ColsAtCompileTime == Eigen::Dynamic,
+                "fit_rotation: H must have 3 columns");
+  if (H.rows() != 3 || H.cols() != 3)
+    throw std::invalid_argument("fit_rotation: H must be 3 x 3 (got " + std::to_string(H.rows()) + " x " +
+                                std::to_string(H.cols()) + ")");
+  return fit_rotation<T>(Matrix3<T>(H), method);
+}
 
 }  // namespace mlsdeform
