@@ -209,3 +209,22 @@ TEMPLATE_TEST_CASE("a moved-from session throws std::logic_error instead of cras
   CHECK(a.vertex_count() == 20);
   CHECK_THROWS_AS(b.vertex_count(), std::logic_error);
 }
+
+TEMPLATE_TEST_CASE("point handles at one rest position must keep one target", "[deformer][errors]", float, double) {
+  using T = TestType;
+  std::mt19937_64 g(seed());
+  Scene<T> sc = random_scene<T>(g, 30, 5);
+  sc.handles.points.row(3) = sc.handles.points.row(1);  // handles 1 and 3 coincide
+  Deformer<T> def(sc.vertices, sc.handles, {});
+  Handles<T> moved = transformed(sc.handles, random_rotation(g), random_vector(g));
+  Points<T> out;
+  def.deform(moved, out);  // moved together: fine
+  CHECK(out.allFinite());
+  moved.points(3, 0) += T(0.5);
+  expect_deform_error(def, moved, "point handles 1 and 3 share their rest position");
+  // The stateful session checks the same when it deforms.
+  def.set_point_target(1, Vector3<T>(1, 2, 3));
+  CHECK_THROWS_WITH(def.deform(out), Catch::Contains("different targets"));
+  def.set_point_target(3, Vector3<T>(1, 2, 3));
+  CHECK_NOTHROW(def.deform(out));
+}

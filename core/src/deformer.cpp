@@ -17,6 +17,7 @@
 #include <tbb/task_arena.h>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdio>
 #include <limits>
@@ -478,6 +479,38 @@ detail::DeformerData<T> precompute(const Points<T>& vertices, const Handles<T>& 
   return data;
 }
 
+/// Pairs (i, j), i < j, of point handles at the same rest position. A vertex there is snapped to one of them,
+/// while the map's limit at that position is the mean of their targets: such pairs must keep equal targets.
+template <class T>
+std::vector<std::pair<Eigen::Index, Eigen::Index>> coincident_points(const Points<T>& p) {
+  std::vector<Eigen::Index> order(static_cast<std::size_t>(p.rows()));
+  for (std::size_t i = 0; i < order.size(); ++i) order[i] = static_cast<Eigen::Index>(i);
+  const auto key = [&p](Eigen::Index i) { return std::array<T, 3>{p(i, 0), p(i, 1), p(i, 2)}; };
+  std::stable_sort(order.begin(), order.end(), [&](Eigen::Index a, Eigen::Index b) { return key(a) < key(b); });
+  std::vector<std::pair<Eigen::Index, Eigen::Index>> pairs;
+  for (std::size_t a = 0; a < order.size();) {
+    std::size_t b = a + 1;
+    while (b < order.size() && key(order[b]) == key(order[a])) ++b;
+    for (std::size_t c = a + 1; c < b; ++c)
+      pairs.emplace_back(std::min(order[a], order[c]), std::max(order[a], order[c]));
+    a = b;
+  }
+  return pairs;
+}
+
+/// Coincident point handles must be moved together (see coincident_points). Allocates only on error.
+template <class T>
+void check_coincident(const Handles<T>& moved, const std::vector<std::pair<Eigen::Index, Eigen::Index>>& pairs) {
+  for (const auto& [i, j] : pairs)
+    if (moved.points.row(i) != moved.points.row(j))
+      throw std::invalid_argument("Deformer: point handles " + std::to_string(i) + " and " + std::to_string(j) +
+                                  " share their rest position but have different targets (" +
+                                  num(double(moved.points(i, 0))) + ", " + num(double(moved.points(i, 1))) + ", " +
+                                  num(double(moved.points(i, 2))) + ") and (" + num(double(moved.points(j, 0))) +
+                                  ", " + num(double(moved.points(j, 1))) + ", " + num(double(moved.points(j, 2))) +
+                                  "); a vertex there cannot follow both");
+}
+
 std::unique_ptr<tbb::task_arena> make_arena(int threads) {
   // threads == 0: TBB's default arena (all cores); 1: serial, no TBB at all; more: an arena of that many,
   // capped at the hardware's (TBB would ignore the excess anyway, with a warning on stderr).
@@ -492,6 +525,7 @@ template <class T>
 struct Deformer<T>::Impl {
   Options options;
   Handles<T> rest, targets;
+  std::vector<std::pair<Eigen::Index, Eigen::Index>> coincident;  ///< point handles at one rest position
   detail::DeformerData<T> data;
   std::unique_ptr<tbb::task_arena> arena;
 
@@ -573,6 +607,7 @@ Deformer<T>::Deformer(const Points<T>& rest_vertices, const Handles<T>& rest_han
   impl_->data = precompute(rest_vertices, rest_handles, options, impl_->arena.get());
   impl_->rest = rest_handles;
   impl_->targets = rest_handles;
+  impl_->coincident = coincident_points(rest_handles.points);
 }
 
 template <class T>
@@ -597,6 +632,7 @@ Deformer<T>& Deformer<T>::operator=(Deformer&&) noexcept = default;
 template <class T>
 void Deformer<T>::deform(const Handles<T>& moved_handles, Points<T>& out) const {
   check_moved(moved_handles, impl().rest);
+  check_coincident(moved_handles, impl().coincident);
   const auto n = static_cast<Eigen::Index>(impl().data.n);
   if (out.rows() != n) out.resize(n, 3);
   if (impl().run_simd(moved_handles, out.data(), 1, static_cast<std::size_t>(n))) return;
@@ -611,6 +647,7 @@ void Deformer<T>::deform(const Handles<T>& moved_handles, Points<T>& out) const 
 template <class T>
 void Deformer<T>::deform(const Handles<T>& moved_handles, InterleavedView<T> out) const {
   check_moved(moved_handles, impl().rest);
+  check_coincident(moved_handles, impl().coincident);
   if (out.rows() != static_cast<Eigen::Index>(impl().data.n))
     throw std::invalid_argument("Deformer: the interleaved output has " + std::to_string(out.rows()) +
                                 " rows but the model has " + std::to_string(impl().data.n) + " vertices");
@@ -665,9 +702,11 @@ void Deformer<T>::reset_rest_pose(const Points<T>& rest_vertices, const Handles<
   // Strong guarantee: build everything first, then commit with non-throwing moves.
   detail::DeformerData<T> data = precompute(rest_vertices, rest_handles, impl().options, impl().arena.get());
   Handles<T> rest = rest_handles, targets = rest_handles;
+  auto coincident = coincident_points(rest_handles.points);
   impl().data = std::move(data);
   impl().rest = std::move(rest);
   impl().targets = std::move(targets);
+  impl().coincident = std::move(coincident);
 }
 
 template <class T>

@@ -87,8 +87,9 @@ class Deformer {
   Deformer(const Deformer&) = delete;
   Deformer& operator=(const Deformer&) = delete;
 
-  /// Deform with the given moved handles (same counts as the rest handles). Writes `out` (resized only if
-  /// its size is wrong); allocates nothing once `out` has its size. On invalid input throws
+  /// Deform with the given moved handles (same counts as the rest handles; point handles that share a rest
+  /// position must share their target too, since a vertex there cannot follow both). Writes `out` (resized
+  /// only if its size is wrong); allocates nothing once `out` has its size. On invalid input throws
   /// std::invalid_argument and leaves `out` untouched.
   void deform(const Handles<T>& moved_handles, Points<T>& out) const;
   /// The same, writing interleaved xyz (e.g. a mapped vertex buffer of vertex_count() * 3 values).
