@@ -215,6 +215,12 @@ struct RotationAxis : Simd<T, A> {
         rho = select(refine, rho_next, rho);
       }
     }
+    // scalar: the polish, one power step on K + y I (kept where it is non-zero).
+    const Vec4 Kq = mul(K, q);
+    Vec4 polished;
+    for (int i = 0; i < 4; ++i) polished.v[i] = Kq.v[i] + y * q.v[i];
+    const M keep = dot(polished, polished) > V(T(0));
+    for (int i = 0; i < 4; ++i) q.v[i] = select(keep, polished.v[i], q.v[i]);
     return q;
   }
 };

@@ -51,10 +51,8 @@ void check_walks(const Handles<T>& rest, const Handles<T>& moved, const std::vec
     const Eigen::Index base = static_cast<Eigen::Index>(w) * (kSteps + 1);
     const Vec3d limit = out.row(base + kSteps).transpose().template cast<double>();
     // The rounded vertex sits at delta' = |v - x| from the handle, not exactly delta: use the real distance.
-    auto dist = [&](int s) {
-      return (v.row(base + s).transpose().template cast<double>() - walks[w].x.template cast<T>().template cast<double>())
-          .norm();
-    };
+    const Vec3d x = walks[w].x.template cast<T>().template cast<double>();
+    auto dist = [&](int s) { return (v.row(base + s).transpose().template cast<double>() - x).norm(); };
     auto jump = [&](int s) { return (out.row(base + s).transpose().template cast<double>() - limit).norm(); };
     const double L = std::max(jump(1) / dist(1), 1.0);  // delta = 1e-2
     for (int s = 0; s < kSteps; ++s) {

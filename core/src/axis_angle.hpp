@@ -386,6 +386,19 @@ Eigen::Matrix<T, 4, 1> rotation_axis(const Matrix3<T>& H, const Invariants<T>& i
       rho = rho_next;
     }
   }
+  // Polish: one step of the power method on K + y I, whose eigenvalues lambda_i + y lie in [0, 2 y] with the
+  // top one 2 y (|lambda_i| <= s1 + s2 + s3 and lambda_4 + y >= -2 s3 + ... >= 0): every component of q off
+  // the top eigenvector shrinks by (lambda_i + y) / (2 y) <= 1 and none grows. Near a double root the
+  // columns above carry O(sqrt(eps)) of the bottom eigenvectors (lambda = -s1 for rank-1 H), which this step
+  // removes (factor O(sqrt(eps)) again), while the top plane is kept as it is (a multiple eigenvalue is
+  // scaled uniformly, so the choice closest to the identity stands). Its own rounding is eps ||K|| / (2 y).
+  // (Written out in the SIMD kernel's order of operations.)
+  Eigen::Matrix<T, 4, 1> polished;
+  for (int i = 0; i < 4; ++i)
+    polished(i) = (K(i, 0) * q(0) + K(i, 1) * q(1) + K(i, 2) * q(2) + K(i, 3) * q(3)) + y * q(i);
+  const T n2 = polished(0) * polished(0) + polished(1) * polished(1) + polished(2) * polished(2) +
+               polished(3) * polished(3);
+  if (n2 > T(0)) q = polished;  // y = 0: H = 0, q stays e0
   return q;
 }
 
