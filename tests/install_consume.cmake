@@ -51,6 +51,16 @@ _ic_run("cmake --install into ${_prefix}"
 if(NOT EXISTS ${_prefix}/include/mlsdeform/mlsdeform.hpp)
   message(FATAL_ERROR "install_consume: the install did not put the headers in ${_prefix}/include")
 endif()
+# The command-line program comes along (when the tools are built) and answers --version.
+if(EXISTS ${MLSDEFORM_BINARY_DIR}/tools/mlsdeform)
+  if(NOT EXISTS ${_prefix}/bin/mlsdeform)
+    message(FATAL_ERROR "install_consume: the install did not put the program in ${_prefix}/bin")
+  endif()
+  _ic_run("installed mlsdeform --version" ${_prefix}/bin/mlsdeform --version)
+  if(NOT _ic_last_output MATCHES "^[0-9]+\\.[0-9]+\\.[0-9]+")
+    message(FATAL_ERROR "install_consume: mlsdeform --version printed '${_ic_last_output}'")
+  endif()
+endif()
 
 # Only the fresh prefix may provide mlsdeform: no package registries, and the consumer checks mlsdeform_DIR.
 _ic_run("configure the consumer"

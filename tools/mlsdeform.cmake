@@ -34,3 +34,9 @@ target_compile_definitions(mlsdeform_cli PRIVATE
 add_executable(mlsdeform ${_cli}/main.cpp)
 target_link_libraries(mlsdeform PRIVATE mlsdeform_cli CLI11::CLI11 mlsdeform_warnings)
 set_target_properties(mlsdeform PROPERTIES RUNTIME_OUTPUT_DIRECTORY ${PROJECT_BINARY_DIR}/tools)
+
+# `cmake --install` puts the program beside the library (bin/mlsdeform), with the licence and the bundled
+# meshes' attribution under share/doc/mlsdeform.
+install(TARGETS mlsdeform RUNTIME DESTINATION ${CMAKE_INSTALL_BINDIR})
+install(FILES ${PROJECT_SOURCE_DIR}/LICENSE ${PROJECT_SOURCE_DIR}/data/LICENSES.txt
+        DESTINATION ${CMAKE_INSTALL_DOCDIR})
