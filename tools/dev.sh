@@ -3,6 +3,8 @@
 #   tools/dev.sh demo   install what is missing, build (Release), run `mlsdeform demo`
 #   tools/dev.sh test   install what is missing, build, run the whole test suite through ctest, then the
 #                       same suite again under AddressSanitizer + UndefinedBehaviorSanitizer
+#   tools/dev.sh python install what is missing, build the Python package (Release), install it where Debian's
+#                       /usr/bin/python3 imports it from any directory, and run the Python tests against it
 # Extra arguments after `demo` go to the demo.
 set -euo pipefail
 root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
@@ -20,6 +22,14 @@ case "${1:-}" in
     build build
     exec build/tools/mlsdeform demo "$@"
     ;;
+  python)
+    build build -DMLSDEFORM_BUILD_PYTHON=ON
+    cmake --install build --component python
+    cd /tmp
+    /usr/bin/python3 -c "import mlsdeform; print('mlsdeform', mlsdeform.__version__, 'from', mlsdeform.__file__)"
+    MLSDEFORM_PY_REFERENCE="$root/build/python/mlsdeform_py_reference" \
+      exec /usr/bin/python3 -m pytest -q -p no:cacheprovider "$root/python/tests"
+    ;;
   test)
     build build
     ctest --test-dir build --output-on-failure -j "$jobs"
@@ -29,7 +39,7 @@ case "${1:-}" in
       ctest --test-dir build-asan --output-on-failure -j "$jobs" -LE no_sanitizer
     ;;
   *)
-    echo "usage: tools/dev.sh demo [demo options] | tools/dev.sh test" >&2
+    echo "usage: tools/dev.sh demo [demo options] | tools/dev.sh test | tools/dev.sh python" >&2
     exit 2
     ;;
 esac

@@ -6,6 +6,7 @@ packages=(cmake g++ make pkg-config
   libtbb-dev libxsimd-dev libeigen3-dev libbenchmark-dev catch2            # the library, tests, benchmarks
   libassimp-dev nlohmann-json3-dev libcli11-dev zlib1g-dev                 # the command-line tool
   python3 python3-matplotlib                                              # figures and benchmark plots
+  python3-dev python3-numpy python3-pytest pybind11-dev python3-pybind11  # the Python package (python/)
   clang libclang-rt-14-dev)                                               # the libFuzzer target
 missing=()
 for p in "${packages[@]}"; do

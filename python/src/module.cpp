@@ -1,0 +1,576 @@
+// The Python binding of mlsdeform (pybind11): numpy in, numpy out. The per-frame path writes straight into
+// the caller's C-contiguous (n, 3) array through the library's interleaved output (no copy of the vertices);
+// the GIL is released while the library works. Errors keep the library's message: std::invalid_argument ->
+// ValueError, std::out_of_range -> IndexError (pybind11's own translations); shape and dtype problems of an
+// argument raise ValueError / TypeError naming the argument and what was received.
+#include <mlsdeform/mlsdeform.hpp>
+
+#include <pybind11/numpy.h>
+#include <pybind11/pybind11.h>
+#include <pybind11/stl.h>
+
+#include <chrono>
+#include <cmath>
+#include <cstdint>
+#include <cstring>
+#include <memory>
+#include <optional>
+#include <stdexcept>
+#include <string>
+#include <utility>
+#include <type_traits>
+#include <vector>
+
+namespace py = pybind11;
+using namespace mlsdeform;
+
+namespace {
+
+template <class T>
+using Array = py::array_t<T, py::array::c_style | py::array::forcecast>;
+
+std::string shape_of(const py::array& a) {
+  std::string s = "(";
+  for (py::ssize_t i = 0; i < a.ndim(); ++i) s += (i ? ", " : "") + std::to_string(a.shape(i));
+  return s + (a.ndim() == 1 ? ",)" : ")");
+}
+
+/// An (n, 3) array of T from any array-like (converted, copied only if it is not already C-contiguous T).
+template <class T>
+Array<T> as_n3(const py::handle& obj, const char* name) {
+  Array<T> a;
+  try {
+    a = Array<T>::ensure(obj);
+  } catch (const py::error_already_set&) {
+    a = Array<T>();
+  }
+  if (!a) {
+    PyErr_Clear();
+    throw py::type_error(std::string(name) + ": expected an (n, 3) array of numbers, got " +
+                         std::string(py::str(py::type::of(obj).attr("__name__"))));
+  }
+  if (a.ndim() != 2 || a.shape(1) != 3)
+    throw py::value_error(std::string(name) + ": expected shape (n, 3), got " + shape_of(a));
+  return a;
+}
+
+template <class T>
+Points<T> to_points(const Array<T>& a) {
+  Points<T> p(a.shape(0), 3);
+  const T* d = a.data();
+  for (py::ssize_t i = 0; i < a.shape(0); ++i)
+    for (int c = 0; c < 3; ++c) p(i, c) = d[3 * i + c];
+  return p;
+}
+
+template <class T>
+py::array_t<T> from_points(const Points<T>& p) {
+  py::array_t<T> a({p.rows(), Eigen::Index(3)});
+  T* d = a.mutable_data();
+  for (Eigen::Index i = 0; i < p.rows(); ++i)
+    for (int c = 0; c < 3; ++c) d[3 * i + c] = p(i, c);
+  return a;
+}
+
+template <class E>
+E parse_enum(const std::string& value, const char* name, std::initializer_list<std::pair<const char*, E>> options) {
+  std::string known;
+  for (const auto& [key, e] : options) {
+    if (value == key) return e;
+    known += (known.empty() ? "" : ", ") + std::string("'") + key + "'";
+  }
+  throw py::value_error(std::string(name) + ": unknown value '" + value + "' (expected one of " + known + ")");
+}
+
+Transform parse_transform(const std::string& s) {
+  return parse_enum<Transform>(s, "transform", {{"rigid", Transform::rigid}, {"similarity", Transform::similarity},
+                                                {"affine", Transform::affine}});
+}
+
+RotationMethod parse_method(const std::string& s) {
+  for (RotationMethod m : all_rotation_methods)
+    if (to_string(m) == s) return m;
+  std::string known;
+  for (RotationMethod m : all_rotation_methods) known += (known.empty() ? "'" : ", '") + std::string(to_string(m)) + "'";
+  throw py::value_error("method: unknown value '" + s + "' (expected one of " + known + ")");
+}
+
+/// Handles from the optional points array and (a, b) segment tuple, in precision T.
+template <class T>
+Handles<T> make_handles(const py::object& points, const py::object& segments) {
+  Handles<T> h;
+  h.points.resize(0, 3);
+  h.segment_a.resize(0, 3);
+  h.segment_b.resize(0, 3);
+  if (!points.is_none()) h.points = to_points(as_n3<T>(points, "points"));
+  if (!segments.is_none()) {
+    py::sequence seq;
+    try {
+      seq = segments.cast<py::sequence>();
+    } catch (const py::cast_error&) {
+      throw py::type_error("segments: expected a pair (A, B) of (s, 3) arrays of end points");
+    }
+    if (py::len(seq) != 2) throw py::value_error("segments: expected a pair (A, B) of (s, 3) arrays of end points");
+    h.segment_a = to_points(as_n3<T>(seq[0], "segments[0]"));
+    h.segment_b = to_points(as_n3<T>(seq[1], "segments[1]"));
+    if (h.segment_a.rows() != h.segment_b.rows())
+      throw py::value_error("segments: A has " + std::to_string(h.segment_a.rows()) + " rows but B has " +
+                            std::to_string(h.segment_b.rows()));
+  }
+  return h;
+}
+
+/// A session in float or double, chosen by the dtype of the rest vertices.
+class PyDeformer {
+  // Exactly one is set, by the constructor.
+  std::unique_ptr<Deformer<float>> single_;
+  std::unique_ptr<Deformer<double>> double_;
+
+  template <class T>
+  Deformer<T>& get() const {
+    if constexpr (std::is_same_v<T, float>) return *single_;
+    else return *double_;
+  }
+  template <class F>
+  decltype(auto) visit(F&& f) const {
+    return single_ ? f(*single_) : f(*double_);
+  }
+
+ public:
+  PyDeformer(const py::object& vertices, const py::object& points, const py::object& segments,
+             const std::string& transform, double exponent, const std::string& method,
+             const std::string& segment_weight, int threads, const std::string& weight_storage,
+             const std::string& backend, std::size_t budget_bytes, const py::object& dtype) {
+    Options o;
+    o.transform = parse_transform(transform);
+    o.weight_exponent = exponent;
+    o.method = parse_method(method);
+    o.segment_weight = parse_enum<SegmentWeight>(
+        segment_weight, "segment_weight",
+        {{"paper_constant", SegmentWeight::paper_constant}, {"exact_integral", SegmentWeight::exact_integral}});
+    o.threads = threads;
+    o.weight_storage = parse_enum<WeightStorage>(weight_storage, "weight_storage",
+                                                 {{"automatic", WeightStorage::automatic},
+                                                  {"precomputed", WeightStorage::precomputed},
+                                                  {"on_the_fly", WeightStorage::on_the_fly}});
+    o.backend = parse_enum<Backend>(backend, "backend", {{"simd", Backend::simd}, {"scalar", Backend::scalar}});
+    o.precompute_budget_bytes = budget_bytes;
+    bool single = false;
+    if (!dtype.is_none()) {
+      const py::dtype dt = py::dtype::from_args(dtype);
+      if (dt.is(py::dtype::of<float>()) || dt.equal(py::dtype::of<float>())) single = true;
+      else if (!dt.equal(py::dtype::of<double>())) throw py::type_error("dtype: expected float32 or float64");
+    } else if (py::isinstance<py::array>(vertices)) {
+      single = py::reinterpret_borrow<py::array>(vertices).dtype().equal(py::dtype::of<float>());
+    }
+    if (points.is_none() && segments.is_none())
+      throw py::value_error("Deformer: no handles (give points=..., segments=(A, B), or both)");
+    if (single) make<float>(vertices, points, segments, o);
+    else make<double>(vertices, points, segments, o);
+  }
+
+  bool single() const { return single_ != nullptr; }
+  py::dtype dtype() const { return single() ? py::dtype::of<float>() : py::dtype::of<double>(); }
+  Eigen::Index vertex_count() const {
+    return visit([](const auto& d) { return d.vertex_count(); });
+  }
+
+  py::array deform(const py::object& points, const py::object& segments, const py::object& out) const {
+    return single() ? run<float>(points, segments, out) : run<double>(points, segments, out);
+  }
+
+  void set_point_target(Eigen::Index i, const py::object& q) {
+    visit([&](auto& d) { d.set_point_target(i, vector3<typename Scalar<decltype(d)>::type>(q, "target")); });
+  }
+  void set_segment_target(Eigen::Index i, const py::object& a, const py::object& b) {
+    visit([&](auto& d) {
+      using T = typename Scalar<decltype(d)>::type;
+      d.set_segment_target(i, vector3<T>(a, "a"), vector3<T>(b, "b"));
+    });
+  }
+  py::dict targets() const {
+    return visit([](const auto& d) {
+      const auto& h = d.targets();
+      py::dict r;
+      r["points"] = from_points(h.points);
+      r["segments"] = py::make_tuple(from_points(h.segment_a), from_points(h.segment_b));
+      return r;
+    });
+  }
+  std::size_t memory_bytes() const {
+    return visit([](const auto& d) { return d.memory_bytes(); });
+  }
+  bool uses_precomputed_weights() const {
+    return visit([](const auto& d) { return d.uses_precomputed_weights(); });
+  }
+  Eigen::Index point_count() const {
+    return visit([](const auto& d) { return d.targets().point_count(); });
+  }
+  Eigen::Index segment_count() const {
+    return visit([](const auto& d) { return d.targets().segment_count(); });
+  }
+
+  /// Seconds per frame of `reps` calls of the C++ deform into `out` with the given handles, timed inside
+  /// C++ (no Python in the loop): the reference of the overhead benchmark (python/bench/overhead.py).
+  double time_cpp_deform(const py::object& points, const py::object& segments, const py::object& out, int reps) {
+    return single() ? time_cpp<float>(points, segments, out, reps) : time_cpp<double>(points, segments, out, reps);
+  }
+
+ private:
+  template <class D>
+  struct Scalar;
+  template <class T>
+  struct Scalar<Deformer<T>&> {
+    using type = T;
+  };
+
+  template <class T>
+  static Vector3<T> vector3(const py::object& obj, const char* name) {
+    Array<T> a;
+    try {
+      a = Array<T>::ensure(obj);
+    } catch (const py::error_already_set&) {
+    }
+    if (!a) {
+      PyErr_Clear();
+      throw py::type_error(std::string(name) + ": expected 3 numbers");
+    }
+    if (a.size() != 3) throw py::value_error(std::string(name) + ": expected 3 numbers, got shape " + shape_of(a));
+    return Vector3<T>(a.data()[0], a.data()[1], a.data()[2]);
+  }
+
+  template <class T>
+  void make(const py::object& vertices, const py::object& points, const py::object& segments, const Options& o) {
+    const Points<T> v = to_points(as_n3<T>(vertices, "vertices"));
+    const Handles<T> h = make_handles<T>(points, segments);
+    std::optional<Deformer<T>> d;
+    {
+      py::gil_scoped_release release;
+      d.emplace(v, h, o);
+    }
+    if constexpr (std::is_same_v<T, float>) single_ = std::make_unique<Deformer<float>>(std::move(*d));
+    else double_ = std::make_unique<Deformer<double>>(std::move(*d));
+  }
+
+  /// The moved handles: the given arrays, the session's current targets for the kinds not given.
+  template <class T>
+  Handles<T> moved(const py::object& points, const py::object& segments) const {
+    const Deformer<T>& d = get<T>();
+    Handles<T> h = make_handles<T>(points, segments);
+    if (points.is_none()) h.points = d.targets().points;
+    if (segments.is_none()) {
+      h.segment_a = d.targets().segment_a;
+      h.segment_b = d.targets().segment_b;
+    }
+    return h;
+  }
+
+  /// `out`: None (a new array), or a C-contiguous, writeable (n, 3) array of the session's dtype (no copy).
+  template <class T>
+  py::array_t<T> output(const py::object& out) const {
+    const Eigen::Index n = get<T>().vertex_count();
+    if (out.is_none()) return py::array_t<T>({n, Eigen::Index(3)});
+    if (!py::isinstance<py::array>(out)) throw py::type_error("out: expected a numpy array");
+    const py::array a = py::reinterpret_borrow<py::array>(out);
+    if (!a.dtype().equal(py::dtype::of<T>()))
+      throw py::type_error(std::string("out: expected dtype ") + (sizeof(T) == 4 ? "float32" : "float64") +
+                           " (the session's), got " + std::string(py::str(a.dtype())));
+    if (a.ndim() != 2 || a.shape(0) != n || a.shape(1) != 3)
+      throw py::value_error("out: expected shape (" + std::to_string(n) + ", 3), got " + shape_of(a));
+    if (!(a.flags() & py::array::c_style)) throw py::value_error("out: must be C-contiguous");
+    if (!a.writeable()) throw py::value_error("out: is read-only");
+    return py::reinterpret_borrow<py::array_t<T>>(out);
+  }
+
+  template <class T>
+  py::array run(const py::object& points, const py::object& segments, const py::object& out) const {
+    const Handles<T> h = moved<T>(points, segments);
+    py::array_t<T> result = output<T>(out);
+    const Deformer<T>& d = get<T>();
+    T* data = result.mutable_data();
+    {
+      py::gil_scoped_release release;
+      d.deform(h, InterleavedView<T>(data, d.vertex_count(), 3));
+    }
+    return result;
+  }
+
+  template <class T>
+  double time_cpp(const py::object& points, const py::object& segments, const py::object& out, int reps) {
+    const Handles<T> h = moved<T>(points, segments);
+    py::array_t<T> result = output<T>(out);
+    const Deformer<T>& d = get<T>();
+    T* data = result.mutable_data();
+    py::gil_scoped_release release;
+    const auto t0 = std::chrono::steady_clock::now();
+    for (int r = 0; r < reps; ++r) d.deform(h, InterleavedView<T>(data, d.vertex_count(), 3));
+    return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count() / reps;
+  }
+
+
+};
+
+/// (m, 3, 3) -> (m, 3, 3) through the library's 3 x 3 x m structure-of-arrays batch (scratch transposes).
+/// `out`: None (a new array) or a C-contiguous, writeable (m, 3, 3) array of T, written in place.
+template <class T>
+py::array_t<T> rotations_out(const py::object& out, py::ssize_t m) {
+  if (out.is_none()) return py::array_t<T>({m, py::ssize_t(3), py::ssize_t(3)});
+  if (!py::isinstance<py::array>(out)) throw py::type_error("out: expected a numpy array");
+  const py::array a = py::reinterpret_borrow<py::array>(out);
+  if (!a.dtype().equal(py::dtype::of<T>()))
+    throw py::type_error(std::string("out: expected dtype ") + (sizeof(T) == 4 ? "float32" : "float64") +
+                         " (that of H), got " + std::string(py::str(a.dtype())));
+  if (a.ndim() != 3 || a.shape(0) != m || a.shape(1) != 3 || a.shape(2) != 3)
+    throw py::value_error("out: expected shape (" + std::to_string(m) + ", 3, 3), got " + shape_of(a));
+  if (!(a.flags() & py::array::c_style)) throw py::value_error("out: must be C-contiguous");
+  if (!a.writeable()) throw py::value_error("out: is read-only");
+  return py::reinterpret_borrow<py::array_t<T>>(out);
+}
+
+/// The first non-finite entry of m row-major 3 x 3 matrices (error path only: names the matrix and entry).
+template <class T>
+[[noreturn]] void throw_non_finite(const T* h, std::size_t m) {
+  for (std::size_t i = 0; i < m; ++i)
+    for (int e = 0; e < 9; ++e)
+      if (!std::isfinite(h[9 * i + e]))
+        throw std::invalid_argument("fit_rotations: H[" + std::to_string(i) + ", " + std::to_string(e / 3) + ", " +
+                                    std::to_string(e % 3) + "] is NaN or infinite");
+  throw std::invalid_argument("fit_rotations: H has a NaN or infinite entry");
+}
+
+template <class T>
+py::array_t<T> fit_rotations_t(const Array<T>& H, RotationMethod method, int threads, double* seconds_cpp,
+                               const py::object& out = py::none()) {
+  if (H.ndim() != 3 || H.shape(1) != 3 || H.shape(2) != 3)
+    throw py::value_error("H: expected shape (m, 3, 3), got " + shape_of(H));
+  const std::size_t m = static_cast<std::size_t>(H.shape(0));
+  py::array_t<T> R = rotations_out<T>(out, H.shape(0));
+  const T* h = H.data();
+  T* r = R.mutable_data();
+  {
+    py::gil_scoped_release release;
+    if (seconds_cpp) {  // the reference figure: the batched call alone on data already in its layout
+      std::vector<T> soa(9 * m), rsoa(9 * m);
+      for (std::size_t i = 0; i < m; ++i)
+        for (std::size_t e = 0; e < 9; ++e) soa[e * m + i] = h[9 * i + e];
+      const auto t0 = std::chrono::steady_clock::now();
+      fit_rotations(soa.data(), rsoa.data(), m, method, threads);
+      *seconds_cpp = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+      return R;
+    }
+    // Blocks small enough that the transposed copies stay in cache (2 x 9 x 2048 values: 147 KiB in float,
+    // 295 KiB in double), larger when the library spreads a block over threads.
+    const std::size_t block = threads == 1 ? 2048 : 32768;
+    std::vector<T> soa(9 * std::min(block, m)), rsoa(soa.size());
+    // A caller's `out` must stay untouched on error: all of H is checked before the first block is written
+    // (the library checks each block again). On the exponent bits, so that it vectorises.
+    if (!out.is_none()) {
+      using Bits = std::conditional_t<sizeof(T) == 4, std::uint32_t, std::uint64_t>;
+      constexpr Bits exponent = sizeof(T) == 4 ? Bits(0x7f800000u) : Bits(0x7ff0000000000000ull);
+      Bits non_finite = 0;
+      for (std::size_t i = 0; i < 9 * m; ++i) {
+        Bits b;
+        std::memcpy(&b, h + i, sizeof b);
+        non_finite |= Bits((b & exponent) == exponent);
+      }
+      if (non_finite) throw_non_finite(h, m);
+    }
+    for (std::size_t first = 0; first < m; first += block) {
+      const std::size_t b = std::min(block, m - first);
+      const T* hb = h + 9 * first;
+      for (std::size_t i = 0; i < b; ++i)
+        for (std::size_t e = 0; e < 9; ++e) soa[e * b + i] = hb[9 * i + e];
+      try {
+        fit_rotations(soa.data(), rsoa.data(), b, method, threads);
+      } catch (const std::invalid_argument&) {
+        throw_non_finite(h, m);  // name the matrix by its index in H, not in the block
+      }
+      T* rb = r + 9 * first;
+      for (std::size_t i = 0; i < b; ++i)
+        for (std::size_t e = 0; e < 9; ++e) rb[9 * i + e] = rsoa[e * b + i];
+    }
+  }
+  return R;
+}
+
+bool wants_single(const py::object& obj) {
+  return py::isinstance<py::array>(obj) && py::reinterpret_borrow<py::array>(obj).dtype().equal(py::dtype::of<float>());
+}
+
+py::array fit_rotations_py(const py::object& H, const std::string& method, int threads, const py::object& out) {
+  const RotationMethod m = parse_method(method);
+  if (wants_single(H)) return fit_rotations_t<float>(Array<float>::ensure(H), m, threads, nullptr, out);
+  Array<double> a = Array<double>::ensure(H);
+  if (!a) {
+    PyErr_Clear();
+    throw py::type_error("H: expected an (m, 3, 3) array of numbers");
+  }
+  return fit_rotations_t<double>(a, m, threads, nullptr, out);
+}
+
+template <class T>
+py::array fit_rotation_t(const Array<T>& H, RotationMethod method) {
+  if (H.ndim() != 2 || H.shape(0) != 3 || H.shape(1) != 3)
+    throw py::value_error("H: expected shape (3, 3), got " + shape_of(H));
+  const Matrix3<T> R = fit_rotation(Eigen::Map<const Eigen::Matrix<T, 3, 3, Eigen::RowMajor>>(H.data()), method);
+  py::array_t<T> out({py::ssize_t(3), py::ssize_t(3)});
+  for (int i = 0; i < 3; ++i)
+    for (int j = 0; j < 3; ++j) out.mutable_data()[3 * i + j] = R(i, j);
+  return out;
+}
+
+template <class T>
+py::tuple fit_points_t(const py::object& P, const py::object& Q, const py::object& w, Transform transform,
+                       RotationMethod method) {
+  const Points<T> p = to_points(as_n3<T>(P, "P")), q = to_points(as_n3<T>(Q, "Q"));
+  Eigen::Matrix<T, Eigen::Dynamic, 1> weights;
+  if (!w.is_none()) {
+    const Array<T> a = Array<T>::ensure(w);
+    if (!a || a.ndim() != 1) {
+      PyErr_Clear();
+      throw py::value_error("w: expected a 1-D array of weights");
+    }
+    weights = Eigen::Map<const Eigen::Matrix<T, Eigen::Dynamic, 1>>(a.data(), a.shape(0));
+  }
+  if (transform == Transform::affine) throw py::value_error("transform: fit_points supports 'rigid' and 'similarity'");
+  const SimilarityTransform<T> f =
+      transform == Transform::rigid ? fit_rigid<T>(p, q, weights, method) : fit_similarity<T>(p, q, weights, method);
+  py::array_t<T> R({py::ssize_t(3), py::ssize_t(3)}), t(py::ssize_t(3));
+  for (int i = 0; i < 3; ++i) {
+    t.mutable_data()[i] = f.translation[i];
+    for (int j = 0; j < 3; ++j) R.mutable_data()[3 * i + j] = f.rotation(i, j);
+  }
+  if (transform == Transform::rigid) return py::make_tuple(R, t);
+  return py::make_tuple(R, t, f.scale);
+}
+
+}  // namespace
+
+PYBIND11_MODULE(_mlsdeform, m) {
+  m.doc() = "mlsdeform: as-rigid-as-possible MLS deformation and batched rotation fits (C++ core).";
+  m.attr("__version__") = std::to_string(MLSDEFORM_VERSION_MAJOR) + "." + std::to_string(MLSDEFORM_VERSION_MINOR) +
+                          "." + std::to_string(MLSDEFORM_VERSION_PATCH);
+  py::register_exception_translator([](std::exception_ptr p) {
+    try {
+      if (p) std::rethrow_exception(p);
+    } catch (const std::invalid_argument& e) {
+      PyErr_SetString(PyExc_ValueError, e.what());
+    } catch (const std::out_of_range& e) {
+      PyErr_SetString(PyExc_IndexError, e.what());
+    } catch (const std::logic_error& e) {  // a use error, such as a moved-from session
+      PyErr_SetString(PyExc_RuntimeError, e.what());
+    }
+  });
+
+  py::class_<PyDeformer>(m, "Deformer", "A deformation session; see mlsdeform.Deformer in the Python package.")
+      .def(py::init<const py::object&, const py::object&, const py::object&, const std::string&, double,
+                    const std::string&, const std::string&, int, const std::string&, const std::string&, std::size_t,
+                    const py::object&>(),
+           py::arg("vertices"), py::kw_only(), py::arg("points") = py::none(), py::arg("segments") = py::none(),
+           py::arg("transform") = "rigid", py::arg("exponent") = 2.0, py::arg("method") = "axis_angle",
+           py::arg("segment_weight") = "paper_constant", py::arg("threads") = 0,
+           py::arg("weight_storage") = "automatic", py::arg("backend") = "simd",
+           py::arg("precompute_budget_bytes") = std::size_t(32) << 20, py::arg("dtype") = py::none(),
+           R"(Deformer(vertices, *, points=None, segments=None, transform="rigid", exponent=2.0,
+method="axis_angle", segment_weight="paper_constant", threads=0, weight_storage="automatic",
+backend="simd", precompute_budget_bytes=32 MiB, dtype=None)
+
+A deformation session (paper Sec. 5): precomputes what depends on the rest pose only.
+vertices: (n, 3) rest positions; float32 arrays make a float32 session, anything else float64 (or force
+with dtype=). points: (k, 3) rest positions of point handles; segments: a pair (A, B) of (s, 3) arrays of
+segment end points. transform: "rigid" | "similarity" | "affine"; exponent: u in w = |p - v|^-u (>= 1);
+method: "axis_angle" (the paper's) | "horn_quaternion" | "horn_matrix" | "kanatani" | "svd";
+segment_weight: "paper_constant" | "exact_integral"; threads: 0 = all cores; weight_storage:
+"automatic" | "precomputed" | "on_the_fly". Raises ValueError on bad input (the library's message).)")
+      .def("deform", &PyDeformer::deform, py::kw_only(), py::arg("points") = py::none(),
+           py::arg("segments") = py::none(), py::arg("out") = py::none(),
+           R"(deform(*, points=None, segments=None, out=None) -> (n, 3) array
+
+Deformed vertices for the moved handles: points (k, 3), segments (C, D); a kind not given keeps the
+session's current targets (set_point_target / set_segment_target; initially the rest handles). out: a
+C-contiguous, writeable (n, 3) array of the session's dtype, written in place with no copy and returned;
+None allocates a new one. The GIL is released while deforming. On bad input raises ValueError/TypeError and
+writes nothing.)")
+      .def("set_point_target", &PyDeformer::set_point_target, py::arg("i"), py::arg("target"),
+           "Move point handle i's target (3 numbers) for later deform() calls; IndexError if out of range.")
+      .def("set_segment_target", &PyDeformer::set_segment_target, py::arg("i"), py::arg("a"), py::arg("b"),
+           "Move segment handle i's target end points a, b for later deform() calls.")
+      .def_property_readonly("targets", &PyDeformer::targets,
+                             "The current targets: {'points': (k, 3), 'segments': ((s, 3), (s, 3))} (copies).")
+      .def_property_readonly("vertex_count", &PyDeformer::vertex_count, "Number of vertices n.")
+      .def_property_readonly("point_count", &PyDeformer::point_count, "Number of point handles k.")
+      .def_property_readonly("segment_count", &PyDeformer::segment_count, "Number of segment handles s.")
+      .def_property_readonly("dtype", &PyDeformer::dtype, "The session's dtype: float32 or float64.")
+      .def_property_readonly("memory_bytes", &PyDeformer::memory_bytes, "Bytes held by the precomputation.")
+      .def_property_readonly("uses_precomputed_weights", &PyDeformer::uses_precomputed_weights,
+                             "Whether the weights are streamed from a table (True) or recomputed per frame.")
+      .def("_time_cpp_deform", &PyDeformer::time_cpp_deform, py::kw_only(), py::arg("points") = py::none(),
+           py::arg("segments") = py::none(), py::arg("out") = py::none(), py::arg("reps") = 10,
+           "Seconds per frame of reps C++ deform calls (no Python in the loop): for python/bench/overhead.py.");
+
+  m.def("fit_rotations", &fit_rotations_py, py::arg("H"), py::kw_only(), py::arg("method") = "axis_angle",
+        py::arg("threads") = 1, py::arg("out") = py::none(),
+        R"(fit_rotations(H, *, method="axis_angle", threads=1, out=None) -> (m, 3, 3) array
+
+Batched rotation fit in SIMD lanes: for each correlation matrix H[i] = sum_j w_j qhat_j phat_j^T, the
+proper rotation R[i] maximising trace(R^T H). float32 in gives float32 out, anything else float64.
+threads: 1 = the calling thread, 0 = all cores. out: a C-contiguous (m, 3, 3) array of H's dtype to write
+into (returned). The GIL is released. ValueError naming the first NaN or infinite entry, with nothing
+written.)");
+  m.def(
+      "_time_cpp_fit_rotations",
+      [](const py::object& H, int threads) {
+        double seconds = 0;
+        if (wants_single(H)) fit_rotations_t<float>(Array<float>::ensure(H), RotationMethod::axis_angle, threads, &seconds);
+        else fit_rotations_t<double>(Array<double>::ensure(H), RotationMethod::axis_angle, threads, &seconds);
+        return seconds;
+      },
+      py::arg("H"), py::arg("threads") = 1);
+  m.def(
+      "fit_rotation",
+      [](const py::object& H, const std::string& method) -> py::array {
+        const RotationMethod mth = parse_method(method);
+        if (wants_single(H)) return fit_rotation_t<float>(Array<float>::ensure(H), mth);
+        Array<double> a = Array<double>::ensure(H);
+        if (!a) {
+          PyErr_Clear();
+          throw py::type_error("H: expected a (3, 3) array of numbers");
+        }
+        return fit_rotation_t<double>(a, mth);
+      },
+      py::arg("H"), py::kw_only(), py::arg("method") = "axis_angle",
+      "fit_rotation(H, *, method='axis_angle') -> (3, 3): the proper rotation maximising trace(R^T H).");
+  m.def(
+      "fit_points",
+      [](const py::object& P, const py::object& Q, const py::object& w, const std::string& transform,
+         const std::string& method) {
+        const Transform t = parse_transform(transform);
+        const RotationMethod mth = parse_method(method);
+        if (wants_single(P)) return fit_points_t<float>(P, Q, w, t, mth);
+        return fit_points_t<double>(P, Q, w, t, mth);
+      },
+      py::arg("P"), py::arg("Q"), py::arg("w") = py::none(), py::kw_only(), py::arg("transform") = "rigid",
+      py::arg("method") = "axis_angle",
+      R"(fit_points(P, Q, w=None, *, transform="rigid", method="axis_angle") -> (R, t) or (R, t, s)
+
+The transform x -> s R x + t minimising sum_i w_i |s R P_i + t - Q_i|^2 (paper eqs. 1-4; Sec. 6.1 for the
+scale): "rigid" returns (R, t), "similarity" (R, t, s). w: n non-negative weights (None: all ones).)");
+  m.def("active_isa", [] { return std::string(to_string(active_isa())); },
+        "The instruction set the kernels use: 'scalar', 'sse4_2', 'avx2' or 'avx512'.");
+  m.def(
+      "supported_isas",
+      [] {
+        std::vector<std::string> r;
+        for (Isa i : supported_isas()) r.emplace_back(to_string(i));
+        return r;
+      },
+      "The instruction sets this CPU runs, best last.");
+  m.def(
+      "set_isa",
+      [](const std::string& name) {
+        for (Isa i : {Isa::scalar, Isa::sse4_2, Isa::avx2, Isa::avx512})
+          if (to_string(i) == name) return set_isa(i);
+        throw py::value_error("set_isa: unknown instruction set '" + name + "'");
+      },
+      py::arg("isa"), "Force an instruction set (ValueError if this CPU cannot run it). Not thread-safe.");
+}

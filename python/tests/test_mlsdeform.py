@@ -1,0 +1,376 @@
+"""Tests of the Python package: results against the C++ library (bitwise) and against a direct numpy MLS,
+the batched fit against numpy's SVD, zero-copy and dtype rules, every error path, threads, reference counts.
+
+Run from the build tree with PYTHONPATH=<build>/python (ctest does), or against the installed package.
+"""
+import gc
+import os
+import subprocess
+import sys
+import tempfile
+import threading
+import tracemalloc
+
+import numpy as np
+import pytest
+
+import mlsdeform
+
+SEED = int(os.environ.get("MLSDEFORM_SEED", "20261124"))
+
+
+def rng():
+    return np.random.default_rng(SEED)
+
+
+def scene(g, n=400, k=6, s=0):
+    V = g.uniform(-1, 1, (n, 3))
+    P = g.uniform(-1, 1, (k, 3))
+    A = g.uniform(-1, 1, (s, 3))
+    B = A + g.uniform(-0.5, 0.5, (s, 3))
+    return V, P, A, B
+
+
+def random_rotation(g):
+    q = g.normal(size=4)
+    w, x, y, z = q / np.linalg.norm(q)
+    return np.array([[1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)],
+                     [2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)],
+                     [2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)]])
+
+
+# ---- the C++ library's own results, bitwise ----------------------------------------------------------------
+
+REFERENCE = os.environ.get("MLSDEFORM_PY_REFERENCE")
+
+
+@pytest.mark.parametrize("dtype", [np.float32, np.float64])
+@pytest.mark.parametrize("transform", ["rigid", "similarity", "affine"])
+@pytest.mark.parametrize("segment_weight", ["paper_constant", "exact_integral"])
+def test_bitwise_equal_to_cpp(dtype, transform, segment_weight):
+    if not REFERENCE or not os.path.exists(REFERENCE):
+        pytest.skip("MLSDEFORM_PY_REFERENCE (the C++ reference program, built as mlsdeform_py_reference) not set")
+    g = rng()
+    V, P, A, B = (x.astype(dtype) for x in scene(g, n=300, k=5, s=2))
+    R = random_rotation(g)
+    Q, C, D = ((x @ R.T + 0.1).astype(dtype) for x in (P, A, B))
+    Q[0] += dtype(0.2)
+    d = mlsdeform.Deformer(V, points=P, segments=(A, B), transform=transform, exponent=2.5,
+                           segment_weight=segment_weight)
+    X = d.deform(points=Q, segments=(C, D))
+    with tempfile.TemporaryDirectory() as tmp:
+        inp, out = os.path.join(tmp, "in.bin"), os.path.join(tmp, "out.bin")
+        with open(inp, "wb") as f:
+            for x in (V, P, A, B, Q, C, D):
+                f.write(np.ascontiguousarray(x, dtype=dtype).tobytes())
+        subprocess.run([REFERENCE, "f" if dtype == np.float32 else "d", transform, "2.5", segment_weight,
+                        str(len(V)), str(len(P)), str(len(A)), inp, out], check=True)
+        expected = np.fromfile(out, dtype=dtype).reshape(-1, 3)
+    assert X.dtype == dtype
+    assert np.array_equal(X, expected)  # the same library call: bitwise
+
+
+# ---- a direct numpy MLS (paper eqs. 1-6, Sec. 6.1, 6.2 with paper_constant segment weights) -----------------
+
+def direct_mls(V, P, Q, A=None, B=None, C=None, D=None, transform="rigid", u=2.0):
+    """Straight from the paper, one vertex at a time, in float64. Returns the result and, per vertex, the
+    condition number kappa = |H| / gap of its rotation fit (gap = s2 + sign(det H) s3) or of G (affine)."""
+    out, kappa = np.zeros_like(V), np.zeros(len(V))
+    for i, v in enumerate(V):
+        ps, qs, ws, Ws = [], [], [], []
+        for p, q in zip(P, Q):
+            ps.append([p])
+            qs.append([q])
+            ws.append(np.linalg.norm(p - v) ** -u)
+            Ws.append(np.array([[1.0]]))
+        if A is not None:
+            for a, b, c, d in zip(A, B, C, D):
+                e = b - a
+                t = np.clip((v - a) @ e / (e @ e), 0, 1)
+                ps.append([a, b])
+                qs.append([c, d])
+                ws.append(np.linalg.norm(a + t * e - v) ** -u)
+                Ws.append(np.array([[1 / 3, 1 / 6], [1 / 6, 1 / 3]]))  # Sec. 6.2, constant weight
+        S = sum(w * W.sum() for w, W in zip(ws, Ws))
+        p_star = sum(w * (W.sum(axis=1) @ np.array(pp)) for w, W, pp in zip(ws, Ws, ps)) / S
+        q_star = sum(w * (W.sum(axis=1) @ np.array(qq)) for w, W, qq in zip(ws, Ws, qs)) / S
+        H, G = np.zeros((3, 3)), np.zeros((3, 3))
+        for w, W, pp, qq in zip(ws, Ws, ps, qs):
+            ph, qh = np.array(pp) - p_star, np.array(qq) - q_star
+            H += w * qh.T @ W @ ph / S
+            G += w * ph.T @ W @ ph / S
+        vh = v - p_star
+        if transform == "affine":
+            out[i] = q_star + H @ np.linalg.solve(G, vh)
+            kappa[i] = np.linalg.cond(G)
+            continue
+        U, sv, Wt = np.linalg.svd(H)
+        sgn = np.sign(np.linalg.det(U @ Wt))
+        R = U @ np.diag([1, 1, sgn]) @ Wt
+        mu = np.trace(R.T @ H) / np.trace(G) if transform == "similarity" else 1.0
+        out[i] = q_star + mu * R @ vh
+        kappa[i] = sv[0] / max(sv[1] + sgn * sv[2], 1e-300)
+    return out, kappa
+
+
+@pytest.mark.parametrize("transform", ["rigid", "similarity", "affine"])
+@pytest.mark.parametrize("with_segments", [False, True])
+def test_against_direct_numpy_mls(transform, with_segments):
+    g = rng()
+    V, P, A, B = scene(g, n=150, k=6, s=2 if with_segments else 0)
+    R = random_rotation(g)
+    Q = P @ R.T + g.normal(scale=0.05, size=P.shape)
+    C, D = A @ R.T, B @ R.T
+    seg = (A, B) if with_segments else None
+    d = mlsdeform.Deformer(V, points=P, segments=seg, transform=transform)
+    X = d.deform(points=Q, segments=(C, D) if with_segments else None)
+    ref, kappa = direct_mls(V, P, Q, *((A, B, C, D) if with_segments else ()), transform=transform)
+    # Both evaluations are backward stable per vertex: the weighted sums carry (J + 16) eps relative error
+    # (J pseudo-handles, plus the roundings of the precomputed coefficients), which the rotation fit (or G^-1)
+    # amplifies by kappa; |v'| <= 4 in this unit scene. A factor 4 covers both sides and the paths' constants.
+    J = len(P) + 2 * len(A)
+    tol = 4 * (J + 16) * np.finfo(np.float64).eps * (1 + kappa) * 4
+    err = np.linalg.norm(X - ref, axis=1)
+    assert np.all(err <= tol), f"worst err/tol {np.max(err / tol):.3g} at vertex {np.argmax(err / tol)}"
+
+
+# ---- batched rotation fits against numpy's SVD (Kabsch) -----------------------------------------------------
+
+def kabsch(H):
+    U, s, Vt = np.linalg.svd(H)
+    d = np.sign(np.linalg.det(U @ Vt))
+    return U @ np.diag([1, 1, d]) @ Vt, s, d
+
+
+@pytest.mark.parametrize("dtype", [np.float32, np.float64])
+def test_fit_rotations_against_svd(dtype):
+    g = rng()
+    m = 2000
+    P = g.normal(size=(m, 8, 3))
+    Rt = np.array([random_rotation(g) for _ in range(m)])
+    Qp = np.einsum("mij,mkj->mki", Rt, P) + g.normal(scale=0.1, size=P.shape)
+    H = np.einsum("mki,mkj->mij", Qp, P).astype(dtype)
+    R = mlsdeform.fit_rotations(H)
+    assert R.dtype == dtype and R.shape == (m, 3, 3)
+    eps = np.finfo(dtype).eps
+    for i in range(m):
+        Rk, s, d = kabsch(H[i].astype(np.float64))
+        kappa = s[0] / (s[1] + d * s[2])
+        # The optimum is unique here; each side's angle error is at most c eps kappa (the accuracy suite's
+        # bound, 2 sqrt(3) 16 eps kappa + 96 eps), plus the SVD's own few eps.
+        tol = (2 * np.sqrt(3) * 16 * kappa + 96) * eps + 64 * np.finfo(np.float64).eps * kappa
+        assert np.linalg.norm(R[i] - Rk) <= 2 * tol
+        assert np.abs(R[i] @ R[i].T - np.eye(3)).max() <= 64 * eps
+        assert abs(np.linalg.det(R[i].astype(np.float64)) - 1) <= 96 * eps
+
+
+def test_fit_rotations_degenerate_batches():
+    g = rng()
+    p, q = g.normal(size=3), g.normal(size=3)
+    p, q = p / np.linalg.norm(p), q / np.linalg.norm(q)
+    H = np.stack([np.zeros((3, 3)), np.outer(q, p), np.eye(3), -np.eye(3) @ random_rotation(g),
+                  np.diag([1.0, 1.0, -1.0]), np.diag([3.0, 2.0, 0.0])])
+    R = mlsdeform.fit_rotations(H)
+    eps = np.finfo(np.float64).eps
+    assert np.array_equal(R[0], np.eye(3))                   # H = 0: the identity
+    assert np.linalg.norm(R[1] @ p - q) <= 16 * eps           # rank 1: p goes to q
+    assert np.abs(R[2] - np.eye(3)).max() <= 16 * eps         # H = I
+    for r in R:
+        assert np.abs(r @ r.T - np.eye(3)).max() <= 64 * eps and abs(np.linalg.det(r) - 1) <= 96 * eps
+    # det H < 0 (diag(1, 1, -1): every rotation about z by 0 is optimal, trace 1) and rank 2: the optimal
+    # value trace(R^T H), which is well-conditioned even where R is not unique.
+    best = np.trace(kabsch(H[4])[0].T @ H[4])
+    assert abs(np.trace(R[4].T @ H[4]) - best) <= 64 * eps
+    assert abs(np.trace(R[5].T @ H[5]) - np.trace(kabsch(H[5])[0].T @ H[5])) <= 64 * eps * 5
+
+
+def test_fit_rotation_and_fit_points():
+    g = rng()
+    P = g.normal(size=(20, 3))
+    R0 = random_rotation(g)
+    Q = P @ R0.T + np.array([1.0, 2.0, 3.0])
+    for method in ["axis_angle", "horn_quaternion", "horn_matrix", "kanatani", "svd"]:
+        R, t = mlsdeform.fit_points(P, Q, method=method)
+        assert np.abs(R - R0).max() <= 1e-12 and np.abs(t - [1, 2, 3]).max() <= 1e-12
+    R, t, s = mlsdeform.fit_points(P, 2 * Q, np.ones(20), transform="similarity")
+    assert abs(s - 2) <= 1e-12
+    Pc = P - P.mean(axis=0)
+    H = (Q - Q.mean(axis=0)).T @ Pc
+    assert np.abs(mlsdeform.fit_rotation(H) - R0).max() <= 1e-12
+    assert np.abs(mlsdeform.fit_rotation(H, method="svd") - R0).max() <= 1e-12
+
+
+# ---- zero copy, dtypes, the stateful session -----------------------------------------------------------------
+
+def test_out_is_written_in_place_without_copy():
+    g = rng()
+    V, P, _, _ = scene(g)
+    d = mlsdeform.Deformer(V, points=P)
+    out = np.empty_like(V)
+    r = d.deform(points=P + 0.1, out=out)
+    assert r is out and np.shares_memory(r, out)
+    assert np.array_equal(out, d.deform(points=P + 0.1))
+    # At the rest pose the map is the identity to rounding.
+    assert np.abs(d.deform(out=out) - V).max() <= 1e-12
+
+
+def test_dtype_rules():
+    g = rng()
+    V, P, _, _ = scene(g)
+    assert mlsdeform.Deformer(V.astype(np.float32), points=P).dtype == np.float32
+    assert mlsdeform.Deformer(V, points=P).dtype == np.float64
+    assert mlsdeform.Deformer(V.tolist(), points=P.tolist()).dtype == np.float64      # any array-like
+    assert mlsdeform.Deformer(np.round(V * 10).astype(int), points=P * 10).dtype == np.float64
+    assert mlsdeform.Deformer(V, points=P, dtype=np.float32).dtype == np.float32
+    d = mlsdeform.Deformer(V.astype(np.float32), points=P)
+    X = d.deform(points=P + 0.1)                        # float64 handles are converted to the session's dtype
+    assert X.dtype == np.float32
+    assert mlsdeform.fit_rotations(np.zeros((4, 3, 3), np.float32)).dtype == np.float32
+    assert mlsdeform.fit_rotations(np.zeros((4, 3, 3), int)).dtype == np.float64
+
+
+def test_stateful_session():
+    g = rng()
+    V, P, A, B = scene(g, k=4, s=1)
+    d = mlsdeform.Deformer(V, points=P, segments=(A, B))
+    assert (d.vertex_count, d.point_count, d.segment_count) == (len(V), 4, 1)
+    d.set_point_target(2, P[2] + [0, 0, 0.3])
+    d.set_segment_target(0, A[0] + 0.1, B[0] + 0.1)
+    Q = P.copy()
+    Q[2] += [0, 0, 0.3]
+    expected = d.deform(points=Q, segments=(A + 0.1, B + 0.1))
+    assert np.array_equal(d.deform(), expected)
+    assert np.array_equal(d.targets["points"], Q)
+    # A kind not given keeps the session's targets.
+    assert np.array_equal(d.deform(points=Q), expected)
+
+
+# ---- errors: the right exception, the library's message, nothing written ------------------------------------
+
+def test_errors():
+    g = rng()
+    V, P, _, _ = scene(g, n=50, k=4)
+    d = mlsdeform.Deformer(V, points=P)
+    out = np.full((50, 3), 7.0)
+    cases = [
+        (ValueError, "4 point handles at rest but 3", lambda: d.deform(points=P[:3], out=out)),
+        (ValueError, "expected shape (n, 3), got (4, 2)", lambda: d.deform(points=P[:, :2], out=out)),
+        (ValueError, "non-finite", lambda: d.deform(points=np.full((4, 3), np.nan), out=out)),
+        (TypeError, "expected dtype float64", lambda: d.deform(points=P, out=out.astype(np.float32))),
+        (ValueError, "expected shape (50, 3), got (49, 3)", lambda: d.deform(points=P, out=out[:49])),
+        (ValueError, "C-contiguous", lambda: d.deform(points=P, out=np.asfortranarray(out))),
+        (TypeError, "points: expected an (n, 3) array", lambda: d.deform(points="abc", out=out)),
+        (TypeError, "out: expected a numpy array", lambda: d.deform(points=P, out=[[0, 0, 0]] * 50)),
+        (IndexError, "index 9", lambda: d.set_point_target(9, [0, 0, 0])),
+        (ValueError, "expected 3 numbers", lambda: d.set_point_target(0, [0, 0])),
+        (ValueError, "unknown value 'bogus'", lambda: mlsdeform.Deformer(V, points=P, transform="bogus")),
+        (ValueError, "unknown value 'qr'", lambda: mlsdeform.fit_rotations(np.zeros((1, 3, 3)), method="qr")),
+        (ValueError, "no handles", lambda: mlsdeform.Deformer(V)),
+        (ValueError, "weight_exponent", lambda: mlsdeform.Deformer(V, points=P, exponent=0.5)),
+        (ValueError, "segments: A has 2 rows but B has 1", lambda: mlsdeform.Deformer(V, segments=(P[:2], P[:1]))),
+        (ValueError, "NaN or infinite", lambda: mlsdeform.fit_rotations(np.full((2, 3, 3), np.inf))),
+        (ValueError, "expected shape (m, 3, 3)", lambda: mlsdeform.fit_rotations(np.zeros((2, 3)))),
+        (ValueError, "expected shape (3, 3)", lambda: mlsdeform.fit_rotation(np.zeros((2, 3)))),
+        (ValueError, "supports 'rigid' and 'similarity'", lambda: mlsdeform.fit_points(P, P, transform="affine")),
+        (ValueError, "set_isa", lambda: mlsdeform.set_isa("neon")),
+    ]
+    for exc, text, call in cases:
+        with pytest.raises(exc) as info:
+            call()
+        assert text in str(info.value), (text, str(info.value))
+    assert np.all(out == 7.0)  # nothing was written by the failed calls
+    ro = np.empty((50, 3))
+    ro.setflags(write=False)
+    with pytest.raises(ValueError, match="read-only"):
+        d.deform(points=P, out=ro)
+
+
+def test_readonly_input_and_views_are_accepted():
+    g = rng()
+    V, P, _, _ = scene(g, n=60)
+    V.setflags(write=False)
+    big = np.zeros((len(P), 6))
+    big[:, ::2] = P                          # a strided view: converted, not rejected
+    d = mlsdeform.Deformer(V, points=big[:, ::2])
+    assert np.abs(d.deform(points=P) - V).max() <= 1e-12
+
+
+# ---- threads and reference counts ----------------------------------------------------------------------------
+
+def test_two_sessions_in_two_threads():
+    g = rng()
+    sessions, handles, expected = [], [], []
+    for _ in range(2):
+        V, P, _, _ = scene(g, n=3000, k=8)
+        Q = P + g.normal(scale=0.1, size=P.shape)
+        d = mlsdeform.Deformer(V, points=P, threads=1)
+        sessions.append(d)
+        handles.append(Q)
+        expected.append(d.deform(points=Q))
+    results, errors = [None, None], []
+
+    def work(j):
+        try:
+            out = np.empty_like(expected[j])
+            for _ in range(50):
+                sessions[j].deform(points=handles[j], out=out)
+                if not np.array_equal(out, expected[j]):
+                    errors.append(f"session {j}: result changed")
+            results[j] = out
+        except Exception as e:  # noqa: BLE001 - reported below
+            errors.append(repr(e))
+
+    threads = [threading.Thread(target=work, args=(j,)) for j in range(2)]
+    for t in threads:
+        t.start()
+    for t in threads:
+        t.join()
+    assert not errors
+    assert all(np.array_equal(results[j], expected[j]) for j in range(2))
+
+
+def test_no_reference_or_memory_leak():
+    g = rng()
+    V, P, _, _ = scene(g, n=200)
+    d = mlsdeform.Deformer(V, points=P)
+    out = np.empty_like(V)
+    Q = P + 0.05
+    H = g.normal(size=(16, 3, 3))
+    for _ in range(100):  # warm up allocator caches
+        d.deform(points=Q, out=out)
+        mlsdeform.fit_rotations(H)
+    counts = (sys.getrefcount(out), sys.getrefcount(Q), sys.getrefcount(d))
+    gc.collect()
+    tracemalloc.start()
+    before = tracemalloc.take_snapshot()
+    for _ in range(10000):
+        d.deform(points=Q, out=out)
+        d.deform(points=Q)
+        mlsdeform.fit_rotations(H)
+    gc.collect()
+    after = tracemalloc.take_snapshot()
+    tracemalloc.stop()
+    grown = sum(s.size_diff for s in after.compare_to(before, "filename"))
+    assert (sys.getrefcount(out), sys.getrefcount(Q), sys.getrefcount(d)) == counts
+    assert grown < 64 * 1024, f"Python heap grew by {grown} bytes over 10^4 calls"
+
+
+def test_fit_rotations_out_and_error_index():
+    g = rng()
+    H = g.normal(size=(6000, 3, 3))
+    R = np.full_like(H, 5.0)
+    assert mlsdeform.fit_rotations(H, out=R) is R
+    assert np.array_equal(R, mlsdeform.fit_rotations(H))
+    for threads in (1, 0):
+        bad = H.copy()
+        bad[5000, 2, 1] = np.nan
+        out = np.full_like(H, 5.0)
+        with pytest.raises(ValueError, match=r"H\[5000, 2, 1\] is NaN or infinite"):
+            mlsdeform.fit_rotations(bad, out=out, threads=threads)
+        assert np.all(out == 5.0)  # nothing written
+        with pytest.raises(ValueError, match=r"H\[5000, 2, 1\]"):
+            mlsdeform.fit_rotations(bad, threads=threads)
+    with pytest.raises(TypeError, match="expected dtype float64"):
+        mlsdeform.fit_rotations(H, out=R.astype(np.float32))
+    with pytest.raises(ValueError, match=r"expected shape \(6000, 3, 3\)"):
+        mlsdeform.fit_rotations(H, out=R[:10])
