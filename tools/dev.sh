@@ -5,12 +5,17 @@
 #                       same suite again under AddressSanitizer + UndefinedBehaviorSanitizer
 #   tools/dev.sh python install what is missing, build the Python package (Release), install it where Debian's
 #                       /usr/bin/python3 imports it from any directory, and run the Python tests against it
+#   tools/dev.sh blender  install what is missing (Blender too), build build/mlsdeform_blender.zip (the add-on with
+#                       the compiled module inside) and run its headless test
 # Extra arguments after `demo` go to the demo.
 set -euo pipefail
 root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
 cd "$root"
 jobs=$(nproc 2>/dev/null || echo 2)
-bash tools/install_deps.sh
+case "${1:-}" in
+  test|blender) bash tools/install_deps.sh blender ;;
+  *) bash tools/install_deps.sh ;;
+esac
 build() {  # build DIR [cmake args...]
   local dir=$1; shift
   cmake -S . -B "$dir" -DCMAKE_BUILD_TYPE=Release "$@" >/dev/null
@@ -30,6 +35,11 @@ case "${1:-}" in
     MLSDEFORM_PY_REFERENCE="$root/build/python/mlsdeform_py_reference" \
       exec /usr/bin/python3 -m pytest -q -p no:cacheprovider "$root/python/tests"
     ;;
+  blender)
+    build build -DMLSDEFORM_BUILD_PYTHON=ON
+    echo "add-on: $root/build/mlsdeform_blender.zip (Blender > Preferences > Add-ons > Install...)"
+    exec ctest --test-dir build --output-on-failure -R blender_addon
+    ;;
   test)
     build build
     ctest --test-dir build --output-on-failure -j "$jobs"
@@ -39,7 +49,7 @@ case "${1:-}" in
       ctest --test-dir build-asan --output-on-failure -j "$jobs" -LE no_sanitizer
     ;;
   *)
-    echo "usage: tools/dev.sh demo [demo options] | tools/dev.sh test | tools/dev.sh python" >&2
+    echo "usage: tools/dev.sh demo [demo options] | tools/dev.sh test | tools/dev.sh python | tools/dev.sh blender" >&2
     exit 2
     ;;
 esac

@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # Installs mlsdeform's build and test dependencies from Debian 12 packages. Idempotent, and quiet when
-# everything is already there. Uses sudo when not root.
+# everything is already there. Uses sudo when not root. With the argument `blender`, Blender too.
 set -euo pipefail
 packages=(cmake g++ make pkg-config
   libtbb-dev libxsimd-dev libeigen3-dev libbenchmark-dev catch2            # the library, tests, benchmarks
@@ -8,6 +8,8 @@ packages=(cmake g++ make pkg-config
   python3 python3-matplotlib                                              # figures and benchmark plots
   python3-dev python3-numpy python3-pytest pybind11-dev python3-pybind11  # the Python package (python/)
   clang libclang-rt-14-dev)                                               # the libFuzzer target
+# `install_deps.sh blender` adds Debian's Blender 3.4 for the add-on's headless test (tools/blender/).
+[ "${1:-}" = blender ] && packages+=(blender)
 missing=()
 for p in "${packages[@]}"; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
