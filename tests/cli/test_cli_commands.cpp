@@ -304,3 +304,31 @@ TEST_CASE("demo and figures draw their images (where python3-matplotlib is insta
   CHECK(r.exit_code == 2);
   CHECK(r.err == "mlsdeform: error: --only: no figure '2' (choose from 1, 3, 4, 5)\n");
 }
+
+TEST_CASE("deform: handles the library refuses end with exit 2, one line and no file", "[cli][commands][errors]") {
+  Fixture f;
+  const std::string m = f.in + "/cube.obj", o = f.out + "/a.obj";
+  struct Case {
+    const char* json;
+    const char* message;
+  };
+  const Case cases[] = {
+      // Two handles on one vertex moved apart: a vertex there cannot follow both.
+      {R"({"points": [{"vertex": 0, "target": [1, 2, 3]}, {"vertex": 0, "target": [0, 0, 0]}, {"vertex": 6}]})",
+       "point handles 0 and 1 share their rest position but have different targets"},
+      // Affine segments over a tiny weight budget: refused instead of a table past the budget.
+      {R"({"segments": [{"vertices": [0, 6], "offset": [0, 0, 1]}, {"vertices": [1, 7]}, {"vertices": [2, 4]}]})",
+       "precompute_budget_bytes"},
+  };
+  for (std::size_t i = 0; i < 2; ++i) {
+    cli_test::write_text(f.in + "/bad.json", cases[i].json);
+    std::vector<std::string> args{"deform", "-m", m, "-H", f.in + "/bad.json", "-o", o};
+    if (i == 1) args.insert(args.end(), {"--transform", "affine", "--weight-budget", "0.0001"});
+    const auto r = cli_test::run(program, args);
+    INFO(cases[i].json << "\nstderr: " << r.err);
+    CHECK(r.exit_code == 2);
+    CHECK(r.err.find(cases[i].message) != std::string::npos);
+    CHECK(cli_test::line_count(r.err) == 1);
+    CHECK(f.outputs().empty());
+  }
+}

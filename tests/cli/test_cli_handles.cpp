@@ -134,3 +134,13 @@ TEST_CASE("double precision takes coordinates float cannot", "[cli][handles]") {
 TEST_CASE("a missing handles file names the file", "[cli][handles][errors]") {
   CHECK_THROWS_WITH(read_handles("/nonexistent/h.json"), "/nonexistent/h.json: cannot open: No such file or directory");
 }
+
+TEST_CASE("duplicate keys in a handles file are refused, at any depth", "[cli][handles][errors]") {
+  require_error(R"({"points": [{"vertex": 0, "vertex": 1}]})",
+                "h.json: the key \"vertex\" appears twice in one object (keys must be unique)");
+  require_error(R"({"points": [{"vertex": 0}], "points": [{"vertex": 1}]})",
+                "h.json: the key \"points\" appears twice in one object (keys must be unique)");
+  // The same key in different objects is fine.
+  const HandlesFile h = parse_handles(R"({"points": [{"vertex": 0}, {"vertex": 1}]})", "h.json");
+  CHECK(h.points.size() == 2);
+}

@@ -7,6 +7,9 @@
 #include <cmath>
 #include <initializer_list>
 #include <limits>
+#include <set>
+#include <string>
+#include <vector>
 
 namespace mlsdeform::cli {
 namespace {
@@ -172,8 +175,20 @@ std::string one_line(std::string s) {
 
 HandlesFile parse_handles(std::string_view text, const std::string& file) {
   json doc;
+  // JSON leaves duplicate keys to the reader, and nlohmann keeps the last: {"vertex": 0, "vertex": 1} would
+  // silently mean vertex 1. Refuse them: one set of keys per open object.
+  std::vector<std::set<std::string>> open_objects;
+  std::string duplicate;
+  const json::parser_callback_t unique_keys = [&](int, json::parse_event_t event, json& parsed) {
+    if (event == json::parse_event_t::object_start) open_objects.emplace_back();
+    else if (event == json::parse_event_t::object_end && !open_objects.empty()) open_objects.pop_back();
+    else if (event == json::parse_event_t::key && !open_objects.empty() && duplicate.empty() &&
+             !open_objects.back().insert(parsed.get<std::string>()).second)
+      duplicate = parsed.get<std::string>();
+    return true;
+  };
   try {
-    doc = json::parse(text.begin(), text.end(), nullptr, /*allow_exceptions=*/true, /*ignore_comments=*/true);
+    doc = json::parse(text.begin(), text.end(), unique_keys, /*allow_exceptions=*/true, /*ignore_comments=*/true);
   } catch (const json::parse_error& e) {
     // Line and column of the byte where parsing stopped; nlohmann's text after "column N: " says why.
     std::size_t line = 1, column = 1;
@@ -195,6 +210,8 @@ HandlesFile parse_handles(std::string_view text, const std::string& file) {
     throw InputError(file, "invalid JSON: " + one_line(why));
   }
 
+  if (!duplicate.empty())
+    throw InputError(file, "the key \"" + duplicate + "\" appears twice in one object (keys must be unique)");
   const Node root{doc, "", file};
   root.require_object("an object with \"points\" and/or \"segments\"");
   root.only_keys({"points", "segments", "frames", "comment"});

@@ -77,6 +77,12 @@ void add_common_deformer_options(CLI::App* c, Options& o, Precision& precision) 
   c->add_option("--threads,-j", o.threads, "worker threads; 0: all cores")->check(CLI::NonNegativeNumber)->default_str("0");
   add_choice<Backend>(c, "--backend", o.backend, {{"simd", Backend::simd}, {"scalar", Backend::scalar}},
                       "simd: the SIMD kernels (best ISA at run time); scalar: the reference");
+  c->add_option_function<double>(
+       "--weight-budget",
+       [&o](double mib) { o.precompute_budget_bytes = static_cast<std::size_t>(mib * 1048576.0); },
+       "MiB that the precomputed weight table may take (automatic storage); beyond it, on-the-fly weights or an error")
+      ->check(CLI::Range(0.0, 1048576.0))
+      ->default_str("32");
   add_choice<SegmentWeight>(c, "--segment-weight", o.segment_weight,
                             {{"constant", SegmentWeight::paper_constant}, {"exact", SegmentWeight::exact_integral}},
                             "segment handles: constant d^-u along a segment (the paper's Sec. 6.2) or the exact integral");
@@ -168,9 +174,10 @@ int main(int argc, char** argv) {
     std::fprintf(stderr, "mlsdeform: error: %s\n", one_line(e.what()).c_str());
     return 2;
   } catch (const std::bad_alloc&) {
+    // The input asked for more memory than this machine gives (bad input for it, not a bug): exit 2.
     std::fflush(stdout);
-    std::fprintf(stderr, "mlsdeform: error: out of memory\n");
-    return 1;
+    std::fprintf(stderr, "mlsdeform: error: out of memory: the input needs more memory than is available\n");
+    return 2;
   } catch (const std::exception& e) {
     std::fflush(stdout);
     std::fprintf(stderr, "mlsdeform: internal error: %s\n", one_line(e.what()).c_str());
