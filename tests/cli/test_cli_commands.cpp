@@ -6,6 +6,12 @@
 
 #include <catch2/catch.hpp>
 
+#include <csignal>
+
+#include <fcntl.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
 using namespace mlsdeform;
 using namespace mlsdeform::cli;
 using cli_test::ScratchDir;
@@ -330,5 +336,45 @@ TEST_CASE("deform: handles the library refuses end with exit 2, one line and no 
     CHECK(r.err.find(cases[i].message) != std::string::npos);
     CHECK(cli_test::line_count(r.err) == 1);
     CHECK(f.outputs().empty());
+  }
+}
+
+TEST_CASE("deform: an interrupted animation removes the frames it wrote", "[cli][commands][signals]") {
+  Fixture f;
+  // 20,000 frames of the cube: a run of many seconds, interrupted once its first frames are on disk.
+  std::string json = R"({"points": [{"vertex": 0}, {"vertex": 6, "target": [1, 1, 1]}, {"vertex": 3}], "frames": [)";
+  for (int i = 0; i < 20000; ++i) json += (i ? ", " : "") + std::string(R"({"points": [null, {"offset": [0, 0, 0.5]}, null]})");
+  json += "]}";
+  write_text(f.in + "/long.json", json);
+  for (int sig : {SIGINT, SIGTERM}) {
+    const std::string out = f.out + "/frame.ply";
+    const pid_t pid = ::fork();
+    REQUIRE(pid >= 0);
+    if (pid == 0) {
+      const int devnull = ::open("/dev/null", O_WRONLY);
+      ::dup2(devnull, 1);
+      ::dup2(devnull, 2);
+      ::execl(program.c_str(), program.c_str(), "deform", "-m", (f.in + "/cube.obj").c_str(), "-H",
+              (f.in + "/long.json").c_str(), "-o", out.c_str(), "-q", static_cast<char*>(nullptr));
+      ::_exit(127);
+    }
+    // Wait (at most 30 s, or until the run ends by itself) until a few frames exist, then interrupt.
+    bool started = false;
+    int status = 0;
+    pid_t done = 0;
+    for (int t = 0; t < 3000 && !started && done == 0; ++t) {
+      started = f.outputs().size() >= 3;
+      if (!started) ::usleep(10000);
+      done = ::waitpid(pid, &status, WNOHANG);
+    }
+    if (done == 0) {
+      ::kill(pid, sig);
+      ::waitpid(pid, &status, 0);
+    }
+    INFO("signal " << sig << ", frames seen before it: " << started);
+    CHECK(started);
+    REQUIRE(WIFEXITED(status));
+    CHECK(WEXITSTATUS(status) == 128 + sig);
+    CHECK(f.outputs().empty());  // neither frames nor temporary files are left
   }
 }

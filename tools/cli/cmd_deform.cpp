@@ -62,8 +62,10 @@ int deform(const DeformArgs& a) {
   std::vector<double> deform_ms;
   std::vector<std::string> written;
   Progress progress(frame_count, a.quiet || !handles.animated());
+  defer_interrupts(true);
   try {
     for (std::size_t f = 0; f < frame_count; ++f) {
+      if (const int sig = pending_interrupt()) throw Interrupted{sig, written.size()};
       const std::string where = handles.animated() ? "/frames/" + std::to_string(f) : std::string();
       t0 = Clock::now();
       try {
@@ -81,6 +83,8 @@ int deform(const DeformArgs& a) {
       written.push_back(outputs[f]);
       progress.frame(f, deform_ms.back(), ms_since(t0), outputs[f]);
     }
+    if (const int sig = pending_interrupt()) throw Interrupted{sig, written.size()};
+    defer_interrupts(false);
   } catch (...) {
     // All or nothing for an animation too: remove the frames this run already wrote.
     progress.abort();

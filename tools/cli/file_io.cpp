@@ -32,8 +32,17 @@ std::string parent_dir(const std::string& path) {
 // the handler may only call async-signal-safe functions (unlink, signal, raise).
 char g_temp_path[4096];
 std::atomic<bool> g_handler_installed{false};
+// While a run defers interrupts (defer_interrupts), the first signal is only recorded here; the run polls it
+// between its outputs and removes what it wrote. A second signal, or one outside a deferring run, removes the
+// temporary file and ends the process at once.
+volatile std::sig_atomic_t g_deferring = 0;
+volatile std::sig_atomic_t g_pending = 0;
 
-extern "C" void remove_temp_and_reraise(int sig) {
+extern "C" void on_interrupt(int sig) {
+  if (g_deferring && g_pending == 0) {
+    g_pending = sig;
+    return;
+  }
   if (g_temp_path[0] != '\0') ::unlink(g_temp_path);
   std::signal(sig, SIG_DFL);
   std::raise(sig);
@@ -41,9 +50,9 @@ extern "C" void remove_temp_and_reraise(int sig) {
 
 void install_handler_once() {
   if (g_handler_installed.exchange(true)) return;
-  std::signal(SIGINT, remove_temp_and_reraise);
-  std::signal(SIGTERM, remove_temp_and_reraise);
-  std::signal(SIGHUP, remove_temp_and_reraise);
+  std::signal(SIGINT, on_interrupt);
+  std::signal(SIGTERM, on_interrupt);
+  std::signal(SIGHUP, on_interrupt);
 }
 
 }  // namespace
@@ -231,5 +240,16 @@ void write_file_atomic(const std::string& path, std::string_view bytes, bool for
   }
   g_temp_path[0] = '\0';
 }
+
+}  // namespace mlsdeform::cli
+
+namespace mlsdeform::cli {
+
+void defer_interrupts(bool on) {
+  install_handler_once();
+  g_deferring = on ? 1 : 0;
+}
+
+int pending_interrupt() { return g_pending; }
 
 }  // namespace mlsdeform::cli

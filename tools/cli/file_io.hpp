@@ -31,4 +31,16 @@ void check_output_path(const std::string& path, bool force);
 /// writing removes the temporary file too.
 void write_file_atomic(const std::string& path, std::string_view bytes, bool force);
 
+/// All or nothing across several outputs: while on, the first SIGINT, SIGTERM or SIGHUP is only recorded
+/// (pending_interrupt() returns its number) so that the caller can remove the outputs it wrote before exiting;
+/// a second signal ends the process at once (removing a temporary file being written, not the earlier outputs).
+void defer_interrupts(bool on);
+int pending_interrupt();
+
+/// Thrown by a run that stopped for a signal, after removing what it wrote: exit status 128 + signal.
+struct Interrupted {
+  int signal;
+  std::size_t removed;
+};
+
 }  // namespace mlsdeform::cli

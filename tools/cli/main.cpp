@@ -3,6 +3,7 @@
 // problem), 1 anything else (a bug or no memory).
 #include "commands.hpp"
 #include "error.hpp"
+#include "file_io.hpp"
 #include "mesh.hpp"
 
 #include <mlsdeform/version.hpp>
@@ -103,7 +104,7 @@ int run(int argc, char** argv) {
       "  mlsdeform deform -m in.obj -H handles.json -o out.ply\n"
       "  mlsdeform figures                                redraw the paper's figures in docs/figures/\n"
       "Run 'mlsdeform SUBCOMMAND --help' for a subcommand's options. Exit status: 0 done, 2 bad input or usage,\n"
-      "1 internal error.");
+      "1 internal error, 128 + N interrupted by signal N (the outputs of the run removed).");
 
   DeformArgs d;
   auto* deform = app.add_subcommand("deform", "Deform a mesh by the handles in a JSON file and write the result.");
@@ -173,6 +174,11 @@ int main(int argc, char** argv) {
     std::fflush(stdout);
     std::fprintf(stderr, "mlsdeform: error: %s\n", one_line(e.what()).c_str());
     return 2;
+  } catch (const Interrupted& e) {
+    std::fflush(stdout);
+    std::fprintf(stderr, "mlsdeform: interrupted by signal %d: removed the %zu output file(s) this run wrote\n",
+                 e.signal, e.removed);
+    return 128 + e.signal;
   } catch (const std::bad_alloc&) {
     // The input asked for more memory than this machine gives (bad input for it, not a bug): exit 2.
     std::fflush(stdout);
