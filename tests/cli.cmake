@@ -1,5 +1,5 @@
-# Tests of the mlsdeform command-line tool (tools/cli/, tests/cli/) and the libFuzzer target for its
-# handles-file reader (tests/fuzz/). Included by tests/CMakeLists.txt; only when the tools are built.
+# Tests of the mlsdeform command-line tool (tools/cli/, tests/cli/) and the libFuzzer targets for its
+# handles-file and mesh readers (tests/fuzz/). Included by tests/CMakeLists.txt; only when the tools are built.
 if(NOT MLSDEFORM_BUILD_TOOLS)
   return()
 endif()
@@ -19,7 +19,7 @@ foreach(src ${_cli_tests})
   catch_discover_tests(${name} TEST_PREFIX "${name}:" PROPERTIES TIMEOUT 600 LABELS cli)
 endforeach()
 
-# The fuzz target: clang++ -fsanitize=fuzzer (libFuzzer from Debian's libclang-rt-14-dev), built by a plain
+# The fuzz targets: clang++ -fsanitize=fuzzer (libFuzzer from Debian's libclang-rt-14-dev), built by a plain
 # custom command because the main build uses g++. Not in the sanitizer build: it is its own ASan/UBSan build,
 # and its test is labelled no_sanitizer.
 set(_fuzz_dir ${CMAKE_CURRENT_SOURCE_DIR}/fuzz)
@@ -45,33 +45,54 @@ if(NOT MLSDEFORM_SANITIZE)
     find_package(nlohmann_json 3 CONFIG REQUIRED)
     get_target_property(_eigen_inc Eigen3::Eigen INTERFACE_INCLUDE_DIRECTORIES)
     get_target_property(_json_inc nlohmann_json::nlohmann_json INTERFACE_INCLUDE_DIRECTORIES)
-    set(_fuzz_sources ${_fuzz_dir}/fuzz_handles.cpp ${PROJECT_SOURCE_DIR}/tools/cli/handles_file.cpp
-                      ${PROJECT_SOURCE_DIR}/tools/cli/file_io.cpp)
     set(_fuzz_includes)
     foreach(d ${PROJECT_SOURCE_DIR}/tools/cli ${PROJECT_SOURCE_DIR}/core/include ${_eigen_inc} ${_json_inc})
       list(APPEND _fuzz_includes -I${d})
     endforeach()
     list(REMOVE_DUPLICATES _fuzz_includes)
-    set(_fuzz_bin ${CMAKE_CURRENT_BINARY_DIR}/fuzz_handles)
-    add_custom_command(
-      OUTPUT ${_fuzz_bin}
-      COMMAND ${MLSDEFORM_CLANGXX} -std=c++20 -g -O1 -fsanitize=fuzzer,address,undefined -fno-sanitize-recover=all
-              ${_fuzz_includes} ${_fuzz_sources} -lz -o ${_fuzz_bin}
-      DEPENDS ${_fuzz_sources} ${PROJECT_SOURCE_DIR}/tools/cli/handles_file.hpp ${PROJECT_SOURCE_DIR}/tools/cli/error.hpp
-              ${PROJECT_SOURCE_DIR}/tools/cli/file_io.hpp
-      COMMENT "Building the libFuzzer target fuzz_handles with ${MLSDEFORM_CLANGXX}"
-      VERBATIM)
-    add_custom_target(fuzz_handles ALL DEPENDS ${_fuzz_bin})
-    # A bounded run: the seed corpus, then 20000 generated inputs (a few seconds). New inputs go to a scratch
-    # folder in the build tree, never into the source tree's corpus.
-    add_test(NAME cli:fuzz_handles
-             COMMAND ${CMAKE_COMMAND} -E env ASAN_OPTIONS=detect_leaks=1
-                     ${CMAKE_COMMAND} -DFUZZER=${_fuzz_bin} -DSCRATCH=${CMAKE_CURRENT_BINARY_DIR}/fuzz_corpus
-                     -DSEEDS=${_fuzz_dir}/corpus -DDICT=${_fuzz_dir}/handles.dict -P ${_fuzz_dir}/run_fuzz.cmake)
-    set_tests_properties(cli:fuzz_handles PROPERTIES LABELS "cli;no_sanitizer" TIMEOUT 300)
+    set(_cli_dir ${PROJECT_SOURCE_DIR}/tools/cli)
+    file(GLOB _cli_headers ${_cli_dir}/*.hpp)
+    # mlsdeform_fuzz_binary(NAME SOURCES...): builds NAME from the sources.
+    function(mlsdeform_fuzz_binary name)
+      set(bin ${CMAKE_CURRENT_BINARY_DIR}/${name})
+      add_custom_command(
+        OUTPUT ${bin}
+        COMMAND ${MLSDEFORM_CLANGXX} -std=c++20 -g -O1 -fsanitize=fuzzer,address,undefined -fno-sanitize-recover=all
+                ${_fuzz_includes} ${ARGN} -lz -o ${bin}
+        DEPENDS ${ARGN} ${_cli_headers}
+        COMMENT "Building the libFuzzer target ${name} with ${MLSDEFORM_CLANGXX}"
+        VERBATIM)
+      add_custom_target(${name} ALL DEPENDS ${bin})
+    endfunction()
+    # mlsdeform_fuzz_test(NAME BINARY CORPUS DICT RUNS MAX_LEN [ENV...]): the test cli:NAME, a bounded run of
+    # BINARY over the seed corpus. New inputs go to a scratch folder in the build tree, never into the source
+    # tree's corpus.
+    function(mlsdeform_fuzz_test name binary corpus dict runs max_len)
+      add_test(NAME cli:${name}
+               COMMAND ${CMAKE_COMMAND} -E env ASAN_OPTIONS=detect_leaks=1 ${ARGN}
+                       ${CMAKE_COMMAND} -DFUZZER=${CMAKE_CURRENT_BINARY_DIR}/${binary}
+                       -DSCRATCH=${CMAKE_CURRENT_BINARY_DIR}/${name}_corpus -DSEEDS=${corpus} -DDICT=${dict}
+                       -DRUNS=${runs} -DMAX_LEN=${max_len} -P ${_fuzz_dir}/run_fuzz.cmake)
+      set_tests_properties(cli:${name} PROPERTIES LABELS "cli;no_sanitizer" TIMEOUT 300)
+    endfunction()
+
+    mlsdeform_fuzz_binary(fuzz_handles ${_fuzz_dir}/fuzz_handles.cpp ${_cli_dir}/handles_file.cpp ${_cli_dir}/file_io.cpp)
+    mlsdeform_fuzz_test(fuzz_handles fuzz_handles ${_fuzz_dir}/corpus ${_fuzz_dir}/handles.dict 20000 2048)
+    # One target per mesh reader, and one for gzip input (FUZZ_MESH_FORMAT picks it); each round-trips what it
+    # reads through the writer.
+    mlsdeform_fuzz_binary(fuzz_mesh ${_fuzz_dir}/fuzz_mesh.cpp ${_cli_dir}/mesh_read.cpp ${_cli_dir}/mesh_write.cpp
+                          ${_cli_dir}/file_io.cpp)
+    foreach(fmt obj off ply)
+      mlsdeform_fuzz_test(fuzz_mesh_${fmt} fuzz_mesh ${_fuzz_dir}/corpus_${fmt} ${_fuzz_dir}/mesh.dict 100000 4096
+                          FUZZ_MESH_FORMAT=${fmt})
+    endforeach()
+    mlsdeform_fuzz_test(fuzz_mesh_gz fuzz_mesh ${_fuzz_dir}/corpus_gz ${_fuzz_dir}/gzip.dict 100000 4096
+                        FUZZ_MESH_FORMAT=gz)
   else()
     message(STATUS "mlsdeform: fuzz target skipped: ${_fuzz_why}")
-    add_test(NAME cli:fuzz_handles COMMAND ${CMAKE_COMMAND} -E echo "fuzz target skipped: ${_fuzz_why}")
-    set_tests_properties(cli:fuzz_handles PROPERTIES LABELS "cli;no_sanitizer" SKIP_REGULAR_EXPRESSION "skipped")
+    foreach(name fuzz_handles fuzz_mesh_obj fuzz_mesh_off fuzz_mesh_ply fuzz_mesh_gz)
+      add_test(NAME cli:${name} COMMAND ${CMAKE_COMMAND} -E echo "fuzz target skipped: ${_fuzz_why}")
+      set_tests_properties(cli:${name} PROPERTIES LABELS "cli;no_sanitizer" SKIP_REGULAR_EXPRESSION "skipped")
+    endforeach()
   endif()
 endif()

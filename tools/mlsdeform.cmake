@@ -1,15 +1,14 @@
-# The mlsdeform command-line tool (tools/cli/): `deform`, `demo` and `figures`. Its dependencies (Assimp,
-# nlohmann-json, CLI11, zlib) are linked to the tool's own targets only, never to the library, so the installed
-# package and its consumers never see them.
-find_package(assimp 5 CONFIG REQUIRED)         # assimp::assimp (Debian: libassimp-dev)
+# The mlsdeform command-line tool (tools/cli/): `deform`, `demo` and `figures`. Its dependencies (nlohmann-json,
+# CLI11, zlib) are linked to the tool's own targets only, never to the library, so the installed package and its
+# consumers never see them.
 find_package(nlohmann_json 3 CONFIG REQUIRED)  # nlohmann_json::nlohmann_json (nlohmann-json3-dev)
 find_package(CLI11 2 CONFIG REQUIRED)          # CLI11::CLI11 (libcli11-dev)
 find_package(ZLIB REQUIRED)                    # ZLIB::ZLIB (zlib1g-dev)
 
 set(_cli ${CMAKE_CURRENT_SOURCE_DIR}/cli)
 
-# Everything but main(): linked by the program and by the CLI tests (tests/cli.cmake). Assimp is compiled into
-# exactly one translation unit (mesh_read.cpp), CLI11 into one (main.cpp): both are slow to compile.
+# Everything but main(): linked by the program and by the CLI tests (tests/cli.cmake). CLI11 is compiled into
+# one translation unit (main.cpp): it is slow to compile.
 add_library(mlsdeform_cli STATIC
   ${_cli}/file_io.cpp
   ${_cli}/mesh_read.cpp
@@ -23,7 +22,7 @@ add_library(mlsdeform_cli STATIC
 target_include_directories(mlsdeform_cli PUBLIC ${_cli})
 target_link_libraries(mlsdeform_cli
   PUBLIC mlsdeform::mlsdeform
-  PRIVATE assimp::assimp nlohmann_json::nlohmann_json ZLIB::ZLIB mlsdeform_warnings)
+  PRIVATE nlohmann_json::nlohmann_json ZLIB::ZLIB mlsdeform_warnings)
 # Where the program finds its bundled data and the figure script when run from the build tree (each can be
 # overridden at run time: MLSDEFORM_DATA_DIR, MLSDEFORM_FIGURES_SCRIPT; `figures --out-dir`).
 target_compile_definitions(mlsdeform_cli PRIVATE

@@ -1,6 +1,7 @@
 // End-to-end tests of the mlsdeform program: each subcommand on small inputs, and each kind of bad input
 // (exit code 2, one line on stderr naming the file and the problem, no output file and no temporary left).
 #include "cli_test_util.hpp"
+#include "malformed_meshes.hpp"
 
 #include "mesh.hpp"
 
@@ -218,9 +219,41 @@ TEST_CASE("deform: bad input files", "[cli][commands][errors]") {
     write_text(f.in + "/nan.obj", "v 0 0 0\nv 1 0 0\nv 1 NaN 0\nf 1 2 3\n");
     require_bad_input(f, args(f.in + "/nan.obj", h), f.in + "/nan.obj: line 3: vertex 2 has a non-finite coordinate");
     write_text(f.in + "/face.off", "OFF\n3 1 0\n0 0 0\n1 0 0\n0 1 0\n3 0 1 3\n");
-    require_bad_input(f, args(f.in + "/face.off", h), f.in + "/face.off: cannot parse as OFF: OFF: Vertex index is out of range");
+    require_bad_input(f, args(f.in + "/face.off", h), f.in + "/face.off: line 6: face 0 refers to vertex 3, but there are only 3 vertices (0 to 2)");
     write_text(f.in + "/gz.ply.gz", "not gzip");
     require_bad_input(f, args(f.in + "/gz.ply.gz", h), f.in + "/gz.ply.gz: corrupt gzip data (incorrect header check)");
+  }
+  SECTION("every malformed mesh of the issue's findings, through the program") {
+    for (const auto& c : cli_test::malformed_meshes()) {
+      const std::string path = f.in + "/" + c.name;
+      write_text(path, c.bytes);
+      const auto r = cli_test::run(program, args(path, h));
+      INFO(c.name << ": " << r.err);
+      CHECK(r.exit_code == 2);
+      CHECK(r.err.rfind("mlsdeform: error: " + path + ": ", 0) == 0);
+      CHECK(r.err.find(c.expected) != std::string::npos);
+      CHECK(cli_test::line_count(r.err) == 1);
+      CHECK(f.outputs().empty());
+    }
+  }
+  SECTION("inputs past the size limit are refused unread, and --max-input-mib raises the limit") {
+    // The cube and 20 MiB of comment lines, which compress to a few tens of KiB: refused at 16 MiB while
+    // decompressing.
+    std::string big = cube_obj;
+    while (big.size() < (std::size_t(20) << 20)) big += "# a comment line of sixty-four bytes, to make a big file.........\n";
+    write_text(f.in + "/big.obj.gz", gzip(big));
+    auto a = args(f.in + "/big.obj.gz", h);
+    a.insert(a.end(), {"--max-input-mib", "16"});
+    require_bad_input(f, a, f.in + "/big.obj.gz: decompresses to more than the input limit of 16 MiB (--max-input-mib raises it)");
+    write_text(f.in + "/big.obj", big);
+    a = args(f.in + "/big.obj", h);
+    a.insert(a.end(), {"--max-input-mib", "16"});
+    require_bad_input(f, a, f.in + "/big.obj: file too large: " + std::to_string(big.size()) +
+                                " bytes, more than the input limit of 16 MiB (--max-input-mib raises it)");
+    a.back() = "32";  // now read
+    const auto r = cli_test::run(program, a);
+    INFO(r.err);
+    CHECK(r.exit_code == 0);
   }
   SECTION("malformed handles files") {
     const std::string j = f.in + "/h.json";

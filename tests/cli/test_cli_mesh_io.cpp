@@ -2,6 +2,7 @@
 // count, faces and coordinates, the file's vertex order is kept, and malformed files fail with a message
 // naming the file.
 #include "cli_test_util.hpp"
+#include "malformed_meshes.hpp"
 
 #include "error.hpp"
 #include "file_io.hpp"
@@ -9,6 +10,7 @@
 
 #include <catch2/catch.hpp>
 
+#include <array>
 #include <cmath>
 #include <cstring>
 #include <random>
@@ -40,8 +42,8 @@ Mesh sample_mesh() {
   return m;
 }
 
-// Random coordinates in [-1000, 1000] with 1e-4 <= |x| (where the writer's texts read back exactly through
-// Assimp, see float_text in mesh_write.cpp), on a triangle strip.
+// Random coordinates in [-1000, 1000] with 1e-4 <= |x| (the writers' shortest texts read back exactly, see
+// float_text in mesh_write.cpp), on a triangle strip.
 Mesh random_mesh(std::uint32_t seed, int n) {
   std::mt19937 rng(seed);
   std::uniform_real_distribution<float> mag(-4.0f, 3.0f);
@@ -120,7 +122,7 @@ TEST_CASE("recomputed normals are unit area-weighted face normals", "[cli][mesh]
 TEST_CASE("OBJ keeps the file's vertex order, unused vertices and polygons", "[cli][mesh]") {
   ScratchDir dir;
   // Faces list the vertices out of order, with texture and normal indices, a negative (relative) index, a
-  // group, a comment, and a vertex (5) no face uses: Assimp alone would renumber all of them.
+  // group, a comment, and a vertex (5) no face uses: the file's numbering is kept.
   write_text(dir / "a.obj",
              "# test\nv 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nv 5 5 5\nv 0 0 1\nvt 0 0\nvn 0 0 1\n"
              "g one\nf 3/1/1 4/1/1 1/1/1 2/1/1\ng two\nf 1//1 2//1 -1//1\n");
@@ -153,9 +155,8 @@ TEST_CASE("the bundled mesh reads with the file's counts", "[cli][mesh]") {
   const Mesh m = read_mesh(MLSDEFORM_SOURCE_DIR "/data/human_man.obj");
   CHECK(m.vertex_count() == 6890);
   CHECK(m.face_count() == 13776);
-  // The file's first `v` line, as Assimp's fast_atof reads it (not always the nearest float).
-  CHECK(m.vertices.row(0) == Eigen::RowVector3f(detail::assimp_atof("0.042626"), detail::assimp_atof("1.716077"),
-                                                detail::assimp_atof("0.104022")));
+  // The file's first `v` line, correctly rounded to float.
+  CHECK(m.vertices.row(0) == Eigen::RowVector3f(0.042626f, 1.716077f, 0.104022f));
 }
 
 namespace {
@@ -188,18 +189,18 @@ TEST_CASE("malformed and missing mesh files are reported with the file and the p
   require_read_error(dir / "empty.off", "empty file");
   write_text(dir / "garbage.ply", "this is not a ply file\n");
   require_read_error(dir / "garbage.ply", "line 1: malformed PLY: the first line is not 'ply'");
-  write_text(dir / "noend.ply", "ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\n");  // Assimp would hang
+  write_text(dir / "noend.ply", "ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\n");
   require_read_error(dir / "noend.ply", "malformed PLY: the header has no end_header line");
   write_text(dir / "garbage.off", "OFF\nthree two one\n");
-  require_read_error(dir / "garbage.off", "cannot parse as OFF");
+  require_read_error(dir / "garbage.off", "line 2: malformed OFF: expected 'vertices faces edges' counts");
   write_text(dir / "nan.obj", "v 0 0 0\nv 1 0 0\nv nan 1 0\nf 1 2 3\n");
   require_read_error(dir / "nan.obj", "line 3: vertex 2 has a non-finite coordinate");
   write_text(dir / "inf.off", "OFF\n3 1 0\n0 0 0\n1 0 inf\n0 1 0\n3 0 1 2\n");
   require_read_error(dir / "inf.off", "vertex 1 has a non-finite coordinate");
   write_text(dir / "index.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 7\n");
-  require_read_error(dir / "index.obj", "cannot parse as OBJ: OBJ: vertex index out of range");
+  require_read_error(dir / "index.obj", "line 4: vertex index 7 is out of range (3 vertices)");
   write_text(dir / "index.off", "OFF\n3 1 0\n0 0 0\n1 0 0\n0 1 0\n3 0 1 9\n");
-  require_read_error(dir / "index.off", "cannot parse as OFF: OFF: Vertex index is out of range");  // Assimp only logs it
+  require_read_error(dir / "index.off", "line 6: face 0 refers to vertex 9, but there are only 3");
   write_text(dir / "index.ply",
              "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\n"
              "element face 1\nproperty list uchar int vertex_indices\nend_header\n0 0 0\n1 0 0\n0 1 0\n3 0 1 7\n");
@@ -213,10 +214,10 @@ TEST_CASE("malformed and missing mesh files are reported with the file and the p
   m.add_face({0, 1, 2});
   std::string ply = encode_mesh(m, "x.ply");
   write_text(dir / "truncated.ply", ply.substr(0, ply.size() - 30));
-  require_read_error(dir / "truncated.ply", "malformed PLY: truncated in vertex 2 of 3");
+  require_read_error(dir / "truncated.ply", "the header promises 3 vertex elements, but only");
   std::string ascii = encode_mesh(m, "x.ply", {false, PlyEncoding::ascii});
-  write_text(dir / "truncated_ascii.ply", ascii.substr(0, ascii.size() - 12));  // Assimp alone fills in zeros
-  require_read_error(dir / "truncated_ascii.ply", "malformed PLY: truncated in vertex 2 of 3");
+  write_text(dir / "truncated_ascii.ply", ascii.substr(0, ascii.size() - 12));
+  require_read_error(dir / "truncated_ascii.ply", "the header promises 3 vertex elements, but only");
   // gzip: not gzip at all, and cut short.
   write_text(dir / "plain.ply.gz", ply);
   require_read_error(dir / "plain.ply.gz", "corrupt gzip data");
@@ -224,7 +225,7 @@ TEST_CASE("malformed and missing mesh files are reported with the file and the p
   write_text(dir / "short.ply.gz", gz.substr(0, gz.size() / 2));
   require_read_error(dir / "short.ply.gz", "truncated gzip data");
   write_text(dir / "nothing.obj", "# no vertices\n");
-  require_read_error(dir / "nothing.obj", "cannot parse as OBJ");
+  require_read_error(dir / "nothing.obj", "no vertices");
 }
 
 TEST_CASE("writing is all or nothing and does not overwrite without force", "[cli][mesh][errors]") {
@@ -258,4 +259,48 @@ TEST_CASE("gzip round trip, including concatenated members", "[cli][mesh]") {
   CHECK(gunzip(gzip(text), "t") == text);
   CHECK(gunzip(gzip(text) + gzip(text), "t") == text + text);
   CHECK(gunzip(gzip(""), "t").empty());
+}
+
+TEST_CASE("strict readers: the malformed files that used to pass are refused", "[cli][mesh][errors]") {
+  ScratchDir dir;
+  for (const auto& c : cli_test::malformed_meshes()) {
+    write_text(dir / c.name, c.bytes);
+    require_read_error(dir / c.name, c.expected);
+  }
+  const Mesh cube = cli_test::cube_mesh();
+  // Both binary byte orders and ASCII read back bit for bit; big-endian written by hand.
+  for (const char* name : {"c.ply", "c_ascii.ply"}) {
+    const PlyEncoding enc = std::string(name) == "c.ply" ? PlyEncoding::binary : PlyEncoding::ascii;
+    write_text(dir / name, encode_mesh(cube, name, {false, enc}));
+    const Mesh m = read_mesh(dir / name);
+    CHECK(m.vertices == cube.vertices);
+    CHECK(m.face_indices == cube.face_indices);
+  }
+  std::string be = "ply\nformat binary_big_endian 1.0\nelement vertex 3\nproperty float x\nproperty float y\n"
+                   "property float z\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n";
+  auto put_be = [&](const void* p, std::size_t n) {
+    const auto* b = static_cast<const unsigned char*>(p);
+    for (std::size_t i = n; i-- > 0;) be.push_back(char(b[i]));
+  };
+  const float xyz[9] = {0, 0, 0, 1.5f, 0, 0, 0, -2.25f, 0};
+  for (float v : xyz) put_be(&v, 4);
+  be.push_back(char(3));
+  for (std::int32_t i : {0, 1, 2}) put_be(&i, 4);
+  write_text(dir / "be.ply", be);
+  const Mesh m = read_mesh(dir / "be.ply");
+  CHECK(m.vertices.row(1) == Eigen::RowVector3f(1.5f, 0, 0));
+  CHECK(m.vertices.row(2) == Eigen::RowVector3f(0, -2.25f, 0));
+  CHECK(m.face_indices == std::vector<std::uint32_t>{0, 1, 2});
+}
+
+TEST_CASE("gzip input is refused past the size limit while decompressing", "[cli][mesh][errors]") {
+  ScratchDir dir;
+  // 64 MiB of zeros compress to about 64 KiB; with a 16 MiB limit the reader stops at 16 MiB.
+  write_text(dir / "zeros.obj.gz", gzip(std::string(std::size_t(64) << 20, '0')));
+  try {
+    read_mesh(dir / "zeros.obj.gz", std::size_t(16) << 20);
+    FAIL("no error");
+  } catch (const InputError& e) {
+    CHECK(std::string(e.what()).find("decompresses to more than the input limit of 16 MiB (--max-input-mib raises it)") != std::string::npos);
+  }
 }

@@ -24,7 +24,7 @@ template <class T>
 int deform(const DeformArgs& a) {
   const Isa isa = checked_active_isa();
   check_output_format(a.out);
-  const Mesh mesh = read_mesh(a.mesh);
+  const Mesh mesh = read_mesh(a.mesh, a.max_input_bytes);
   const HandlesFile handles = read_handles(a.handles);
 
   const std::size_t frame_count = handles.animated() ? handles.frames.size() : 1;

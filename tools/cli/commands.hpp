@@ -18,6 +18,7 @@ struct DeformArgs {
   bool force = false;
   bool ply_ascii = false;
   bool quiet = false;
+  std::size_t max_input_bytes = std::size_t(1) << 30;  ///< mesh file, or its decompressed data (kDefaultMaxInputBytes)
 };
 int run_deform(const DeformArgs& args);
 

@@ -1,7 +1,8 @@
-// mlsdeform CLI: whole-file reads, gzip in memory, and all-or-nothing writes.
+// mlsdeform CLI: bounded, streamed reads (gzip decompressed on the fly), and all-or-nothing writes.
 #pragma once
 
 #include <cstddef>
+#include <memory>
 #include <string>
 #include <string_view>
 
@@ -16,8 +17,37 @@ bool is_gzip_path(std::string_view path);
 /// The lower-case extension without the dot, looking through a trailing ".gz": "a/b.PLY.gz" -> "ply".
 std::string format_extension(std::string_view path);
 
-/// Decompresses gzip data (all members); `path` names the file in errors (corrupt or truncated data).
-std::string gunzip(std::string_view compressed, const std::string& path);
+/// Bytes read in order, a chunk at a time, with their total known before the first read (so that a reader can
+/// check the counts a header promises against what follows, before allocating for them).
+class ByteSource {
+ public:
+  virtual ~ByteSource() = default;
+  /// The total number of bytes this source yields.
+  virtual std::size_t size() const = 0;
+  /// Copies the next bytes into `dst`, at most `n`; fewer than `n` only at the end. Throws InputError on a
+  /// read error or corrupt data.
+  virtual std::size_t read(char* dst, std::size_t n) = 0;
+  /// Back to the first byte.
+  virtual void rewind() = 0;
+};
+
+/// A file's bytes, streamed; decompressed on the fly when `path` ends in ".gz". Throws InputError naming
+/// `path` if it is missing, unreadable or a directory, or if the file (or its decompressed data) is larger
+/// than `max_bytes`. A .gz file is decompressed twice, first to measure and check it (corrupt, truncated or
+/// too large data is refused then, with nothing allocated for its contents), then as it is read: memory stays
+/// at a few buffers whatever the sizes.
+std::unique_ptr<ByteSource> open_input(const std::string& path, std::size_t max_bytes);
+/// The bytes of `data` (which must outlive the source), as they are.
+std::unique_ptr<ByteSource> memory_source(std::string_view data);
+/// The decompressed bytes of the gzip data (all members) that `compressed` yields, checked as open_input
+/// checks a .gz file; `path` names it in errors.
+std::unique_ptr<ByteSource> gunzip_source(std::unique_ptr<ByteSource> compressed, const std::string& path,
+                                          std::size_t max_bytes);
+
+/// Decompresses gzip data (all members); `path` names the file in errors (corrupt or truncated data, or more
+/// than `max_bytes` decompressed: refused as soon as the output passes the limit, before it is all in memory).
+std::string gunzip(std::string_view compressed, const std::string& path,
+                   std::size_t max_bytes = std::size_t(4) << 30);
 /// Compresses to the gzip format (level 6).
 std::string gzip(std::string_view data);
 

@@ -116,6 +116,11 @@ int run(int argc, char** argv) {
                          "; with frames, one file per frame: OUT_0000.EXT, OUT_0001.EXT, ...")
       ->required();
   add_common_deformer_options(deform, d.options, d.precision);
+  deform->add_option_function<std::size_t>(
+           "--max-input-mib", [&d](std::size_t mib) { d.max_input_bytes = mib << 20; },
+           "the largest mesh file, or decompressed .gz data, that is read (MiB); larger inputs are refused unread")
+      ->check(CLI::Range(std::size_t(1), std::size_t(1) << 24))
+      ->default_str(std::to_string(kDefaultMaxInputBytes >> 20));
   deform->add_flag("--force,-f", d.force, "overwrite existing output files");
   deform->add_flag("--ply-ascii", d.ply_ascii, "write PLY as text (default: binary little-endian)");
   deform->add_flag("--quiet,-q", d.quiet, "print nothing but errors");

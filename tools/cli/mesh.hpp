@@ -1,6 +1,8 @@
 // mlsdeform CLI: a polygon mesh as read from and written to files.
 #pragma once
 
+#include "file_io.hpp"
+
 #include <mlsdeform/types.hpp>
 
 #include <cstdint>
@@ -32,14 +34,22 @@ PointsRowMajor<float> vertex_normals(const Mesh& mesh);
 /// Triangles of a fan triangulation of each polygon (for renderers), as vertex index triples.
 std::vector<std::uint32_t> triangulate(const Mesh& mesh);
 
-/// Formats by file name: .obj, .off, .ply (binary or ASCII), each optionally gzip-compressed (.gz). Files are
-/// parsed by Assimp (a .gz file is decompressed in memory first); they are written here, to control the
-/// vertex order and the number format exactly.
+/// Formats by file name: .obj, .off, .ply (ASCII, binary little- or big-endian), each optionally
+/// gzip-compressed (.gz). Read by the strict parsers of mesh_read.cpp and written here, with numbers as the
+/// shortest decimal text that reads back to the same float (std::to_chars / std::from_chars), so that files
+/// round-trip bit for bit.
 ///   read: the vertex order is the file's (for OBJ: the order of its `v` lines, counted from 0), every vertex
-///   is kept (even one no face uses), faces are polygons as written; points and lines are dropped.
-///   Throws InputError naming the file and the problem (with its line where known) on a missing or unreadable
-///   file, an unknown format, a parse error, no vertices, a face index out of range or a non-finite coordinate.
-Mesh read_mesh(const std::string& path);
+///   is kept (even one no face uses), faces are polygons as written; OBJ points and lines are dropped.
+///   Throws InputError naming the file, the line (or element) and the problem for anything malformed: a
+///   missing or unreadable file, an unknown format, a number that is not one whole decimal number, a
+///   non-finite coordinate, an index out of range, a face with fewer than 3 vertices, counts in a header that
+///   the body does not hold (checked before allocating), data after the last element, no vertices, or a file
+///   (or its decompressed data) larger than `max_bytes`.
+inline constexpr std::size_t kDefaultMaxInputBytes = std::size_t(1) << 30;
+Mesh read_mesh(const std::string& path, std::size_t max_bytes = kDefaultMaxInputBytes);
+/// read_mesh's parser on any source of bytes (a file, gzip data, memory: see file_io.hpp), for `format` "obj",
+/// "off" or "ply"; `path` names the input in errors.
+Mesh parse_mesh(ByteSource& source, const std::string& format, const std::string& path);
 
 enum class PlyEncoding { binary, ascii };
 
@@ -54,11 +64,6 @@ std::string encode_mesh(const Mesh& mesh, const std::string& path, const WriteOp
 /// encode_mesh, then write_file_atomic: all or nothing.
 void write_mesh(const Mesh& mesh, const std::string& path, const WriteOptions& options = {});
 
-namespace detail {
-/// Assimp's text-to-float conversion (fast_atof, which is not correctly rounded): the writers pick, among the
-/// decimal texts of a float, one that Assimp reads back exactly, so that files round-trip bit for bit.
-float assimp_atof(const char* text);
-}  // namespace detail
 
 /// Throws InputError naming `path` if its extension is not a format write_mesh knows.
 void check_output_format(const std::string& path);

@@ -1,366 +1,633 @@
-// Mesh reading through Assimp: the only translation unit that includes Assimp (it compiles slowly).
+// Strict mesh readers for OBJ, OFF and PLY (ASCII, binary little- and big-endian), each optionally gzip-
+// compressed. Everything malformed is refused with the file, the line (or element and index) and the problem:
+// numbers are parsed whole and correctly rounded (std::from_chars: no hex, no "1.5.5"), every index is checked,
+// counts promised by a header are checked against the size of the body before anything is allocated, and
+// nothing may follow the last element.
+//
+// Memory: the input is streamed (a buffer of 1 MiB, longer only for a longer line), never held whole, and
+// what is built grows in blocks (std::deque) where its final size is not known yet, then is copied once into
+// the mesh's arrays: the peak is about twice the final arrays, whatever the input's size or format.
 #include "error.hpp"
 #include "file_io.hpp"
 #include "mesh.hpp"
 
-#include <assimp/DefaultLogger.hpp>
-#include <assimp/Importer.hpp>
-#include <assimp/LogStream.hpp>
-#include <assimp/fast_atof.h>
-#include <assimp/scene.h>
-
+#include <algorithm>
+#include <bit>
 #include <charconv>
 #include <cmath>
-#include <optional>
 #include <cstring>
-#include <unordered_map>
+#include <deque>
+#include <limits>
+#include <string>
+#include <string_view>
+#include <vector>
 
 namespace mlsdeform::cli {
+
 namespace {
 
-// What fast_atof throws on a malformed number. (Assimp's default, DeadlyImportError, needs a constructor that
-// Debian's libassimp does not export.)
-struct NotANumber {
-  template <class... Args>
-  explicit NotANumber(Args&&...) {}
-};
+std::string at_line(std::size_t line) { return "line " + std::to_string(line); }
 
-struct ObjVertex {
-  float x, y, z;
-  std::size_t line;
-};
-
-// The positions of an OBJ file's `v` lines in file order. Assimp's OBJ importer gives every face corner its own
-// vertex, so the file's numbering is lost; we recover it by matching each corner's position against this list.
-// The numbers are parsed with Assimp's own fast_atof, exactly as its importer does, so that the match is exact.
-std::vector<ObjVertex> scan_obj_vertices(std::string_view text, const std::string& path) {
-  std::vector<ObjVertex> out;
-  std::size_t line = 0, pos = 0;
-  std::string token;
-  while (pos < text.size()) {
-    ++line;
-    std::size_t end = text.find('\n', pos);
-    if (end == std::string_view::npos) end = text.size();
-    std::string_view l = text.substr(pos, end - pos);
-    pos = end + 1;
-    std::size_t i = l.find_first_not_of(" \t");
-    if (i == std::string_view::npos || l[i] != 'v' || i + 1 >= l.size() || (l[i + 1] != ' ' && l[i + 1] != '\t')) continue;
-    // Tokens after "v", up to a comment.
-    float c[7];
-    int n = 0;
-    std::size_t j = i + 1;
-    for (;;) {
-      j = l.find_first_not_of(" \t\r", j);
-      if (j == std::string_view::npos || l[j] == '#') break;
-      std::size_t k = l.find_first_of(" \t\r#", j);
-      if (k == std::string_view::npos) k = l.size();
-      if (n == 7) {
-        ++n;
-        break;
-      }
-      token.assign(l.substr(j, k - j));
-      try {
-        Assimp::fast_atoreal_move<float, NotANumber>(token.c_str(), c[n++]);
-      } catch (const NotANumber&) {
-        throw InputError(path, "not a number: '" + token + "'", "line " + std::to_string(line));
-      }
-      j = k;
-    }
-    if (n == 3 || n == 6) {
-      out.push_back({c[0], c[1], c[2], line});
-    } else if (n == 4) {  // homogeneous coordinates, divided as Assimp does
-      if (c[3] == 0.0f) throw InputError(path, "vertex with w = 0", "line " + std::to_string(line));
-      out.push_back({c[0] / c[3], c[1] / c[3], c[2] / c[3], line});
-    } else {
-      throw InputError(path, "a vertex needs 3 coordinates (x y z, optionally w, or x y z r g b), found " + std::to_string(n),
-                       "line " + std::to_string(line));
-    }
-  }
-  return out;
+/// Whole-token number parsing: the token must be a number and nothing else (correctly rounded for floats).
+template <class T>
+bool parse_number(std::string_view token, T& out) {
+  if (token.empty()) return false;
+  const char* first = token.data();
+  if (*first == '+') ++first;  // from_chars refuses a leading '+', which text formats use
+  const auto r = std::from_chars(first, token.data() + token.size(), out);
+  return r.ec == std::errc() && r.ptr == token.data() + token.size();
 }
 
-struct BitsHash {
-  std::size_t operator()(const std::array<std::uint32_t, 3>& k) const {
-    std::uint64_t h = 0xcbf29ce484222325ull;
-    for (auto v : k) h = (h ^ v) * 0x100000001b3ull;
-    return std::size_t(h ^ (h >> 29));
-  }
-};
-
-std::array<std::uint32_t, 3> bits(float x, float y, float z) {
-  std::array<std::uint32_t, 3> b;
-  std::memcpy(&b[0], &x, 4);
-  std::memcpy(&b[1], &y, 4);
-  std::memcpy(&b[2], &z, 4);
-  return b;
-}
-
-// Some Assimp importers repair a malformed file silently and only log an error (the OFF importer, for one,
-// replaces an out-of-range vertex index by the last vertex). We log Assimp's errors while importing and treat the
-// first as a parse error rather than deform a corrupted mesh.
-class AssimpErrors : public Assimp::LogStream {
+/// A ByteSource read through a buffer: whole lines (text formats) or bytes (binary PLY), counting what was
+/// consumed so that header counts can be checked against what remains.
+class Reader {
  public:
-  AssimpErrors() {
-    Assimp::DefaultLogger::create("", Assimp::Logger::NORMAL, 0);  // no file, no default streams
-    Assimp::DefaultLogger::get()->attachStream(this, Assimp::Logger::Err);
+  static constexpr std::size_t kChunk = std::size_t(1) << 20;
+  static constexpr std::size_t kMaxLine = std::size_t(64) << 20;
+
+  // The buffer holds the whole input when it is small (no larger than need be: the fuzz targets read many).
+  Reader(ByteSource& source, const std::string& path)
+      : src_(source), path_(path), buf_(std::min(kChunk, source.size() + 1)) {}
+
+  /// The next line without its '\n' (the last one also without); false at the end. Valid until the next call.
+  bool line(std::string_view& out) {
+    for (std::size_t scanned = begin_;;) {
+      const void* nl = std::memchr(buf_.data() + scanned, '\n', end_ - scanned);
+      if (nl != nullptr || (eof_ && begin_ < end_)) {
+        const std::size_t stop = nl ? std::size_t(static_cast<const char*>(nl) - buf_.data()) : end_;
+        out = std::string_view(buf_.data() + begin_, stop - begin_);
+        const std::size_t next = nl ? stop + 1 : stop;
+        consumed_ += next - begin_;
+        begin_ = next;
+        return true;
+      }
+      if (eof_) return false;
+      scanned = end_ - begin_;  // offsets move to the front in fill()
+      fill();
+    }
   }
-  ~AssimpErrors() override {
-    Assimp::DefaultLogger::get()->detachStream(this, Assimp::Logger::Err);  // hands the stream back to us
-    Assimp::DefaultLogger::kill();
+  /// The next `n` bytes; false if the input ends first.
+  bool bytes(char* dst, std::size_t n) {
+    while (n > 0) {
+      if (begin_ == end_) {
+        if (eof_) return false;
+        fill();
+        continue;
+      }
+      const std::size_t k = std::min(n, end_ - begin_);
+      std::memcpy(dst, buf_.data() + begin_, k);
+      begin_ += k, consumed_ += k, dst += k, n -= k;
+    }
+    return true;
   }
-  AssimpErrors(const AssimpErrors&) = delete;
-  AssimpErrors& operator=(const AssimpErrors&) = delete;
-  void write(const char* message) override {
-    if (first.empty()) first = message;
+  bool at_end() {
+    if (begin_ == end_ && !eof_) fill();
+    return begin_ == end_;
   }
-  std::string first;
+  std::size_t remaining() const { return src_.size() - consumed_; }
+
+ private:
+  void fill() {
+    if (begin_ > 0) {
+      std::memmove(buf_.data(), buf_.data() + begin_, end_ - begin_);
+      end_ -= begin_;
+      begin_ = 0;
+    }
+    if (end_ == buf_.size()) {  // one line fills the buffer
+      if (buf_.size() >= kMaxLine) throw InputError(path_, "a line longer than " + std::to_string(kMaxLine >> 20) + " MiB");
+      buf_.resize(buf_.size() * 2);
+    }
+    const std::size_t want = buf_.size() - end_;
+    const std::size_t got = src_.read(buf_.data() + end_, want);
+    end_ += got;
+    eof_ = got < want;
+  }
+
+  ByteSource& src_;
+  const std::string& path_;
+  std::vector<char> buf_;
+  std::size_t begin_ = 0, end_ = 0, consumed_ = 0;
+  bool eof_ = false;
 };
 
-std::string one_line(std::string why) {
-  while (!why.empty() && (why.back() == '\n' || why.back() == '\r' || why.back() == ' ')) why.pop_back();
-  for (auto& c : why)
-    if (c == '\n' || c == '\r') c = ' ';
-  return why;
-}
-
-// The structure of a PLY file, checked before Assimp sees it: Assimp's PLY importer loops forever on a header
-// without "end_header", reads past the end of a truncated binary body and accepts a truncated ASCII body. We
-// check the header, walk a binary body to its promised end, and compare Assimp's counts with the header's.
-struct PlyCounts {
-  std::uint64_t vertices = 0, faces = 0;
-};
-
-PlyCounts check_ply(std::string_view data, const std::string& path) {
-  auto fail = [&](const std::string& why, std::size_t line = 0) {
-    throw InputError(path, "malformed PLY: " + why, line ? "line " + std::to_string(line) : std::string());
-  };
-  std::size_t pos = 0, line_no = 0;
-  auto next_line = [&]() -> std::string_view {
-    const std::size_t end = data.find('\n', pos);
-    if (end == std::string_view::npos) fail("the header has no end_header line");
-    std::string_view l = data.substr(pos, end - pos);
-    if (!l.empty() && l.back() == '\r') l.remove_suffix(1);
-    pos = end + 1;
-    ++line_no;
-    return l;
-  };
-  auto words = [](std::string_view l) {
-    std::vector<std::string> w;
+/// Lines of a text, with their numbers; tokens split on blanks, a '#' starts a comment.
+class Lines {
+ public:
+  explicit Lines(Reader& reader, std::size_t first_line = 1) : reader_(reader), line_(first_line - 1) {}
+  /// The tokens of the next line (empty for a blank or comment line); false at the end of the text.
+  bool next(std::vector<std::string_view>& tokens) {
+    std::string_view l;
+    if (!reader_.line(l)) return false;
+    ++line_;
+    if (const auto hash = l.find('#'); hash != std::string_view::npos) l = l.substr(0, hash);
+    tokens.clear();
     std::size_t i = 0;
-    while ((i = l.find_first_not_of(" \t", i)) != std::string_view::npos) {
-      const std::size_t j = std::min(l.find_first_of(" \t", i), l.size());
-      w.emplace_back(l.substr(i, j - i));
+    while ((i = l.find_first_not_of(" \t\r\f\v", i)) != std::string_view::npos) {
+      const std::size_t j = std::min(l.find_first_of(" \t\r\f\v", i), l.size());
+      tokens.push_back(l.substr(i, j - i));
       i = j;
     }
-    return w;
-  };
-  auto type_size = [&](const std::string& t) -> std::size_t {
-    if (t == "char" || t == "uchar" || t == "int8" || t == "uint8") return 1;
-    if (t == "short" || t == "ushort" || t == "int16" || t == "uint16") return 2;
-    if (t == "int" || t == "uint" || t == "int32" || t == "uint32" || t == "float" || t == "float32") return 4;
-    if (t == "double" || t == "float64") return 8;
-    fail("unknown property type '" + t + "'", line_no);
-    return 0;
-  };
-  struct Property {
-    std::size_t size = 0, count_size = 0;  // count_size > 0: a list
-  };
-  struct Element {
-    std::string name;
-    std::uint64_t count = 0;
-    std::vector<Property> properties;
-  };
-  if (next_line() != "ply") fail("the first line is not 'ply'", 1);
-  std::string format;
-  std::vector<Element> elements;
-  for (;;) {
-    const auto w = words(next_line());
-    if (w.empty() || w[0] == "comment" || w[0] == "obj_info") continue;
-    if (w[0] == "end_header") break;
-    if (w[0] == "format" && w.size() >= 2) {
-      format = w[1];
-    } else if (w[0] == "element" && w.size() == 3) {
-      std::uint64_t n = 0;
-      const auto r = std::from_chars(w[2].data(), w[2].data() + w[2].size(), n);
-      if (r.ec != std::errc() || r.ptr != w[2].data() + w[2].size()) fail("bad element count '" + w[2] + "'", line_no);
-      elements.push_back({w[1], n, {}});
-    } else if (w[0] == "property" && !elements.empty() && w.size() == 5 && w[1] == "list") {
-      elements.back().properties.push_back({type_size(w[3]), type_size(w[2])});
-    } else if (w[0] == "property" && !elements.empty() && w.size() == 3) {
-      elements.back().properties.push_back({type_size(w[1]), 0});
+    return true;
+  }
+  /// The next line that has tokens; false at the end.
+  bool next_content(std::vector<std::string_view>& tokens) {
+    while (next(tokens))
+      if (!tokens.empty()) return true;
+    return false;
+  }
+  std::size_t line() const { return line_; }
+
+ private:
+  Reader& reader_;
+  std::size_t line_;
+};
+
+/// The blocks' contents as one array; the blocks are freed.
+template <class T>
+std::vector<T> to_vector(std::deque<T>& blocks) {
+  std::vector<T> v;
+  v.reserve(blocks.size());
+  v.assign(blocks.begin(), blocks.end());
+  std::deque<T>().swap(blocks);  // free the blocks now
+  return v;
+}
+
+bool finite3(const float* c) { return std::isfinite(c[0]) && std::isfinite(c[1]) && std::isfinite(c[2]); }
+
+std::string non_finite(std::size_t vertex) { return "vertex " + std::to_string(vertex) + " has a non-finite coordinate"; }
+
+/// Refuses a count that the rest of the file cannot hold (`min_bytes` per item), before allocating for it.
+void check_count(std::uint64_t count, std::size_t min_bytes, std::size_t remaining, const std::string& what,
+                 const std::string& path, const std::string& where) {
+  if (count > std::numeric_limits<std::uint32_t>::max() || count * min_bytes > remaining)
+    throw InputError(path, "the header promises " + std::to_string(count) + " " + what + ", but only " +
+                               std::to_string(remaining) + " bytes follow (at least " + std::to_string(min_bytes) +
+                               " per item)", where);
+}
+
+std::string out_of_range(std::size_t face, std::int64_t v, std::uint64_t nv) {
+  return "face " + std::to_string(face) + " refers to vertex " + std::to_string(v) + ", but there are only " +
+         std::to_string(nv) + " vertices (0 to " + std::to_string(std::int64_t(nv) - 1) + ")";
+}
+
+// ---- OBJ ---------------------------------------------------------------------------------------------------
+
+Mesh read_obj(Reader& reader, const std::string& path) {
+  Mesh mesh;
+  std::deque<float> coords;
+  std::deque<std::uint32_t> corners, face_start{0};  // corners 0-based; relative (negative) ones resolved
+  std::uint64_t max_corner = 0;                       // the largest 1-based index, checked at the end
+  std::size_t max_corner_line = 0;
+  std::vector<std::string_view> t;
+  Lines lines(reader);
+  while (lines.next(t)) {
+    if (t.empty()) continue;
+    const std::string_view key = t[0];
+    if (key == "v") {
+      const std::size_t n = t.size() - 1;
+      if (n != 3 && n != 4 && n != 6)
+        throw InputError(path, "a vertex needs 3 coordinates (x y z, optionally w, or x y z r g b), found " +
+                                   std::to_string(n), at_line(lines.line()));
+      float c[6];
+      for (std::size_t k = 0; k < n; ++k)
+        if (!parse_number(t[k + 1], c[k]))
+          throw InputError(path, "not a number: '" + std::string(t[k + 1]) + "'", at_line(lines.line()));
+      if (n == 4) {
+        if (c[3] == 0.0f) throw InputError(path, "vertex with w = 0", at_line(lines.line()));
+        for (int k = 0; k < 3; ++k) c[k] /= c[3];
+      }
+      if (!finite3(c))
+        throw InputError(path, non_finite(coords.size() / 3), at_line(lines.line()));
+      coords.insert(coords.end(), c, c + 3);
+    } else if (key == "f") {
+      if (t.size() < 4)
+        throw InputError(path, "a face needs at least 3 vertices, found " + std::to_string(t.size() - 1), at_line(lines.line()));
+      const auto defined = std::int64_t(coords.size() / 3);
+      for (std::size_t k = 1; k < t.size(); ++k) {
+        // v, v/vt, v//vn or v/vt/vn: every part an integer (texture and normal indices are not used).
+        const std::string_view corner = t[k];
+        std::size_t slash = corner.find('/');
+        std::int64_t v = 0;
+        if (!parse_number(corner.substr(0, slash), v) || v == 0)
+          throw InputError(path, "not a vertex index: '" + std::string(corner) + "'", at_line(lines.line()));
+        while (slash != std::string_view::npos) {
+          const std::size_t next = corner.find('/', slash + 1);
+          const std::string_view part = corner.substr(slash + 1, next == std::string_view::npos ? next : next - slash - 1);
+          std::int64_t unused = 0;
+          if (!(part.empty() && next != std::string_view::npos && slash + 1 == next) && !part.empty() &&
+              !parse_number(part, unused))
+            throw InputError(path, "not an index: '" + std::string(corner) + "'", at_line(lines.line()));
+          slash = next;
+        }
+        if (v < 0) {  // relative to the vertices defined so far
+          if (-v > defined)
+            throw InputError(path, "vertex index " + std::to_string(v) + " refers before the first vertex", at_line(lines.line()));
+          v = defined + v + 1;
+        }
+        if (std::uint64_t(v) > std::numeric_limits<std::uint32_t>::max())
+          throw InputError(path, "vertex index " + std::to_string(v) + " is out of range", at_line(lines.line()));
+        if (std::uint64_t(v) > max_corner) max_corner = std::uint64_t(v), max_corner_line = lines.line();
+        corners.push_back(std::uint32_t(v - 1));
+      }
+      face_start.push_back(std::uint32_t(corners.size()));
+    } else if (key == "l" || key == "p") {
+      ++mesh.dropped_primitives;
+    } else if (key == "vt" || key == "vn" || key == "vp" || key == "o" || key == "g" || key == "s" ||
+               key == "usemtl" || key == "mtllib") {
+      // Texture coordinates, normals, names, groups, smoothing and materials: not used.
     } else {
-      fail("unexpected header line", line_no);
+      throw InputError(path, "unsupported OBJ statement '" + std::string(key) + "'", at_line(lines.line()));
     }
   }
-  if (format != "ascii" && format != "binary_little_endian" && format != "binary_big_endian") fail("unknown format '" + format + "'");
-  PlyCounts counts;
-  for (const auto& e : elements) {
-    if (e.name == "vertex") counts.vertices = e.count;
-    if (e.name == "face") counts.faces = e.count;
+  const std::size_t n = coords.size() / 3;
+  if (n == 0) throw InputError(path, "no vertices");
+  if (n > std::numeric_limits<std::uint32_t>::max()) throw InputError(path, "too many vertices");
+  // Indices may refer to vertices defined later in the file: checked once all are known.
+  if (max_corner > n)
+    throw InputError(path, "vertex index " + std::to_string(max_corner) + " is out of range (" + std::to_string(n) +
+                               " vertices)", at_line(max_corner_line));
+  mesh.vertices.resize(Eigen::Index(n), 3);
+  std::copy(coords.begin(), coords.end(), mesh.vertices.data());
+  std::deque<float>().swap(coords);
+  mesh.face_indices = to_vector(corners);
+  mesh.face_start = to_vector(face_start);
+  return mesh;
+}
+
+// ---- OFF ---------------------------------------------------------------------------------------------------
+
+Mesh read_off(Reader& reader, const std::string& path) {
+  std::vector<std::string_view> t;
+  Lines lines(reader);
+  if (!lines.next_content(t) || t[0] != "OFF")
+    throw InputError(path, "malformed OFF: the first line is not 'OFF'", at_line(lines.line()));
+  std::vector<std::string_view> counts(t.begin() + 1, t.end());  // "OFF nv nf ne" on one line is allowed
+  if (counts.empty()) {
+    if (!lines.next_content(t)) throw InputError(path, "malformed OFF: no vertex and face counts");
+    counts = t;
   }
-  if (format == "ascii") {
-    // Count the tokens the header promises (a list's first token says how many follow).
-    auto token = [&]() -> std::string_view {
-      const std::size_t b = data.find_first_not_of(" \t\r\n", pos);
-      if (b == std::string_view::npos) return {};
-      const std::size_t e = std::min(data.find_first_of(" \t\r\n", b), data.size());
-      pos = e;
-      return data.substr(b, e - b);
-    };
-    for (const auto& e : elements)
-      for (std::uint64_t i = 0; i < e.count; ++i)
-        for (const auto& p : e.properties) {
-          const std::string_view t = token();
-          if (t.empty()) fail("truncated in " + e.name + " " + std::to_string(i) + " of " + std::to_string(e.count));
-          if (!p.count_size) continue;
-          std::uint64_t n = 0;
-          const auto r = std::from_chars(t.data(), t.data() + t.size(), n);
-          if (r.ec != std::errc() || r.ptr != t.data() + t.size())
-            fail("bad list length '" + std::string(t) + "' in " + e.name + " " + std::to_string(i));
-          for (std::uint64_t k = 0; k < n; ++k)
-            if (token().empty()) fail("truncated in " + e.name + " " + std::to_string(i) + " of " + std::to_string(e.count));
-        }
-    return counts;
+  std::uint64_t nv = 0, nf = 0, ne = 0;
+  if (counts.size() != 3 || !parse_number(counts[0], nv) || !parse_number(counts[1], nf) || !parse_number(counts[2], ne))
+    throw InputError(path, "malformed OFF: expected 'vertices faces edges' counts", at_line(lines.line()));
+  // Each vertex line needs at least "0 0 0\n", each face line "3 0 0 0\n".
+  check_count(nv, 6, reader.remaining(), "vertices", path, at_line(lines.line()));
+  check_count(nf, 8, reader.remaining(), "faces", path, at_line(lines.line()));
+  if (nv * 6 + nf * 8 > reader.remaining())
+    throw InputError(path, "the header promises " + std::to_string(nv) + " vertices and " + std::to_string(nf) +
+                               " faces, but only " + std::to_string(reader.remaining()) + " bytes follow",
+                     at_line(lines.line()));
+  Mesh mesh;
+  mesh.vertices.resize(Eigen::Index(nv), 3);
+  for (std::uint64_t i = 0; i < nv; ++i) {
+    if (!lines.next_content(t))
+      throw InputError(path, "malformed OFF: truncated in vertex " + std::to_string(i) + " of " + std::to_string(nv));
+    float c[3];
+    if (t.size() != 3)
+      throw InputError(path, "a vertex needs 3 coordinates, found " + std::to_string(t.size()), at_line(lines.line()));
+    for (int k = 0; k < 3; ++k)
+      if (!parse_number(t[std::size_t(k)], c[k]))
+        throw InputError(path, "not a number: '" + std::string(t[std::size_t(k)]) + "'", at_line(lines.line()));
+    if (!finite3(c)) throw InputError(path, non_finite(i), at_line(lines.line()));
+    mesh.vertices.row(Eigen::Index(i)) << c[0], c[1], c[2];
   }
-  const bool big = format == "binary_big_endian";
-  for (const auto& e : elements) {
-    for (std::uint64_t i = 0; i < e.count; ++i) {
-      for (const auto& p : e.properties) {
-        std::uint64_t n = 1;
-        if (p.count_size) {
-          if (data.size() - pos < p.count_size) fail("truncated in " + e.name + " " + std::to_string(i) + " of " + std::to_string(e.count));
-          n = 0;
-          for (std::size_t b = 0; b < p.count_size; ++b)  // list counts are unsigned in practice
-            n |= std::uint64_t(static_cast<unsigned char>(data[pos + (big ? p.count_size - 1 - b : b)])) << (8 * b);
-          pos += p.count_size;
+  std::deque<std::uint32_t> corners;
+  mesh.face_start.reserve(std::size_t(nf) + 1);
+  for (std::uint64_t f = 0; f < nf; ++f) {
+    if (!lines.next_content(t))
+      throw InputError(path, "malformed OFF: truncated in face " + std::to_string(f) + " of " + std::to_string(nf));
+    std::uint64_t k = 0;
+    if (!parse_number(t[0], k) || k < 3)
+      throw InputError(path, "face " + std::to_string(f) + ": expected a vertex count of at least 3, found '" +
+                                 std::string(t[0]) + "'", at_line(lines.line()));
+    // k indices, then optionally a colour (3 or 4 numbers).
+    const std::size_t extra = t.size() - 1 >= k ? t.size() - 1 - k : std::size_t(-1);
+    if (extra != 0 && extra != 3 && extra != 4)
+      throw InputError(path, "face " + std::to_string(f) + " promises " + std::to_string(k) + " vertices but has " +
+                                 std::to_string(t.size() - 1) + " numbers", at_line(lines.line()));
+    for (std::uint64_t j = 0; j < k; ++j) {
+      std::int64_t v = 0;
+      const std::string_view tok = t[std::size_t(j + 1)];
+      if (!parse_number(tok, v))
+        throw InputError(path, "face " + std::to_string(f) + ": not an index: '" + std::string(tok) + "'", at_line(lines.line()));
+      if (v < 0 || std::uint64_t(v) >= nv) throw InputError(path, out_of_range(f, v, nv), at_line(lines.line()));
+      corners.push_back(std::uint32_t(v));
+    }
+    for (std::size_t j = std::size_t(k) + 1; j < t.size(); ++j) {
+      float colour = 0;
+      if (!parse_number(t[j], colour))
+        throw InputError(path, "not a number: '" + std::string(t[j]) + "'", at_line(lines.line()));
+    }
+    mesh.face_start.push_back(std::uint32_t(corners.size()));
+  }
+  if (lines.next_content(t)) throw InputError(path, "malformed OFF: data after the last face", at_line(lines.line()));
+  if (nv == 0) throw InputError(path, "no vertices");
+  mesh.face_indices = to_vector(corners);
+  return mesh;
+}
+
+// ---- PLY ---------------------------------------------------------------------------------------------------
+
+enum class Scalar { i8, u8, i16, u16, i32, u32, f32, f64 };
+
+std::size_t size_of(Scalar s) {
+  switch (s) {
+    case Scalar::i8: case Scalar::u8: return 1;
+    case Scalar::i16: case Scalar::u16: return 2;
+    case Scalar::i32: case Scalar::u32: case Scalar::f32: return 4;
+    case Scalar::f64: return 8;
+  }
+  return 0;
+}
+
+bool scalar_type(std::string_view t, Scalar& s) {
+  if (t == "char" || t == "int8") s = Scalar::i8;
+  else if (t == "uchar" || t == "uint8") s = Scalar::u8;
+  else if (t == "short" || t == "int16") s = Scalar::i16;
+  else if (t == "ushort" || t == "uint16") s = Scalar::u16;
+  else if (t == "int" || t == "int32") s = Scalar::i32;
+  else if (t == "uint" || t == "uint32") s = Scalar::u32;
+  else if (t == "float" || t == "float32") s = Scalar::f32;
+  else if (t == "double" || t == "float64") s = Scalar::f64;
+  else return false;
+  return true;
+}
+
+struct PlyProperty {
+  std::string name;
+  Scalar type = Scalar::f32;
+  bool list = false;
+  Scalar count_type = Scalar::u8;
+};
+
+struct PlyElement {
+  std::string name;
+  std::uint64_t count = 0;
+  std::vector<PlyProperty> properties;
+  std::size_t min_bytes(bool binary) const {  // the smallest an item can be in the body
+    std::size_t b = 0;
+    for (const auto& p : properties) b += binary ? (p.list ? size_of(p.count_type) : size_of(p.type)) : 2;
+    return b;
+  }
+};
+
+bool is_integer(Scalar s) { return s != Scalar::f32 && s != Scalar::f64; }
+
+/// Whether the integer v is a value of type s (an ASCII body may write anything).
+bool fits(Scalar s, std::int64_t v) {
+  switch (s) {
+    case Scalar::i8: return v >= -128 && v <= 127;
+    case Scalar::u8: return v >= 0 && v <= 255;
+    case Scalar::i16: return v >= -32768 && v <= 32767;
+    case Scalar::u16: return v >= 0 && v <= 65535;
+    case Scalar::i32: return v >= std::numeric_limits<std::int32_t>::min() && v <= std::numeric_limits<std::int32_t>::max();
+    case Scalar::u32: return v >= 0 && v <= std::int64_t(std::numeric_limits<std::uint32_t>::max());
+    default: return true;
+  }
+}
+
+/// One value of type s from a binary body in either byte order; false if the body ends first. Integer types
+/// give exact doubles; float is widened exactly.
+bool read_binary(Reader& reader, Scalar s, bool big_endian, double& out) {
+  const std::size_t n = size_of(s);
+  unsigned char raw[8];
+  if (!reader.bytes(reinterpret_cast<char*>(raw), n)) return false;
+  if (big_endian != (std::endian::native == std::endian::big)) std::reverse(raw, raw + n);
+  switch (s) {
+    case Scalar::i8: out = double(std::int8_t(raw[0])); break;
+    case Scalar::u8: out = double(raw[0]); break;
+    case Scalar::i16: { std::int16_t v; std::memcpy(&v, raw, 2); out = v; break; }
+    case Scalar::u16: { std::uint16_t v; std::memcpy(&v, raw, 2); out = v; break; }
+    case Scalar::i32: { std::int32_t v; std::memcpy(&v, raw, 4); out = v; break; }
+    case Scalar::u32: { std::uint32_t v; std::memcpy(&v, raw, 4); out = v; break; }
+    case Scalar::f32: { float v; std::memcpy(&v, raw, 4); out = v; break; }
+    case Scalar::f64: { double v; std::memcpy(&v, raw, 8); out = v; break; }
+  }
+  return true;
+}
+
+Mesh read_ply(Reader& reader, const std::string& path) {
+  auto malformed = [&](const std::string& why, std::size_t line = 0) -> InputError {
+    return InputError(path, "malformed PLY: " + why, line ? at_line(line) : std::string());
+  };
+  // Header.
+  std::size_t line_no = 0;
+  std::vector<std::string_view> t;
+  auto header_line = [&]() {
+    std::string_view l;
+    if (!reader.line(l)) throw malformed("the header has no end_header line");
+    ++line_no;
+    t.clear();
+    std::size_t i = 0;
+    while ((i = l.find_first_not_of(" \t\r", i)) != std::string_view::npos) {
+      const std::size_t j = std::min(l.find_first_of(" \t\r", i), l.size());
+      t.push_back(l.substr(i, j - i));
+      i = j;
+    }
+  };
+  header_line();
+  if (t.size() != 1 || t[0] != "ply") throw malformed("the first line is not 'ply'", 1);
+  std::string format;
+  std::vector<PlyElement> elements;
+  for (;;) {
+    header_line();
+    if (t.empty() || t[0] == "comment" || t[0] == "obj_info") continue;
+    if (t[0] == "end_header") break;
+    if (t[0] == "format") {
+      if (t.size() != 3 || t[2] != "1.0" ||
+          (t[1] != "ascii" && t[1] != "binary_little_endian" && t[1] != "binary_big_endian"))
+        throw malformed("unsupported format line", line_no);
+      if (!format.empty()) throw malformed("a second format line", line_no);
+      format = std::string(t[1]);
+    } else if (t[0] == "element") {
+      PlyElement e;
+      if (t.size() != 3 || !parse_number(t[2], e.count)) throw malformed("expected 'element NAME COUNT'", line_no);
+      e.name = std::string(t[1]);
+      for (const auto& other : elements)
+        if (other.name == e.name) throw malformed("element '" + e.name + "' declared twice", line_no);
+      elements.push_back(e);
+    } else if (t[0] == "property") {
+      if (elements.empty()) throw malformed("a property before any element", line_no);
+      PlyProperty p;
+      if (t.size() == 5 && t[1] == "list") {
+        p.list = true;
+        if (!scalar_type(t[2], p.count_type) || !scalar_type(t[3], p.type) || !is_integer(p.count_type))
+          throw malformed("bad list property types", line_no);
+        p.name = std::string(t[4]);
+      } else if (t.size() == 3 && scalar_type(t[1], p.type)) {
+        p.name = std::string(t[2]);
+      } else {
+        throw malformed("expected 'property TYPE NAME' or 'property list COUNT_TYPE TYPE NAME'", line_no);
+      }
+      for (const auto& other : elements.back().properties)
+        if (other.name == p.name) throw malformed("property '" + p.name + "' declared twice", line_no);
+      elements.back().properties.push_back(p);
+    } else {
+      throw malformed("unknown header line '" + std::string(t[0]) + "'", line_no);
+    }
+  }
+  if (format.empty()) throw malformed("no format line");
+  for (const auto& el : elements)  // each item would be nothing in a binary body, and an empty line in ASCII
+    if (el.properties.empty() && el.count > 0) throw malformed("element '" + el.name + "' has no properties");
+  const bool binary = format != "ascii";
+  const bool big_endian = format == "binary_big_endian";
+
+  // What we read: vertex x, y, z and face vertex_indices (or vertex_index).
+  int vertex_element = -1, face_element = -1;
+  int xyz[3] = {-1, -1, -1}, indices = -1;
+  for (std::size_t e = 0; e < elements.size(); ++e) {
+    const auto& el = elements[e];
+    if (el.name == "vertex") {
+      vertex_element = int(e);
+      for (std::size_t k = 0; k < el.properties.size(); ++k) {
+        if (el.properties[k].list) throw malformed("list properties in the vertex element are not supported");
+        for (int c = 0; c < 3; ++c)
+          if (el.properties[k].name == std::string(1, char('x' + c))) xyz[c] = int(k);
+      }
+    } else if (el.name == "face") {
+      face_element = int(e);
+      for (std::size_t k = 0; k < el.properties.size(); ++k)
+        if ((el.properties[k].name == "vertex_indices" || el.properties[k].name == "vertex_index") &&
+            el.properties[k].list && is_integer(el.properties[k].type))
+          indices = int(k);
+      if (indices < 0) throw malformed("the face element has no integer list 'vertex_indices'");
+    }
+  }
+  if (vertex_element < 0 || xyz[0] < 0 || xyz[1] < 0 || xyz[2] < 0)
+    throw malformed("no vertex element with properties x, y and z");
+  // Counts against the body's size, before allocating.
+  const std::size_t body = reader.remaining();
+  std::size_t min_total = 0;
+  for (const auto& el : elements) {
+    check_count(el.count, el.min_bytes(binary), body, el.name + " elements", path, "header");
+    min_total += std::size_t(el.count) * el.min_bytes(binary);
+  }
+  if (min_total > body)
+    throw InputError(path, "the header's elements need at least " + std::to_string(min_total) + " bytes, but only " +
+                               std::to_string(body) + " follow", "header");
+
+  Mesh mesh;
+  const std::uint64_t nv = elements[std::size_t(vertex_element)].count;
+  mesh.vertices.resize(Eigen::Index(nv), 3);
+  if (face_element >= 0) mesh.face_start.reserve(std::size_t(elements[std::size_t(face_element)].count) + 1);
+  std::deque<std::uint32_t> corners;
+  Lines ascii(reader, line_no + 1);
+  std::vector<double> values;
+  for (std::size_t e = 0; e < elements.size(); ++e) {
+    const auto& el = elements[e];
+    for (std::uint64_t i = 0; i < el.count; ++i) {
+      // Built only for a message: most elements are fine.
+      auto item = [&] { return el.name + " " + std::to_string(i); };
+      // Binary messages name the element and index themselves; ASCII ones get the line too.
+      auto where = [&] { return binary ? std::string() : at_line(ascii.line()); };
+      auto truncated = [&] {
+        return malformed("truncated in " + el.name + " " + std::to_string(i) + " of " + std::to_string(el.count));
+      };
+      // Each property's values, lists flattened after their count.
+      values.clear();
+      std::size_t list_begin = 0, list_size = 0;
+      if (binary) {
+        for (std::size_t k = 0; k < el.properties.size(); ++k) {
+          const auto& p = el.properties[k];
+          double v = 0;
+          if (!p.list) {
+            if (!read_binary(reader, p.type, big_endian, v)) throw truncated();
+            values.push_back(v);
+            continue;
+          }
+          if (!read_binary(reader, p.count_type, big_endian, v)) throw truncated();
+          if (v < 0) throw malformed("negative list length in " + item());
+          const auto n = std::uint64_t(v);
+          if (n * size_of(p.type) > reader.remaining()) throw truncated();
+          if (int(k) == indices) list_begin = values.size(), list_size = std::size_t(n);
+          for (std::uint64_t j = 0; j < n; ++j) {
+            if (!read_binary(reader, p.type, big_endian, v)) throw truncated();
+            values.push_back(v);
+          }
         }
-        if ((data.size() - pos) / p.size < n)
-          fail("truncated in " + e.name + " " + std::to_string(i) + " of " + std::to_string(e.count));
-        pos += std::size_t(n) * p.size;
+      } else {
+        if (!ascii.next_content(t)) throw truncated();
+        std::size_t tok = 0;
+        auto take = [&](Scalar s) {
+          if (tok >= t.size()) throw InputError(path, "too few values for " + item(), where());
+          double v = 0;
+          bool ok;
+          if (is_integer(s)) {
+            std::int64_t n = 0;
+            ok = parse_number(t[tok], n);
+            if (ok && !fits(s, n))
+              throw InputError(path, "'" + std::string(t[tok]) + "' in " + item() + " is out of the range of its type", where());
+            v = double(n);
+          } else if (s == Scalar::f32) {
+            float f = 0;  // parsed as float: correctly rounded once (decimal -> double -> float could round twice)
+            ok = parse_number(t[tok], f);
+            v = f;
+          } else {
+            ok = parse_number(t[tok], v);
+          }
+          if (!ok) throw InputError(path, "not a number: '" + std::string(t[tok]) + "' in " + item(), where());
+          ++tok;
+          return v;
+        };
+        for (std::size_t k = 0; k < el.properties.size(); ++k) {
+          const auto& p = el.properties[k];
+          if (!p.list) {
+            values.push_back(take(p.type));
+            continue;
+          }
+          const double n = take(p.count_type);
+          if (n < 0 || n > double(t.size())) throw InputError(path, "bad list length in " + item(), where());
+          if (int(k) == indices) list_begin = values.size(), list_size = std::size_t(n);
+          for (std::size_t j = 0; j < std::size_t(n); ++j) values.push_back(take(p.type));
+        }
+        if (tok != t.size()) throw InputError(path, "too many values for " + item(), where());
+      }
+      if (int(e) == vertex_element) {
+        // Vertex properties are all scalars (checked above): value k is property k.
+        const float c[3] = {float(values[std::size_t(xyz[0])]), float(values[std::size_t(xyz[1])]),
+                            float(values[std::size_t(xyz[2])])};
+        if (!finite3(c)) throw InputError(path, non_finite(std::size_t(i)), where());
+        mesh.vertices.row(Eigen::Index(i)) << c[0], c[1], c[2];
+      } else if (int(e) == face_element) {
+        if (list_size < 3)
+          throw InputError(path, "face " + std::to_string(i) + " has " + std::to_string(list_size) +
+                                     " vertices (at least 3)", where());
+        for (std::size_t j = 0; j < list_size; ++j) {
+          const double v = values[list_begin + j];  // an exact integer of at most 32 bits
+          if (v < 0 || v >= double(nv)) throw InputError(path, out_of_range(std::size_t(i), std::int64_t(v), nv), where());
+          corners.push_back(std::uint32_t(v));
+        }
+        mesh.face_start.push_back(std::uint32_t(corners.size()));
       }
     }
   }
-  return counts;
-}
-
-std::string upper(std::string s) {
-  for (auto& c : s) c = char(std::toupper(static_cast<unsigned char>(c)));
-  return s;
+  if (binary ? !reader.at_end() : ascii.next_content(t))
+    throw malformed(binary ? std::to_string(reader.remaining()) + " bytes of data after the last element"
+                           : "data after the last element (" + at_line(ascii.line()) + ")");
+  if (nv == 0) throw InputError(path, "no vertices");
+  mesh.face_indices = to_vector(corners);
+  return mesh;
 }
 
 }  // namespace
 
-float detail::assimp_atof(const char* text) {
-  float v = 0;
-  try {
-    Assimp::fast_atoreal_move<float, NotANumber>(text, v);
-  } catch (const NotANumber&) {
-    return std::numeric_limits<float>::quiet_NaN();
-  }
-  return v;
-}
-
 std::string readable_formats() { return "obj, off, ply (ASCII or binary), and each gzip-compressed (.obj.gz, .off.gz, .ply.gz)"; }
 
-Mesh read_mesh(const std::string& path) {
+Mesh read_mesh(const std::string& path, std::size_t max_bytes) {
   const std::string ext = format_extension(path);
   if (ext != "obj" && ext != "off" && ext != "ply")
     throw InputError(path, "unknown mesh format" + (ext.empty() ? std::string() : " '." + ext + "'") +
                                " (readable: " + readable_formats() + ")");
-  std::string bytes = read_file(path);
-  if (is_gzip_path(path)) bytes = gunzip(bytes, path);
-  if (bytes.empty()) throw InputError(path, "empty file");
+  const auto source = open_input(path, max_bytes);
+  return parse_mesh(*source, ext, path);
+}
 
-  // Checks of our own where Assimp's importers are lax (see check_ply and scan_obj_vertices).
-  std::optional<PlyCounts> ply;
-  if (ext == "ply") ply = check_ply(bytes, path);
-  std::vector<ObjVertex> obj_vertices;
-  if (ext == "obj") obj_vertices = scan_obj_vertices(bytes, path);
-
-  // No post-processing: no triangulation, no joining of vertices, no generated normals. The file as it is.
-  Assimp::Importer importer;
-  const AssimpErrors errors;
-  const aiScene* scene = importer.ReadFileFromMemory(bytes.data(), bytes.size(), 0, ext.c_str());
-  if (!scene) throw InputError(path, "cannot parse as " + upper(ext) + ": " + one_line(importer.GetErrorString()));
-  if (!errors.first.empty()) {
-    // Assimp's log lines start with a severity and a time stamp ("Error, T0: OFF: ..."): keep the message.
-    std::string why = errors.first;
-    if (const auto p = why.find(": "); why.rfind("Error", 0) == 0 && p != std::string::npos) why = why.substr(p + 2);
-    throw InputError(path, "cannot parse as " + upper(ext) + ": " + one_line(why));
-  }
-
-  Mesh mesh;
-  std::size_t dropped = 0;  // points and lines
-  if (ext == "obj") {
-    const auto& file_vertices = obj_vertices;
-    mesh.vertices.resize(Eigen::Index(file_vertices.size()), 3);
-    std::unordered_map<std::array<std::uint32_t, 3>, std::uint32_t, BitsHash> index;
-    index.reserve(file_vertices.size());
-    for (std::size_t i = 0; i < file_vertices.size(); ++i) {
-      const auto& v = file_vertices[i];
-      if (!std::isfinite(v.x) || !std::isfinite(v.y) || !std::isfinite(v.z))
-        throw InputError(path, "vertex " + std::to_string(i) + " has a non-finite coordinate", "line " + std::to_string(v.line));
-      mesh.vertices.row(Eigen::Index(i)) << v.x, v.y, v.z;
-      index.emplace(bits(v.x, v.y, v.z), std::uint32_t(i));  // a repeated position maps to its first vertex
-    }
-    for (unsigned m = 0; m < scene->mNumMeshes; ++m) {
-      const aiMesh* am = scene->mMeshes[m];
-      for (unsigned f = 0; f < am->mNumFaces; ++f) {
-        const aiFace& face = am->mFaces[f];
-        if (face.mNumIndices < 3) {
-          ++dropped;
-          continue;
-        }
-        for (unsigned c = 0; c < face.mNumIndices; ++c) {
-          const aiVector3D& p = am->mVertices[face.mIndices[c]];
-          const auto it = index.find(bits(p.x, p.y, p.z));
-          if (it == index.end())
-            throw InputError(path, "could not match a face corner to a vertex line (unsupported OBJ syntax?)");
-          mesh.face_indices.push_back(it->second);
-        }
-        mesh.face_start.push_back(std::uint32_t(mesh.face_indices.size()));
-      }
-    }
-  } else {
-    // OFF and PLY: Assimp keeps the file's vertex list and order (every vertex, used or not).
-    std::size_t n = 0;
-    for (unsigned m = 0; m < scene->mNumMeshes; ++m) n += scene->mMeshes[m]->mNumVertices;
-    if (n > std::size_t(std::numeric_limits<std::uint32_t>::max())) throw InputError(path, "too many vertices");
-    mesh.vertices.resize(Eigen::Index(n), 3);
-    std::uint32_t base = 0;
-    for (unsigned m = 0; m < scene->mNumMeshes; ++m) {
-      const aiMesh* am = scene->mMeshes[m];
-      for (unsigned v = 0; v < am->mNumVertices; ++v) {
-        const aiVector3D& p = am->mVertices[v];
-        if (!std::isfinite(p.x) || !std::isfinite(p.y) || !std::isfinite(p.z))
-          throw InputError(path, "vertex " + std::to_string(base + v) + " has a non-finite coordinate");
-        mesh.vertices.row(Eigen::Index(base + v)) << p.x, p.y, p.z;
-      }
-      for (unsigned f = 0; f < am->mNumFaces; ++f) {
-        const aiFace& face = am->mFaces[f];
-        if (face.mNumIndices < 3) {
-          ++dropped;
-          continue;
-        }
-        for (unsigned c = 0; c < face.mNumIndices; ++c) {
-          if (face.mIndices[c] >= am->mNumVertices)
-            throw InputError(path, "face " + std::to_string(mesh.face_count()) + " refers to vertex " +
-                                       std::to_string(face.mIndices[c]) + ", but there are only " +
-                                       std::to_string(am->mNumVertices));
-          mesh.face_indices.push_back(base + face.mIndices[c]);
-        }
-        mesh.face_start.push_back(std::uint32_t(mesh.face_indices.size()));
-      }
-      base += am->mNumVertices;
-    }
-  }
-  mesh.dropped_primitives = dropped;
-  if (ply && (std::uint64_t(mesh.vertex_count()) != ply->vertices || mesh.face_count() + dropped != ply->faces))
-    throw InputError(path, "the header promises " + std::to_string(ply->vertices) + " vertices and " + std::to_string(ply->faces) +
-                               " faces, but " + std::to_string(mesh.vertex_count()) + " and " +
-                               std::to_string(mesh.face_count() + dropped) + " were read (truncated?)");
-  if (mesh.vertex_count() == 0) throw InputError(path, "no vertices");
-  return mesh;
+Mesh parse_mesh(ByteSource& source, const std::string& format, const std::string& path) {
+  if (source.size() == 0) throw InputError(path, "empty file");
+  Reader reader(source, path);
+  if (format == "obj") return read_obj(reader, path);
+  if (format == "off") return read_off(reader, path);
+  if (format == "ply") return read_ply(reader, path);
+  throw std::invalid_argument("parse_mesh: unknown format '" + format + "'");
 }
 
 }  // namespace mlsdeform::cli

@@ -1,5 +1,5 @@
-// Mesh writing (OBJ, OFF, PLY) and the geometry helpers writers and renderers need. Written here rather than
-// through Assimp's exporters, which renumber vertices (OBJ) and choose their own number formats.
+// Mesh writing (OBJ, OFF, PLY) and the geometry helpers writers and renderers need, keeping the vertex order
+// and writing numbers that read back exactly.
 #include "error.hpp"
 #include "file_io.hpp"
 #include "mesh.hpp"
@@ -15,26 +15,9 @@
 namespace mlsdeform::cli {
 namespace {
 
-// The shortest decimal text of v that reads back to v both when correctly rounded (any reader) and through
-// Assimp's fast_atof (which is not): shortest round-trip first, then more digits until both agree. Exact for
-// 1e-4 <= |v| < 1e12; outside that range Assimp may still read the shortest text 1 or 2 ulp off.
+// The shortest decimal text that reads back to v (correctly rounded, as the readers parse).
 std::string_view float_text(float v, char (&buf)[64]) {
-  auto r = std::to_chars(buf, buf + sizeof buf - 1, v);
-  *r.ptr = '\0';
-  if (detail::assimp_atof(buf) == v) return {buf, std::size_t(r.ptr - buf)};
-  const float a = std::abs(v);
-  const auto format = a >= 1e-5f && a < 1e12f ? std::chars_format::fixed : std::chars_format::scientific;
-  char more[64];
-  for (int digits = 1; digits <= 12; ++digits) {
-    auto m = std::to_chars(more, more + sizeof more - 1, v, format, digits);
-    *m.ptr = '\0';
-    float back = 0;
-    const auto parsed = std::from_chars(more, m.ptr, back);
-    if (parsed.ec == std::errc() && back == v && detail::assimp_atof(more) == v) {
-      std::memcpy(buf, more, std::size_t(m.ptr - more) + 1);
-      return {buf, std::size_t(m.ptr - more)};
-    }
-  }
+  const auto r = std::to_chars(buf, buf + sizeof buf, v);
   return {buf, std::size_t(r.ptr - buf)};
 }
 
