@@ -326,7 +326,7 @@ TEMPLATE_TEST_CASE("exact_integral differs from paper_constant; segments interpo
   }
 }
 
-TEST_CASE("paper_constant vs exact_integral: the numbers quoted in the README", "[deformer][segment]") {
+TEST_CASE("paper_constant vs exact_integral: the numbers quoted in docs/api.md", "[deformer][segment]") {
   // One unit segment a = (0,0,0) -> b = (1,0,0) and a vertex at (0.1, 0.1, 0), u = 2: the segment's weight
   // and the centroid parameter of its weight (where p* and q* put it).
   const detail::SegmentGeometry g = detail::segment_geometry(Vec3d(0.1, 0.1, 0), Vec3d::Zero(), Vec3d::UnitX());

@@ -87,7 +87,7 @@ struct FailureLog {
     for (const auto& [key, n] : counts) {
       INFO(key << ": " << n << " failing cases");
       if (known_limitation(key)) {
-        WARN("KNOWN LIMITATION (see docs/accuracy.md and the README's Accuracy section): " << key << ": " << n
+        WARN("KNOWN LIMITATION (see docs/accuracy.md and docs/api.md, Accuracy): " << key << ": " << n
                                                                                         << " cases beyond the bound");
         continue;
       }
