@@ -69,6 +69,8 @@ inline std::vector<MalformedMesh> malformed_meshes() {
       {"zero.obj", cube_v + "f 0 1 2\n", "line 9: not a vertex index: '0'"},
       {"range.obj", cube_v + "f 1 2 9\n", "line 9: vertex index 9 is out of range (8 vertices)"},
       {"stmt.obj", cube_v + "curv 0 1 2\n", "line 9: unsupported OBJ statement 'curv'"},
+      // Bytes of a binary file read as text: shown escaped, and the message stays one line.
+      {"binary.obj", cube_v + "\x1c\x01\xff 1 2\n", "line 9: unsupported OBJ statement '\\x1c\\x01\\xff'"},
       {"noprops.ply", "ply\nformat binary_little_endian 1.0\nelement junk 4000000000\nend_header\n",
        "malformed PLY: element 'junk' has no properties"},
       {"uchar.ply", ply_head + "256 0 1 5 4\n" + ply_faces, "line 18: '256' in face 0 is out of the range of its type"},

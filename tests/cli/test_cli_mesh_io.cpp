@@ -254,6 +254,12 @@ TEST_CASE("writing is all or nothing and does not overwrite without force", "[cl
   CHECK(dir.files() == std::vector<std::string>{"a.obj"});
 }
 
+TEST_CASE("error messages stay one line whatever the file name or contents", "[cli][errors]") {
+  CHECK(std::string(InputError("a\nb.obj", "bad\r", "line 2").what()) == "a\\x0ab.obj: line 2: bad\\x0d");
+  CHECK(std::string(InputError("\x7f.ply", "x").what()) == "\\x7f.ply: x");
+  CHECK(std::string(InputError("caf\xc3\xa9.obj", "x").what()) == "caf\xc3\xa9.obj: x");  // UTF-8 names as they are
+}
+
 TEST_CASE("gzip round trip, including concatenated members", "[cli][mesh]") {
   const std::string text = "hello, mesh\n";
   CHECK(gunzip(gzip(text), "t") == text);

@@ -22,7 +22,24 @@ class InputError : public std::runtime_error {
   static std::string format(const std::string& file, const std::string& problem, const std::string& where) {
     std::string s = file.empty() ? std::string() : file + ": ";
     if (!where.empty()) s += where + ": ";
-    return s + problem;
+    return one_line(s + problem);
+  }
+  /// Control characters (a newline in a file name, a byte of a binary file read as text) as \xNN: the
+  /// message stays one line.
+  static std::string one_line(const std::string& m) {
+    std::string out;
+    for (const char ch : m) {
+      const auto c = static_cast<unsigned char>(ch);
+      if (c >= 0x20 && c != 0x7f) {
+        out += ch;
+        continue;
+      }
+      static const char hex[] = "0123456789abcdef";
+      out += "\\x";
+      out += hex[c >> 4];
+      out += hex[c & 15];
+    }
+    return out;
   }
   std::string file_, problem_, where_;
 };

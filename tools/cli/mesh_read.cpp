@@ -28,6 +28,28 @@ namespace {
 
 std::string at_line(std::size_t line) { return "line " + std::to_string(line); }
 
+/// A token from the file as a message shows it: quoted, bytes outside printable ASCII as \xNN (a binary file
+/// read as text stays one readable line), at most 40 characters.
+std::string shown(std::string_view token) {
+  std::string s = "'";
+  for (std::size_t i = 0; i < token.size(); ++i) {
+    if (i == 40) {
+      s += "...";
+      break;
+    }
+    const auto c = static_cast<unsigned char>(token[i]);
+    if (c >= 0x20 && c < 0x7f) {
+      s += char(c);
+    } else {
+      static const char hex[] = "0123456789abcdef";
+      s += "\\x";
+      s += hex[c >> 4];
+      s += hex[c & 15];
+    }
+  }
+  return s + "'";
+}
+
 /// Whole-token number parsing: the token must be a number and nothing else (correctly rounded for floats).
 template <class T>
 bool parse_number(std::string_view token, T& out) {
@@ -110,6 +132,18 @@ class Reader {
   bool eof_ = false;
 };
 
+/// The blank-separated tokens of a line.
+void split(std::string_view line, std::vector<std::string_view>& tokens) {
+  constexpr const char* blanks = " \t\r\f\v";
+  tokens.clear();
+  std::size_t i = 0;
+  while ((i = line.find_first_not_of(blanks, i)) != std::string_view::npos) {
+    const std::size_t j = std::min(line.find_first_of(blanks, i), line.size());
+    tokens.push_back(line.substr(i, j - i));
+    i = j;
+  }
+}
+
 /// Lines of a text, with their numbers; tokens split on blanks, a '#' starts a comment.
 class Lines {
  public:
@@ -120,13 +154,7 @@ class Lines {
     if (!reader_.line(l)) return false;
     ++line_;
     if (const auto hash = l.find('#'); hash != std::string_view::npos) l = l.substr(0, hash);
-    tokens.clear();
-    std::size_t i = 0;
-    while ((i = l.find_first_not_of(" \t\r\f\v", i)) != std::string_view::npos) {
-      const std::size_t j = std::min(l.find_first_of(" \t\r\f\v", i), l.size());
-      tokens.push_back(l.substr(i, j - i));
-      i = j;
-    }
+    split(l, tokens);
     return true;
   }
   /// The next line that has tokens; false at the end.
@@ -191,7 +219,7 @@ Mesh read_obj(Reader& reader, const std::string& path) {
       float c[6];
       for (std::size_t k = 0; k < n; ++k)
         if (!parse_number(t[k + 1], c[k]))
-          throw InputError(path, "not a number: '" + std::string(t[k + 1]) + "'", at_line(lines.line()));
+          throw InputError(path, "not a number: " + shown(t[k + 1]), at_line(lines.line()));
       if (n == 4) {
         if (c[3] == 0.0f) throw InputError(path, "vertex with w = 0", at_line(lines.line()));
         for (int k = 0; k < 3; ++k) c[k] /= c[3];
@@ -209,14 +237,14 @@ Mesh read_obj(Reader& reader, const std::string& path) {
         std::size_t slash = corner.find('/');
         std::int64_t v = 0;
         if (!parse_number(corner.substr(0, slash), v) || v == 0)
-          throw InputError(path, "not a vertex index: '" + std::string(corner) + "'", at_line(lines.line()));
+          throw InputError(path, "not a vertex index: " + shown(corner), at_line(lines.line()));
         while (slash != std::string_view::npos) {
           const std::size_t next = corner.find('/', slash + 1);
           const std::string_view part = corner.substr(slash + 1, next == std::string_view::npos ? next : next - slash - 1);
           std::int64_t unused = 0;
           if (!(part.empty() && next != std::string_view::npos && slash + 1 == next) && !part.empty() &&
               !parse_number(part, unused))
-            throw InputError(path, "not an index: '" + std::string(corner) + "'", at_line(lines.line()));
+            throw InputError(path, "not an index: " + shown(corner), at_line(lines.line()));
           slash = next;
         }
         if (v < 0) {  // relative to the vertices defined so far
@@ -236,7 +264,7 @@ Mesh read_obj(Reader& reader, const std::string& path) {
                key == "usemtl" || key == "mtllib") {
       // Texture coordinates, normals, names, groups, smoothing and materials: not used.
     } else {
-      throw InputError(path, "unsupported OBJ statement '" + std::string(key) + "'", at_line(lines.line()));
+      throw InputError(path, "unsupported OBJ statement " + shown(key), at_line(lines.line()));
     }
   }
   const std::size_t n = coords.size() / 3;
@@ -286,7 +314,7 @@ Mesh read_off(Reader& reader, const std::string& path) {
       throw InputError(path, "a vertex needs 3 coordinates, found " + std::to_string(t.size()), at_line(lines.line()));
     for (int k = 0; k < 3; ++k)
       if (!parse_number(t[std::size_t(k)], c[k]))
-        throw InputError(path, "not a number: '" + std::string(t[std::size_t(k)]) + "'", at_line(lines.line()));
+        throw InputError(path, "not a number: " + shown(t[std::size_t(k)]), at_line(lines.line()));
     if (!finite3(c)) throw InputError(path, non_finite(i), at_line(lines.line()));
     mesh.vertices.row(Eigen::Index(i)) << c[0], c[1], c[2];
   }
@@ -297,8 +325,8 @@ Mesh read_off(Reader& reader, const std::string& path) {
       throw InputError(path, "malformed OFF: truncated in face " + std::to_string(f) + " of " + std::to_string(nf));
     std::uint64_t k = 0;
     if (!parse_number(t[0], k) || k < 3)
-      throw InputError(path, "face " + std::to_string(f) + ": expected a vertex count of at least 3, found '" +
-                                 std::string(t[0]) + "'", at_line(lines.line()));
+      throw InputError(path, "face " + std::to_string(f) + ": expected a vertex count of at least 3, found " +
+                                 shown(t[0]), at_line(lines.line()));
     // k indices, then optionally a colour (3 or 4 numbers).
     const std::size_t extra = t.size() - 1 >= k ? t.size() - 1 - k : std::size_t(-1);
     if (extra != 0 && extra != 3 && extra != 4)
@@ -308,14 +336,14 @@ Mesh read_off(Reader& reader, const std::string& path) {
       std::int64_t v = 0;
       const std::string_view tok = t[std::size_t(j + 1)];
       if (!parse_number(tok, v))
-        throw InputError(path, "face " + std::to_string(f) + ": not an index: '" + std::string(tok) + "'", at_line(lines.line()));
+        throw InputError(path, "face " + std::to_string(f) + ": not an index: " + shown(tok), at_line(lines.line()));
       if (v < 0 || std::uint64_t(v) >= nv) throw InputError(path, out_of_range(f, v, nv), at_line(lines.line()));
       corners.push_back(std::uint32_t(v));
     }
     for (std::size_t j = std::size_t(k) + 1; j < t.size(); ++j) {
       float colour = 0;
       if (!parse_number(t[j], colour))
-        throw InputError(path, "not a number: '" + std::string(t[j]) + "'", at_line(lines.line()));
+        throw InputError(path, "not a number: " + shown(t[j]), at_line(lines.line()));
     }
     mesh.face_start.push_back(std::uint32_t(corners.size()));
   }
@@ -416,13 +444,7 @@ Mesh read_ply(Reader& reader, const std::string& path) {
     std::string_view l;
     if (!reader.line(l)) throw malformed("the header has no end_header line");
     ++line_no;
-    t.clear();
-    std::size_t i = 0;
-    while ((i = l.find_first_not_of(" \t\r", i)) != std::string_view::npos) {
-      const std::size_t j = std::min(l.find_first_of(" \t\r", i), l.size());
-      t.push_back(l.substr(i, j - i));
-      i = j;
-    }
+    split(l, t);  // no comments here: '#' is a character like any other in a PLY header
   };
   header_line();
   if (t.size() != 1 || t[0] != "ply") throw malformed("the first line is not 'ply'", 1);
@@ -443,7 +465,7 @@ Mesh read_ply(Reader& reader, const std::string& path) {
       if (t.size() != 3 || !parse_number(t[2], e.count)) throw malformed("expected 'element NAME COUNT'", line_no);
       e.name = std::string(t[1]);
       for (const auto& other : elements)
-        if (other.name == e.name) throw malformed("element '" + e.name + "' declared twice", line_no);
+        if (other.name == e.name) throw malformed("element " + shown(e.name) + " declared twice", line_no);
       elements.push_back(e);
     } else if (t[0] == "property") {
       if (elements.empty()) throw malformed("a property before any element", line_no);
@@ -459,15 +481,15 @@ Mesh read_ply(Reader& reader, const std::string& path) {
         throw malformed("expected 'property TYPE NAME' or 'property list COUNT_TYPE TYPE NAME'", line_no);
       }
       for (const auto& other : elements.back().properties)
-        if (other.name == p.name) throw malformed("property '" + p.name + "' declared twice", line_no);
+        if (other.name == p.name) throw malformed("property " + shown(p.name) + " declared twice", line_no);
       elements.back().properties.push_back(p);
     } else {
-      throw malformed("unknown header line '" + std::string(t[0]) + "'", line_no);
+      throw malformed("unknown header line " + shown(t[0]), line_no);
     }
   }
   if (format.empty()) throw malformed("no format line");
   for (const auto& el : elements)  // each item would be nothing in a binary body, and an empty line in ASCII
-    if (el.properties.empty() && el.count > 0) throw malformed("element '" + el.name + "' has no properties");
+    if (el.properties.empty() && el.count > 0) throw malformed("element " + shown(el.name) + " has no properties");
   const bool binary = format != "ascii";
   const bool big_endian = format == "binary_big_endian";
 
@@ -555,7 +577,7 @@ Mesh read_ply(Reader& reader, const std::string& path) {
             std::int64_t n = 0;
             ok = parse_number(t[tok], n);
             if (ok && !fits(s, n))
-              throw InputError(path, "'" + std::string(t[tok]) + "' in " + item() + " is out of the range of its type", where());
+              throw InputError(path, shown(t[tok]) + " in " + item() + " is out of the range of its type", where());
             v = double(n);
           } else if (s == Scalar::f32) {
             float f = 0;  // parsed as float: correctly rounded once (decimal -> double -> float could round twice)
@@ -564,7 +586,7 @@ Mesh read_ply(Reader& reader, const std::string& path) {
           } else {
             ok = parse_number(t[tok], v);
           }
-          if (!ok) throw InputError(path, "not a number: '" + std::string(t[tok]) + "' in " + item(), where());
+          if (!ok) throw InputError(path, "not a number: " + shown(t[tok]) + " in " + item(), where());
           ++tok;
           return v;
         };
@@ -615,7 +637,7 @@ std::string readable_formats() { return "obj, off, ply (ASCII or binary), and ea
 Mesh read_mesh(const std::string& path, std::size_t max_bytes) {
   const std::string ext = format_extension(path);
   if (ext != "obj" && ext != "off" && ext != "ply")
-    throw InputError(path, "unknown mesh format" + (ext.empty() ? std::string() : " '." + ext + "'") +
+    throw InputError(path, "unknown mesh format" + (ext.empty() ? std::string() : " " + shown("." + ext)) +
                                " (readable: " + readable_formats() + ")");
   const auto source = open_input(path, max_bytes);
   return parse_mesh(*source, ext, path);
