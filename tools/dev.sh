@@ -41,10 +41,10 @@ case "${1:-}" in
     exec ctest --test-dir build --output-on-failure -R blender_addon
     ;;
   test)
-    build build
+    build build -DMLSDEFORM_WERROR=ON
     ctest --test-dir build --output-on-failure -j "$jobs"
     # Sanitizers: tests only, no benchmarks or tools.
-    build build-asan -DMLSDEFORM_SANITIZE=ON -DMLSDEFORM_BUILD_BENCH=OFF
+    build build-asan -DMLSDEFORM_SANITIZE=ON -DMLSDEFORM_BUILD_BENCH=OFF -DMLSDEFORM_WERROR=ON
     ASAN_OPTIONS=detect_leaks=1 UBSAN_OPTIONS=print_stacktrace=1 \
       ctest --test-dir build-asan --output-on-failure -j "$jobs" -LE no_sanitizer
     ;;
