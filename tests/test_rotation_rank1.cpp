@@ -6,6 +6,8 @@
 // H by at most |dH| / (s1 - s2) = eps (s2 = 0; Wedin); the fit is backward stable for the top pair (its
 // polish leaves the rotation's error in the rank-1 direction at a few eps); R p is rounded on top (3 eps).
 // Measured: 3.2 eps at most over 2 * 10^5 random cases per precision.
+#include "isa_guard.hpp"
+
 #include <mlsdeform/mlsdeform.hpp>
 
 #include <catch2/catch.hpp>
@@ -16,20 +18,9 @@
 #include <vector>
 
 using namespace mlsdeform;
+using mlsdeform::testing::IsaGuard;
 
 namespace {
-
-/// Restores the instruction set in force when it was made, also when a check throws.
-class IsaGuard {
- public:
-  IsaGuard() : saved_(active_isa()) {}
-  ~IsaGuard() { set_isa(saved_); }
-  IsaGuard(const IsaGuard&) = delete;
-  IsaGuard& operator=(const IsaGuard&) = delete;
-
- private:
-  Isa saved_;
-};
 
 struct Rank1 {
   Eigen::Vector3d p, q;  ///< unit vectors

@@ -1,0 +1,97 @@
+// Bitwise regression guard for restructuring (moving stages between files, sharing helpers, splitting the
+// deformer): the demo scenes of `mlsdeform demo` are deformed by both backends in float and double, and a hash
+// of every output bit must stay what it was when this test was written. The SIMD kernels compute the same
+// operations in every lane on every instruction set (and the compiler may not fuse them: -ffp-contract=off),
+// so one hash holds for all SIMD ISAs the CPU runs; the scalar backend has its own.
+//
+// A change that is meant to alter results (a new algorithm, a different rounding) updates the table below, and
+// its commit says why; the failure message prints the new hashes. A change meant to keep behaviour must not.
+#include "../support/isa_guard.hpp"
+#include "scenes.hpp"
+
+#include <mlsdeform/batch.hpp>
+
+#include <catch2/catch.hpp>
+
+#include <cinttypes>
+#include <cstdio>
+#include <cstring>
+#include <string>
+
+using namespace mlsdeform;
+using namespace mlsdeform::cli;
+
+namespace {
+
+/// FNV-1a over the bytes of the result (the doubles that run_scene gives back: exact copies of T's values).
+std::uint64_t hash_points(const Points<double>& p) {
+  std::uint64_t h = 1469598103934665603ull;
+  for (Eigen::Index i = 0; i < p.rows(); ++i)
+    for (Eigen::Index j = 0; j < 3; ++j) {
+      unsigned char b[sizeof(double)];
+      const double v = p(i, j);
+      std::memcpy(b, &v, sizeof v);
+      for (unsigned char c : b) h = (h ^ c) * 1099511628211ull;
+    }
+  return h;
+}
+
+std::vector<Scene> scenes() {
+  std::vector<Scene> s;
+  const Mesh human = read_mesh(MLSDEFORM_SOURCE_DIR "/data/human_man.obj");
+  for (Transform t : {Transform::rigid, Transform::similarity, Transform::affine}) s.push_back(human_bend_scene(human, 3, 60, t));
+  s.push_back(bar_twist_scene(3, 180));
+  s.push_back(cylinder_scene(3.0, 2, 120));
+  s.push_back(bar_bend_scene(2, 2));
+  return s;
+}
+
+struct Expected {
+  const char* key;
+  std::uint64_t hash;
+};
+
+// Written by this test's failure message at commit time (g++ 12, Debian 12).
+const Expected kExpected[] = {
+#include "scene_hashes.inc"
+};
+
+}  // namespace
+
+TEST_CASE("the demo scenes' results are bitwise what they were", "[cli][regression]") {
+  testing::IsaGuard guard;
+  std::string actual;
+  int mismatches = 0, checked = 0;
+  auto check = [&](const std::string& key, std::uint64_t h) {
+    char line[160];
+    std::snprintf(line, sizeof line, "    {\"%s\", 0x%016" PRIx64 "ull},\n", key.c_str(), h);
+    if (actual.find(key + "\"") == std::string::npos) actual += line;
+    for (const Expected& e : kExpected)
+      if (key == e.key) {
+        ++checked;
+        if (e.hash != h) {
+          ++mismatches;
+          UNSCOPED_INFO(key << ": 0x" << std::hex << h << ", expected 0x" << e.hash);
+        }
+        return;
+      }
+    ++mismatches;
+    UNSCOPED_INFO(key << ": no expected hash");
+  };
+  for (const Scene& s : scenes()) {
+    const std::string stem = s.name + "/" + std::string(s.options.transform == Transform::rigid        ? "rigid"
+                                                         : s.options.transform == Transform::similarity ? "similarity"
+                                                                                                        : "affine");
+    check(stem + "/float/scalar", hash_points(run_scene<float>(s, Backend::scalar, 1).result));
+    check(stem + "/double/scalar", hash_points(run_scene<double>(s, Backend::scalar, 1).result));
+    for (Isa isa : supported_isas()) {
+      if (isa == Isa::scalar) continue;
+      set_isa(isa);
+      check(stem + "/float/simd", hash_points(run_scene<float>(s, Backend::simd, 0).result));
+      check(stem + "/double/simd", hash_points(run_scene<double>(s, Backend::simd, 0).result));
+    }
+  }
+  INFO("the hashes of this build (tests/cli/scene_hashes.inc):\n" << actual);
+  CHECK(mismatches == 0);
+  CHECK(checked > 0);
+}
