@@ -1,5 +1,6 @@
 // The batched axis/angle rotation fit (Algorithm 1 steps 3-7), one matrix per SIMD lane:
-// normalise -> invariants (6) -> maximum_root (13) -> rotation_axis (14) -> sin_cos (15)/(5).
+// normalise -> invariants (6) -> maximum_root (13) -> rotation_axis (14) -> sin_cos (15)/(5), each stage
+// with a fast path for every lane and a careful path for the lanes the fast one cannot settle.
 // Same stages, same order as detail::fit_rotation_axis_angle in core/src/axis_angle.hpp.
 #pragma once
 
@@ -18,8 +19,15 @@ struct FitRotations : Simd<T, A> {
   using Q = QuarticRoot<T, A>;
   using RA = RotationAxis<T, A>;
 
+  /// The careful path's trigger, tau = cbrt(eps) / 2 on |adj_kk| / ||H||^3 (scalar: kCarefulTau; derived
+  /// there). cbrt(eps) as a literal: no std::cbrt may be emitted in an ISA object.
+  static constexpr T tau = sizeof(T) == 4 ? T(0.5 * 4.92156660e-3) : T(0.5 * 6.0554544523933395e-6);
+
   /// h: 9 lanes of H (row-major entries), not yet normalised; r: the rotations. Lanes with H = 0 get the
-  /// identity. Returns the lanes the scalar code must redo (their r is unspecified) and counts.
+  /// identity. Every lane takes the fast path (upper_bound_root, fast_axis); the lanes it cannot settle
+  /// (a multiple or unconverged root, or a gap below cbrt(eps)) take the careful path (maximum_root,
+  /// rotation_axis), run only when some lane needs it. Returns the lanes the scalar code must redo (their r
+  /// is unspecified) and counts.
   MLSDEFORM_KERNEL_INLINE static M fit(V (&h)[9], V (&r)[9], RotationStats& stats) {
     V m = abs(h[0]);
     for (int i = 1; i < 9; ++i) m = max(m, abs(h[i]));
@@ -27,15 +35,24 @@ struct FitRotations : Simd<T, A> {
     const V scale = Simd<T, A>::pow2_inverse_exponent(select(zero, V(T(1)), m));
     for (int i = 0; i < 9; ++i) h[i] = h[i] * scale;
     const typename Q::Invariants inv = Q::invariants(h);
-    const V y = Q::maximum_root(inv);
+    M converged;
+    const V y = Q::upper_bound_root(inv, converged);
     const typename RA::Mat4 K = RA::davenport(h, inv.E, inv.z0, inv.z1, inv.z2);
-    M near_double, fallback;
-    const typename RA::Vec4 q = RA::rotation_axis(K, y, Q::clustered_top_three(inv), near_double, fallback);
+    V dk;
+    typename RA::Vec4 q = RA::fast_axis(K, y, dk);
+    const V n3 = inv.norm2 * inv.norm2 * inv.norm2;
+    const M careful = ~zero & (~converged | ~(dk * dk > V(tau * tau) * n3));
+    M fallback = careful ^ careful;
+    if (any(careful)) {
+      M near_double;
+      const V y1 = Q::maximum_root(inv);
+      const typename RA::Vec4 q1 = RA::rotation_axis(K, y1, Q::clustered_top_three(inv), near_double, fallback);
+      for (int i = 0; i < 4; ++i) q.v[i] = select(careful, q1.v[i], q.v[i]);
+      fallback = fallback & careful;
+      stats.near_double += count(careful);
+    }
     SinCos<T, A>::rotation_from_quaternion(q.v[0], q.v[1], q.v[2], q.v[3], r);
     for (int i = 0; i < 9; ++i) r[i] = select(zero, V(i % 4 == 0 ? T(1) : T(0)), r[i]);
-    near_double = near_double & !zero;
-    fallback = fallback & !zero;
-    if (any(near_double)) stats.near_double += count(near_double);
     return fallback;
   }
 

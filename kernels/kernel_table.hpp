@@ -10,8 +10,8 @@ namespace mlsdeform::kernels {
 
 /// Lanes that left the regular path of the batched axis/angle fit (see rotation_axis.hpp).
 struct RotationStats {
-  std::size_t near_double = 0;      ///< near-double root: the shifted adjugate ran (in the lanes)
-  std::size_t scalar_fallback = 0;  ///< triple root: handed to the scalar reference (rare)
+  std::size_t near_double = 0;      ///< lanes on the careful path of the axis/angle fit (in the lanes)
+  std::size_t scalar_fallback = 0;  ///< lanes handed to the scalar reference (a triple root)
 };
 
 /// Batched rotation fit over matrices [begin, end) of a 3 x 3 x n structure-of-arrays layout:

@@ -13,20 +13,21 @@ struct SinCos : Simd<T, A> {
 
   /// r[3 i + j] = R(i, j).
   MLSDEFORM_KERNEL_INLINE static void rotation_from_quaternion(V w, V x0, V x1, V x2, V (&r)[9]) {
-    const V inv_n = V(T(1)) / (w * w + x0 * x0 + x1 * x1 + x2 * x2);
-    const V c = w * w - (x0 * x0 + x1 * x1 + x2 * x2);
+    const V v2 = mul_add(x0, x0, mul_add(x1, x1, x2 * x2));
+    const V inv_n = V(T(1)) / mul_add(w, w, v2);
+    const V c = mul_sub(w, w, v2);
     const V two(T(2));
-    r[0] = (c + two * x0 * x0) * inv_n;
-    r[4] = (c + two * x1 * x1) * inv_n;
-    r[8] = (c + two * x2 * x2) * inv_n;
-    const V xy = two * x0 * x1, xz = two * x0 * x2, yz = two * x1 * x2;
-    const V wx = two * w * x0, wy = two * w * x1, wz = two * w * x2;
-    r[1] = (xy - wz) * inv_n;
-    r[3] = (xy + wz) * inv_n;
-    r[2] = (xz + wy) * inv_n;
-    r[6] = (xz - wy) * inv_n;
-    r[5] = (yz - wx) * inv_n;
-    r[7] = (yz + wx) * inv_n;
+    const V tx0 = two * x0, tx1 = two * x1, tx2 = two * x2;
+    r[0] = mul_add(tx0, x0, c) * inv_n;
+    r[4] = mul_add(tx1, x1, c) * inv_n;
+    r[8] = mul_add(tx2, x2, c) * inv_n;
+    const V wx = tx0 * w, wy = tx1 * w, wz = tx2 * w;
+    r[1] = mul_sub(tx0, x1, wz) * inv_n;
+    r[3] = mul_add(tx0, x1, wz) * inv_n;
+    r[2] = mul_add(tx0, x2, wy) * inv_n;
+    r[6] = mul_sub(tx0, x2, wy) * inv_n;
+    r[5] = mul_sub(tx1, x2, wx) * inv_n;
+    r[7] = mul_add(tx1, x2, wx) * inv_n;
   }
 };
 

@@ -1,18 +1,27 @@
 // The paper's closed-form rotation fit (Sec. 4.3-4.6, Algorithm 1 steps 3-7), scalar reference.
 //
-// Written to be read beside the paper; the SIMD kernels (kernels/rotation_fit.hpp) compute the same stages in
-// the same order. Column-vector convention (see rotation.hpp): H = sum w q p^T is the paper's M.
+// Written to be read beside the paper; the SIMD kernels (kernels/fit_rotations.hpp and the stage headers it
+// includes) compute the same stages in the same order. Column-vector convention (see rotation.hpp):
+// H = sum w q p^T is the paper's M.
+//
+// Two paths through the stages. The fast path settles almost every H (all but ~1e-3 of random point-set
+// matrices, none of 10^6 Gaussian H): upper_bound_root, then fast_axis, then sin_cos. The careful path takes
+// the rest (a multiple or nearly multiple root of (13), e.g. rank-1 H from collinear handles; a gap
+// s2 + d s3 below cbrt(eps) s1; three clustered eigenvalues of K): maximum_root, then rotation_axis.
 //
 // Stages, with the paper's routine names (Table 1):
 //   normalise          H <- 2^-e H so that max |H_ij| is in [1, 2): exact, so the result is bitwise
 //                      invariant under power-of-two scaling and no product (det^2, ||H||^4) can overflow.
 //   invariants (6)     E = trace H, V, ||H||^2, det H, and c2 = sum_{i<j} |H_i x H_j|^2 (columns H_i).
-//   maximum_root (13)  largest root y of y^4 - 2||H||^2 y^2 - 8 det(H) y + (||H||^4 - 4 c2): first the
-//                      paper's closed form through the resolvent cubic (Sec. 4.4, whose largest root is
-//                      4 s1^2), then Newton steps on (13) from just above, which decrease monotonically to
-//                      the largest root (the quartic is convex there, since y >= s1 >= ||H||/sqrt(3)).
-//                      The closed form alone loses up to eps^(1/2) (eps^(1/3) near triple roots) when
-//                      singular values nearly coincide; the Newton polish restores full accuracy.
+//   maximum_root (13)  largest root y of y^4 - 2||H||^2 y^2 - 8 det(H) y + (||H||^4 - 4 c2).
+//                      Fast path (upper_bound_root): Newton's method from an upper bound of the root.
+//                      Careful path (maximum_root): the paper's closed form through the resolvent cubic
+//                      (Sec. 4.4, whose largest root is 4 s1^2), then Newton steps on (13) from just above,
+//                      which decrease monotonically to the largest root. The closed form alone loses up to
+//                      eps^(1/2) (eps^(1/3) near triple roots) when singular values nearly coincide; the
+//                      Newton polish restores full accuracy.
+//   rotation_axis (14) Fast path (fast_axis): the column of adj(K - y I) with the largest diagonal, then
+//                      one power step with that adjugate. Careful path (rotation_axis), as follows:
 //   rotation_axis (14) The rotation's quaternion (cos(a/2), e sin(a/2)) is the eigenvector of Davenport's
 //                      K = [[E, z^T], [z, N - E I]] (z = -V, N = H + H^T) for the eigenvalue y; the
 //                      paper's system (N - lambda I) u = V with lambda = y + E is the last three rows of
@@ -135,6 +144,46 @@ T maximum_root(const Invariants<T>& inv, int* iterations = nullptr) {
   return y;
 }
 
+
+/// Newton steps allowed in upper_bound_root (the fast path); lanes still moving take the careful path.
+inline constexpr int kMaxNewtonFast = 16;
+
+/// Eq. (13), the fast path: Newton's method on the quartic from an upper bound of its largest root
+/// y* = s1 + s2 + d s3 (n = ||H||^2 = sum s_i^2, c2 = sum_{i<j} s_i^2 s_j^2, d = sign det H):
+///   det >= 0: y*^2 = n + 2 (s1 s2 + s1 s3 + s2 s3) <= n + 2 sqrt(3 c2)   (Cauchy-Schwarz)
+///   det <  0: y*^2 = n + 2 (s1 s2 - s1 s3 - s2 s3) <= n + 2 sqrt(c2)     (s1 s2 <= sqrt(c2))
+/// Above y* the quartic is increasing and convex (its four roots are the eigenvalues of K, all <= y*), so
+/// Newton's steps decrease y monotonically to y*: no closed form and no bracketing (3-6 steps on generic H).
+/// A step below sqrt(eps)/4 of y ends the iteration converged (the error left is O(step^2 / gap), rounding
+/// level for a simple root). It ends unconverged where P' sinks below 64 eps y^3, its own rounding (P and
+/// P' are then noise: a (nearly) multiple root, e.g. rank-1 H), where a step fails to shrink, or after
+/// kMaxNewtonFast steps; those H take the careful path (maximum_root).
+template <class T>
+T upper_bound_root(const Invariants<T>& inv, bool& converged) {
+  using std::sqrt;
+  constexpr T eps = std::numeric_limits<T>::epsilon();
+  const T a = T(-2) * inv.norm2, b = T(-8) * inv.det, c = inv.norm2 * inv.norm2 - T(4) * inv.c2;
+  T y = sqrt(inv.norm2 + T(2) * sqrt(inv.det < T(0) ? inv.c2 : T(3) * inv.c2));
+  const T tol = T(0.25) * sqrt(eps);
+  converged = !(y > T(0));  // H = 0
+  T last = std::numeric_limits<T>::infinity();
+  for (int it = 0; it < kMaxNewtonFast && y > T(0); ++it) {
+    const T y2 = y * y;
+    const T p = ((y2 + a) * y + b) * y + c;
+    const T d = (T(4) * y2 + T(2) * a) * y + b;
+    const T step = p / d;
+    if (!(d > T(64) * eps * y2 * y)) break;  // P' is rounding noise
+    if (step <= tol * y) {
+      if (step > T(0) && step <= last) y -= step;
+      converged = true;
+      break;
+    }
+    if (!(step <= last)) break;
+    y -= step;
+    last = step;
+  }
+  return y;
+}
 
 /// The symmetric 4x4 matrix K - y I (Davenport's K, so that trace(R(q)^T H) = q^T K q / |q|^2).
 template <class T>
@@ -418,12 +467,75 @@ Matrix3<T> rotation_from_quaternion(const Eigen::Matrix<T, 4, 1>& q) {
   return R;
 }
 
+/// The careful path, for H the fast one cannot settle (a (nearly) multiple root of the quartic, a gap below
+/// cbrt(eps) ||H||, a cluster of three eigenvalues of K): the closed form polished by Newton, then the
+/// adjugate with Rayleigh-Ritz and its shifted, refined and null-space variants (maximum_root, rotation_axis).
+template <class T>
+Matrix3<T> fit_rotation_careful(const Matrix3<T>& H, const Invariants<T>& inv) {
+  return rotation_from_quaternion(rotation_axis(H, inv, maximum_root(inv)));
+}
+
+/// The careful path's trigger (see fast_axis): tau = cbrt(eps) / 2 (cbrt(2^-23) = 2^-7.67, cbrt(2^-52) = 2^-17.33).
+template <class T>
+inline constexpr T kCarefulTau = sizeof(T) == 4 ? T(0.5 * 4.92156660e-3) : T(0.5 * 6.0554544523933395e-6);
+
+/// Eq. (14), the fast path: with y from upper_bound_root, the column of A = adj(K - y I) with the largest
+/// diagonal entry |a_kk| = dk, then one step of the power method, q = A a_k. Returns q and dk; the caller
+/// takes the careful path (rotation_axis) instead where dk^2 <= tau^2 ||H||^6.
+///
+/// Why this suffices, and where it does not. A = sum_i mu_i v_i v_i^T with mu_i = prod_{j != i} (lambda_j - y)
+/// (the eigenpairs of K), so a_k = A e_k weights the top eigenvector v1 by mu_1 ~ g (lambda1 - lambda3)
+/// (lambda1 - lambda4) and the second by mu_2 = (lambda1 - y) (...): with y off the root by dy, a_k is off v1
+/// by an angle theta ~ dy / g (g = lambda1 - lambda2 = 2 (s2 + d s3), kappa = s1 / (s2 + d s3)). y comes from
+/// the quartic's coefficients, rounded to eps ||H||^4, and P'(y*) = -mu_1: dy ~ eps ||H||^4 / |mu_1|, i.e.
+/// theta ~ eps kappa^2 for well separated lambda3, lambda4. The power step squares it (theta^2); the
+/// adjugate's own rounding (a few eps ||H||^3 in each entry, against the gap mu_1 - mu_2 = g (...)(...))
+/// adds eps kappa. So the fast path is within the suite's angle bound (55 eps kappa) while
+/// (eps kappa^2)^2 <= eps kappa, kappa <= eps^(-1/3) (about 200 in float, 1.6e5 in double). Since
+/// dk >= |mu_1| / 4 ~ g ||H||^2 / 4 when lambda3, lambda4 are far, dk > tau ||H||^3 with tau = cbrt(eps)/2
+/// keeps the fast path inside that range; a smaller dk also catches the other case where dy is large, a
+/// cluster of lambda1, lambda2, lambda3 (det H < 0 near a point reflection: mu_1 small through lambda1 -
+/// lambda3). Measured (proto at 4,000 cases per family): no case beyond the bound at tau = cbrt(eps) / 2,
+/// and careful lanes are 0 on gaussian H and < 1e-3 on the point-set families.
+/// A is symmetric: its 10 distinct entries from 11 complementary 2x2 minors of the row pairs (0, 1) and
+/// (2, 3) of S = K - y I (the expressions of adjugate4 above), as kernels/rotation_axis.hpp computes them.
+template <class T>
+Eigen::Matrix<T, 4, 1> fast_axis(const Matrix3<T>& H, const Invariants<T>& inv, T y, T& dk) {
+  const T S00 = inv.E - y, S11 = (T(2) * H(0, 0) - inv.E) - y, S22 = (T(2) * H(1, 1) - inv.E) - y,
+          S33 = (T(2) * H(2, 2) - inv.E) - y;
+  const T S01 = inv.z(0), S02 = inv.z(1), S03 = inv.z(2);
+  const T S12 = H(0, 1) + H(1, 0), S13 = H(0, 2) + H(2, 0), S23 = H(1, 2) + H(2, 1);
+  const T s0 = S00 * S11 - S01 * S01, s1 = S00 * S12 - S01 * S02, s2 = S00 * S13 - S01 * S03;
+  const T s3 = S01 * S12 - S11 * S02, s4 = S01 * S13 - S11 * S03, s5 = S02 * S13 - S12 * S03;
+  const T c5 = S22 * S33 - S23 * S23, c4 = S12 * S33 - S13 * S23, c3 = S12 * S23 - S13 * S22;
+  const T c2 = S02 * S33 - S03 * S23, c1 = S02 * S23 - S03 * S22;
+  Eigen::Matrix<T, 4, 4> A;
+  A(0, 0) = S11 * c5 + S13 * c3 - S12 * c4;
+  A(0, 1) = A(1, 0) = S02 * c4 - (S01 * c5 + S03 * c3);
+  A(0, 2) = A(2, 0) = S13 * s5 + S33 * s3 - S23 * s4;
+  A(0, 3) = A(3, 0) = S22 * s4 - (S12 * s5 + S23 * s3);
+  A(1, 1) = S00 * c5 + S03 * c1 - S02 * c2;
+  A(1, 2) = A(2, 1) = S23 * s2 - (S03 * s5 + S33 * s1);
+  A(1, 3) = A(3, 1) = S02 * s5 + S23 * s1 - S22 * s2;
+  A(2, 2) = S03 * s4 + S33 * s0 - S13 * s2;
+  A(2, 3) = A(3, 2) = S12 * s2 - (S02 * s4 + S23 * s0);
+  A(3, 3) = S02 * s3 + S22 * s0 - S12 * s1;
+  int k;
+  dk = A.diagonal().cwiseAbs().maxCoeff(&k);
+  return A * A.col(k);
+}
+
 /// The whole fit (Algorithm 1, steps 3-7) on a finite, normalised H (max |H_ij| in [1, 2), or H = 0).
 template <class T>
 Matrix3<T> fit_rotation_axis_angle(const Matrix3<T>& H) {
   const Invariants<T> inv = invariants(H);
-  const T y = maximum_root(inv);
-  return rotation_from_quaternion(rotation_axis(H, inv, y));
+  bool converged;
+  const T y = upper_bound_root(inv, converged);
+  T dk;
+  const Eigen::Matrix<T, 4, 1> q = fast_axis(H, inv, y, dk);
+  const T n3 = inv.norm2 * inv.norm2 * inv.norm2;
+  if (converged && dk * dk > kCarefulTau<T> * kCarefulTau<T> * n3) return rotation_from_quaternion(q);
+  return fit_rotation_careful(H, inv);
 }
 
 }  // namespace mlsdeform::detail

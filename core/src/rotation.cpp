@@ -2,6 +2,7 @@
 
 #include <mlsdeform/rotation.hpp>
 
+#include <limits>
 #include <stdexcept>
 #include <string>
 
@@ -27,9 +28,13 @@ Matrix3<T> fit_rotation(const Matrix3<T>& H, RotationMethod method) {
   if (m == T(0)) return Matrix3<T>::Identity();
   // Exact power-of-two normalisation (max |H_ij| in [1, 2)) for every method: no overflow or underflow in
   // products such as det(H)^2, and power-of-two scalings of H give bitwise identical results.
-  // Entry by entry: for a subnormal m the factor 2^-ilogb(m) itself would overflow.
+  // By products with powers of two (exact; std::ldexp per entry cost ~30 ns of a ~130 ns fit). For a
+  // subnormal m the factor 2^-ilogb(m) itself would overflow: then two factors.
   const int e = std::ilogb(m);
-  const Matrix3<T> Hn = H.unaryExpr([e](T x) { return std::ldexp(x, -e); });
+  constexpr int emax = std::numeric_limits<T>::max_exponent - 1;  // 127 or 1023
+  Matrix3<T> Hn = H;
+  if (-e > emax) Hn *= std::ldexp(T(1), emax), Hn *= std::ldexp(T(1), -e - emax);
+  else Hn *= std::ldexp(T(1), -e);
   switch (method) {
     case RotationMethod::axis_angle: return detail::fit_rotation_axis_angle(Hn);
     case RotationMethod::horn_quaternion: return detail::fit_rotation_horn_quaternion(Hn);

@@ -53,7 +53,7 @@ inline constexpr long double c_b_uniform = 16;
 ///   horn_matrix H^T H and its eigenvectors (16, as the dense solvers), then three rounds of subspace
 ///               iteration v = H^T u, u = H v (3 + 3 roundings each, plus normalisation): about 4 x 16.
 inline long double c_b(RotationMethod m) {
-  return m == RotationMethod::axis_angle || m == RotationMethod::horn_matrix ? 64 : c_b_uniform;
+  return m == RotationMethod::horn_matrix ? 64 : c_b_uniform;
 }
 
 template <class T>
@@ -116,7 +116,7 @@ std::string violations(const Errors& e, const Reference& ref, long double cb) {
 /// docs/accuracy.md, and not hidden: every other family of these methods is held to the bound. `key` names
 /// the method and the family ("double axis_angle on wide_weights").
 inline bool known_limitation(const std::string& key) {
-  const bool method = key.find("axis_angle") != std::string::npos || key.find("horn_matrix") != std::string::npos;
+  const bool method = key.find("horn_matrix") != std::string::npos;
   const bool family = key.find("wide_exponents") != std::string::npos || key.find("wide_weights") != std::string::npos;
   return method && family;
 }

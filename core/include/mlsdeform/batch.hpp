@@ -28,8 +28,8 @@ std::size_t simd_lanes(bool double_precision);
 
 /// Lanes that left the batched axis/angle fit's regular path (see docs in kernels/rotation_axis.hpp).
 struct BatchStats {
-  std::size_t near_double = 0;      ///< near-double root, handled in the lanes (shifted adjugate)
-  std::size_t scalar_fallback = 0;  ///< triple root, handed to the scalar reference
+  std::size_t near_double = 0;      ///< lanes on the careful path (a nearly multiple root, a small gap), in the lanes
+  std::size_t scalar_fallback = 0;  ///< lanes handed to the scalar reference (a triple root)
 };
 
 /// n rotation fits at once. Layout (3 x 3 x n, structure of arrays): entry (r, c) of matrix i is
