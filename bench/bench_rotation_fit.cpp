@@ -1,6 +1,8 @@
 // Rotation fit: ns per fit and fits per second for every RotationMethod, in float and double, plus QCP
 // (bench/qcp.hpp) as an extra baseline, all on the same 10^6 random correlation matrices (bench/cases.hpp:
-// random rotations of weighted noisy point sets, a fifth of them mirrored so that det H < 0), generated once.
+// random rotations of weighted noisy point sets, a fifth of them mirrored so that det H < 0), generated once;
+// and the paper's method, the SVD, QCP and the batched fits again on 10^6 Gaussian H (entries iid N(0, 1),
+// names gauss/... and gauss_hot/...), where a fit that slows down on hard inputs shows it.
 //
 // Every benchmark first runs its method over the whole set and checks each result against the long-double
 // SVD reference with the project's accuracy bounds (bench/reference.hpp: tests/support's reference and
@@ -46,6 +48,16 @@ using bench::Matrix3L;
 
 std::size_t g_case_count = 1'000'000;
 
+/// The two matrix sets: correlation matrices of random weighted point sets (bench/cases.hpp make_case), and
+/// Gaussian H (make_gaussian_case). Benchmark names start with the set: fit/, fit_hot/ (point sets) and
+/// gauss/, gauss_hot/ (Gaussian).
+enum class Set { points, gaussian };
+constexpr Set kSets[] = {Set::points, Set::gaussian};
+
+std::string prefix(Set set, bool hot) {
+  return std::string(set == Set::points ? "fit" : "gauss") + (hot ? "_hot/" : "/");
+}
+
 /// The shared set and its references, built once (in parallel: the long-double SVDs take a few seconds).
 struct Data {
   std::vector<Eigen::Matrix3d> H_double;
@@ -65,8 +77,7 @@ struct Data {
   }
 };
 
-const Data& data() {
-  static const Data shared = [] {
+Data build(Set set) {
     Data d;
     const std::size_t n = g_case_count;
     d.H_double.resize(n);
@@ -77,7 +88,8 @@ const Data& data() {
     tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, 1024), [&](const tbb::blocked_range<std::size_t>& r) {
       std::size_t neg = 0;
       for (std::size_t i = r.begin(); i < r.end(); ++i) {
-        d.H_double[i] = bench::make_case(bench::kCaseSeed, i);
+        d.H_double[i] = set == Set::points ? bench::make_case(bench::kCaseSeed, i)
+                                           : bench::make_gaussian_case(bench::kCaseSeed, i);
         d.H_float[i] = d.H_double[i].cast<float>();
         d.ref_double[i] = bench::reference(d.H_double[i]);
         d.ref_float[i] = bench::reference(d.H_float[i]);
@@ -87,15 +99,22 @@ const Data& data() {
     });
     d.det_negative = negative;
     return d;
-  }();
-  return shared;
+}
+
+const Data& data(Set set) {
+  if (set == Set::points) {
+    static const Data points = build(Set::points);
+    return points;
+  }
+  static const Data gaussian = build(Set::gaussian);
+  return gaussian;
 }
 
 /// Check every result of `fit` against the reference (in parallel: untimed). Returns an empty string when
 /// all pass, else a message naming the first failing case; `worst` gets the largest error/tolerance ratio.
 template <class T, class Fit>
-std::string validate(const Fit& fit, const bench::Judge& how, std::vector<Matrix3<T>>& out, double& worst) {
-  const Data& d = data();
+std::string validate(Set set, const Fit& fit, const bench::Judge& how, std::vector<Matrix3<T>>& out, double& worst) {
+  const Data& d = data(set);
   const auto& H = d.template H<T>();
   const auto& ref = d.template ref<T>();
   std::mutex m;
@@ -127,12 +146,12 @@ std::string validate(const Fit& fit, const bench::Judge& how, std::vector<Matrix
 
 /// The common body: validate, then time whole passes over the set.
 template <class T, class Fit>
-void run_fit(benchmark::State& state, const bench::Judge& how, const Fit& fit) {
-  const auto& H = data().template H<T>();
+void run_fit(benchmark::State& state, Set set, const bench::Judge& how, const Fit& fit) {
+  const auto& H = data(set).template H<T>();
   const std::size_t n = H.size();
   std::vector<Matrix3<T>> out(n);
   double worst = 0;
-  if (const std::string err = validate<T>(fit, how, out, worst); !err.empty()) {
+  if (const std::string err = validate<T>(set, fit, how, out, worst); !err.empty()) {
     state.SkipWithError(err.c_str());
     return;
   }
@@ -152,19 +171,21 @@ const char* type_name() {
 }
 
 template <class T>
-void register_scalar() {
+void register_scalar(Set set) {
   for (RotationMethod m : mlsdeform::all_rotation_methods) {
-    const std::string name = std::string("fit/") + type_name<T>() + "/" + std::string(mlsdeform::to_string(m)) + "/scalar";
-    benchmark::RegisterBenchmark(name.c_str(), [m](benchmark::State& s) {
-      run_fit<T>(s, bench::Judge::method(m), [m](const Matrix3<T>& H) { return mlsdeform::fit_rotation<T>(H, m); });
+    // On the Gaussian set: the paper's method and the SVD (Kabsch with Eigen::JacobiSVD) only.
+    if (set == Set::gaussian && m != RotationMethod::axis_angle && m != RotationMethod::svd) continue;
+    const std::string name = prefix(set, false) + type_name<T>() + "/" + std::string(mlsdeform::to_string(m)) + "/scalar";
+    benchmark::RegisterBenchmark(name.c_str(), [set, m](benchmark::State& s) {
+      run_fit<T>(s, set, bench::Judge::method(m), [m](const Matrix3<T>& H) { return mlsdeform::fit_rotation<T>(H, m); });
     })->Unit(benchmark::kMillisecond);
   }
-  const std::string name = std::string("fit/") + type_name<T>() + "/qcp/scalar";
-  benchmark::RegisterBenchmark(name.c_str(), [](benchmark::State& s) {
-    run_fit<T>(s, bench::Judge::qcp(),
+  const std::string name = prefix(set, false) + type_name<T>() + "/qcp/scalar";
+  benchmark::RegisterBenchmark(name.c_str(), [set](benchmark::State& s) {
+    run_fit<T>(s, set, bench::Judge::qcp(),
                [](const Matrix3<T>& H) { return bench::fit_rotation_qcp<T>(H); });
     // Mean Newton steps, for the record (counted outside the timed loop).
-    const auto& Hs = data().template H<T>();
+    const auto& Hs = data(set).template H<T>();
     double steps = 0;
     for (const auto& H : Hs) {
       bench::QcpInfo info;
@@ -188,21 +209,28 @@ constexpr std::size_t kHotCount = 4096;
 
 /// The set in SoA layout: entry (r, c) of matrix i at [(3 r + c) n + i].
 template <class T>
-const std::vector<T>& soa() {
-  static const std::vector<T> v = [] {
-    const auto& H = data().template H<T>();
-    const std::size_t n = H.size();
-    std::vector<T> out(9 * n);
-    for (std::size_t i = 0; i < n; ++i)
-      for (std::size_t e = 0; e < 9; ++e) out[e * n + i] = H[i](e / 3, e % 3);
-    return out;
-  }();
-  return v;
+std::vector<T> to_soa(Set set) {
+  const auto& H = data(set).template H<T>();
+  const std::size_t n = H.size();
+  std::vector<T> out(9 * n);
+  for (std::size_t i = 0; i < n; ++i)
+    for (std::size_t e = 0; e < 9; ++e) out[e * n + i] = H[i](e / 3, e % 3);
+  return out;
 }
 
 template <class T>
-std::vector<T> soa_prefix(std::size_t m) {
-  const auto& full = soa<T>();
+const std::vector<T>& soa(Set set) {
+  if (set == Set::points) {
+    static const std::vector<T> points = to_soa<T>(Set::points);
+    return points;
+  }
+  static const std::vector<T> gaussian = to_soa<T>(Set::gaussian);
+  return gaussian;
+}
+
+template <class T>
+std::vector<T> soa_prefix(Set set, std::size_t m) {
+  const auto& full = soa<T>(set);
   const std::size_t n = full.size() / 9;
   std::vector<T> out(9 * m);
   for (std::size_t e = 0; e < 9; ++e)
@@ -214,8 +242,8 @@ std::vector<T> soa_prefix(std::size_t m) {
 /// Check a batched result (n = all cases) against the references (in parallel: untimed); empty string
 /// when all pass.
 template <class T>
-std::string validate_soa(const std::vector<T>& R, RotationMethod method, double& worst) {
-  const Data& d = data();
+std::string validate_soa(Set set, const std::vector<T>& R, RotationMethod method, double& worst) {
+  const Data& d = data(set);
   const auto& H = d.template H<T>();
   const auto& ref = d.template ref<T>();
   const std::size_t n = H.size();
@@ -251,21 +279,21 @@ struct IsaGuard {
 };
 
 template <class T>
-void run_batched(benchmark::State& state, mlsdeform::Isa isa, RotationMethod method, bool hot, int threads) {
+void run_batched(benchmark::State& state, Set set, mlsdeform::Isa isa, RotationMethod method, bool hot, int threads) {
   IsaGuard guard;
   mlsdeform::set_isa(isa);
-  const auto& H = soa<T>();
+  const auto& H = soa<T>(set);
   const std::size_t n = H.size() / 9;
   // Validate the whole set (on all cores: untimed), and count the lanes that left the regular path.
   std::vector<T> R(9 * n);
   mlsdeform::BatchStats stats;
   mlsdeform::fit_rotations<T>(H.data(), R.data(), n, method, 0, &stats);
   double worst = 0;
-  if (const std::string err = validate_soa<T>(R, method, worst); !err.empty()) {
+  if (const std::string err = validate_soa<T>(set, R, method, worst); !err.empty()) {
     state.SkipWithError(err.c_str());
     return;
   }
-  const std::vector<T> H_hot = hot ? soa_prefix<T>(kHotCount) : std::vector<T>();
+  const std::vector<T> H_hot = hot ? soa_prefix<T>(set, kHotCount) : std::vector<T>();
   const T* in = hot ? H_hot.data() : H.data();
   const std::size_t m = hot ? kHotCount : n;
   for (auto _ : state) {
@@ -282,23 +310,23 @@ void run_batched(benchmark::State& state, mlsdeform::Isa isa, RotationMethod met
 }
 
 template <class T>
-void register_batched() {
+void register_batched(Set set) {
   const std::vector<mlsdeform::Isa> isas = mlsdeform::supported_isas();
   for (mlsdeform::Isa isa : isas)
     for (RotationMethod m : kBatchedMethods)
       for (bool hot : {false, true}) {
-        const std::string name = std::string(hot ? "fit_hot/" : "fit/") + type_name<T>() + "/" +
-                                 std::string(mlsdeform::to_string(m)) + "/batch:" + std::string(mlsdeform::to_string(isa));
-        benchmark::RegisterBenchmark(name.c_str(), [=](benchmark::State& s) { run_batched<T>(s, isa, m, hot, 1); })
+        const std::string name = prefix(set, hot) + type_name<T>() + "/" + std::string(mlsdeform::to_string(m)) +
+                                 "/batch:" + std::string(mlsdeform::to_string(isa));
+        benchmark::RegisterBenchmark(name.c_str(), [=](benchmark::State& s) { run_batched<T>(s, set, isa, m, hot, 1); })
             ->Unit(benchmark::kMillisecond);
       }
   // Both cores, best ISA, the paper's method (UseRealTime: TBB workers do the work).
   const mlsdeform::Isa best = isas.back();
   for (bool hot : {false, true}) {
-    const std::string name = std::string(hot ? "fit_hot/" : "fit/") + type_name<T>() + "/axis_angle/batch:" +
+    const std::string name = prefix(set, hot) + type_name<T>() + "/axis_angle/batch:" +
                              std::string(mlsdeform::to_string(best)) + "/threads:" + std::to_string(bench::hardware_threads());
     benchmark::RegisterBenchmark(name.c_str(), [=](benchmark::State& s) {
-      run_batched<T>(s, best, RotationMethod::axis_angle, hot, 0);
+      run_batched<T>(s, set, best, RotationMethod::axis_angle, hot, 0);
     })->Unit(benchmark::kMillisecond)->UseRealTime();
   }
 }
@@ -360,12 +388,14 @@ int main(int argc, char** argv) {
   if (!opt[0].empty()) g_case_count = std::stoul(opt[0]);
   if (!opt[1].empty()) write_error_sweep(opt[1]);
 
-  register_scalar<float>();
-  register_scalar<double>();
-  register_batched<float>();
-  register_batched<double>();
+  for (Set set : kSets) {
+    register_scalar<float>(set);
+    register_scalar<double>(set);
+    register_batched<float>(set);
+    register_batched<double>(set);
+  }
 
-  const Data& d = data();
+  const Data& d = data(Set::points);
   std::string isas;
   for (mlsdeform::Isa isa : mlsdeform::supported_isas()) isas += std::string(mlsdeform::to_string(isa)) + " ";
   bench::add_context("fit/*/scalar: fit_rotation (baseline x86-64 flags); fit/*/batch:<isa>: fit_rotations "

@@ -111,6 +111,15 @@ inline Eigen::Matrix3d make_case(std::uint64_t seed, std::uint64_t index) {
   return random_correlation(rng);
 }
 
+/// Case `index` of the Gaussian set for `seed`: entries iid N(0, 1), the stress case of noisy registration
+/// (det H of either sign, singular values spread as a random matrix's).
+inline Eigen::Matrix3d make_gaussian_case(std::uint64_t seed, std::uint64_t index) {
+  Rng rng = case_rng(seed ^ 0x9e3779b97f4a7c15ULL, index);
+  Eigen::Matrix3d H;
+  for (int e = 0; e < 9; ++e) H(e / 3, e % 3) = rng.gaussian();
+  return H;
+}
+
 /// A point set moved by a rotation of angle pi - delta about a random axis (the near-half-turn sweep of the
 /// error plot): 8 points, isotropic spread, inverse-square weights, no noise (so that the optimum is the
 /// generating rotation, up to the rounding of H, and its distance from pi is delta).
