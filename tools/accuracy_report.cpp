@@ -340,17 +340,15 @@ int main(int argc, char** argv) try {
         "cases with a unique optimum (elsewhere any optimal rotation is right).\n"
         "- *max angle / (eps kappa)*: the same, divided by the machine epsilon times kappa. The accuracy suite "
         "allows 2 sqrt(3) c_b of these (plus 96 eps), with the backward-error constant c_b of "
-        "`tests/support/accuracy_bounds.hpp`: 16 (55.4 eps kappa) for horn_quaternion, kanatani and svd, 64 "
-        "(222 eps kappa) for axis_angle and horn_matrix.\n"
+        "`tests/support/accuracy_bounds.hpp`: 16 (55.4 eps kappa) for every method.\n"
         "- *loss*: the relative trace loss (s1 + s2 + d s3 - trace(R^T H)) / ||H||_F, signed (a rounding-level "
         "negative value means R is slightly off orthonormal); over all cases. The suite allows "
-        "(2 sqrt(3) c_b + 96) eps: 151 eps (c_b = 16) or 318 eps (c_b = 64).\n"
+        "(2 sqrt(3) c_b + 96) eps = 151 eps.\n"
         "- *NaN*: results with a non-finite entry (never acceptable).\n"
         "- *beyond bounds*: cases that the accuracy suite (`tests/test_rotation_accuracy.cpp`, same bounds) "
-        "flags for any reason (orthonormality, det, trace, angle, NaN, exception). For axis_angle and "
-        "horn_matrix on the families wide_exponents and wide_weights the suite prints these as warnings "
-        "(KNOWN LIMITATION) instead of failing. *beyond uniform bounds*: the same count with c_b = 16 for every "
-        "method, the constant first derived for all of them.\n";
+        "flags for any reason (orthonormality, det, trace, angle, NaN, exception); every one fails the suite. "
+        "*beyond uniform bounds*: the same count with c_b = 16 for every method (now the suite's own "
+        "constant for all of them, so the two counts agree).\n";
 
   write_precision<float>(md, "float", o, results_f, per_family);
   write_precision<double>(md, "double", o, results_d, per_family);

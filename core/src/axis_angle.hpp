@@ -410,15 +410,8 @@ Eigen::Matrix<T, 4, 1> rotation_axis(const Matrix3<T>& H, const Invariants<T>& i
   //  - gap between a / 64 and sqrt(eps) a (kappa between ~100 and 1/sqrt(eps)): y carried eps a^2 / g,
   //    leaving eps a / g of the far eigenvectors in the Ritz plane; a pass at rho brings that to eps.
   //    (Beyond 1/sqrt(eps) a pass is no better than the rounding of the adjugate itself, eps a / g.)
-  //    Below kappa ~100 that residue is a few eps kappa, well inside the accuracy suite's bound: the
-  //    threshold was a / 16 until the accuracy report (tools/accuracy_report) compared the two: at 1.9
-  //    million cases per precision, the regular families keep every count (0 beyond the suite's bounds)
-  //    and their largest angle / (eps kappa) moves by at most 2.2x and stays far inside the bound of 222;
-  //    the two stress families that are already a known limitation gain 1 case beyond the bound (double
-  //    wide_exponents, 111 -> 112) and 2 beyond the uniform c_b = 16 bound (double wide_weights, 4 -> 6).
-  //    In exchange the batched fit no longer runs the pass in 23% of its batches (6.5 of 45 ns per fit,
-  //    float AVX2). Dropping the pass altogether is not acceptable: double wide_weights then reaches
-  //    180 eps kappa and three_points quadruples its cases beyond the uniform bound.)
+  //    Below kappa ~100 that residue is a few eps kappa, inside the accuracy suite's bound, and no pass runs
+  //    (the careful path sees such gaps only for lanes the fast path left unconverged).
   //  - the adjugate was rounding noise.
   // A pass is kept unless rho drops beyond its rounding (8 eps a): at an exactly multiple root the
   // adjugate is noise and its Ritz vector lowers rho by O(a); NaN (an all-zero adjugate) too.

@@ -26,7 +26,16 @@ Matrix3<T> fit_rotation_horn_quaternion(const Matrix3<T>& H) {
 template <class T>
 Matrix3<T> fit_rotation_horn_matrix(const Matrix3<T>& H) {
   Eigen::SelfAdjointEigenSolver<Matrix3<T>> eig(H.transpose() * H);
-  const Vector3<T> v1 = eig.eigenvectors().col(2), v2 = eig.eigenvectors().col(1);
+  const Vector3<T> v1 = eig.eigenvectors().col(2);
+  // v2 from the plane orthogonal to v1 (spanned by the other two eigenvectors e2, e3, orthonormal to working
+  // precision), by the top eigenvector of the 2x2 Gram matrix of H e2, H e3: H^T H itself carries rounding
+  // of eps s1^2, which buries s2^2 - s3^2 whenever s2 < sqrt(eps) s1 (wide weights: kappa 1e7 in double
+  // drew angles of 1e-5 against a bound of 6e-7); the deflated Gram matrix carries eps (s1 s2 + s2^2).
+  const Vector3<T> e2 = eig.eigenvectors().col(1), e3 = eig.eigenvectors().col(0);
+  const Vector3<T> he2 = H * e2, he3 = H * e3;
+  const T g22 = he2.squaredNorm(), g33 = he3.squaredNorm(), g23 = he2.dot(he3);
+  const T phi = T(0.5) * std::atan2(T(2) * g23, g22 - g33);  // angle of the top eigenvector of the 2x2
+  const Vector3<T> v2 = std::cos(phi) * e2 + std::sin(phi) * e3;
   const Vector3<T> h1 = H * v1;
   if (h1.squaredNorm() == T(0)) return Matrix3<T>::Identity();
   Vector3<T> u1 = h1.normalized();

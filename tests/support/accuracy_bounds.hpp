@@ -44,17 +44,10 @@ inline constexpr long double c_o = 64;
 /// The a-priori constant counted above, common to every method.
 inline constexpr long double c_b_uniform = 16;
 
-/// c_b per method. 16 for the dense solvers (Eigen's symmetric eigensolver, JacobiSVD), as counted above.
-/// 64 for the two methods that reach the optimum in more steps:
-///   axis_angle  y comes from the quartic's coefficients (5 roundings in the invariants); the eigenvector
-///               from up to three adjugate evaluations (8 roundings per cofactor each) with Rayleigh-Ritz on
-///               two of their columns (~10: normalisations, 2x2 eigenproblem), then 3 in (15)/(5): about
-///               4 x 16 along the longest path (core/src/axis_angle.hpp, rotation_axis).
-///   horn_matrix H^T H and its eigenvectors (16, as the dense solvers), then three rounds of subspace
-///               iteration v = H^T u, u = H v (3 + 3 roundings each, plus normalisation): about 4 x 16.
-inline long double c_b(RotationMethod m) {
-  return m == RotationMethod::horn_matrix ? 64 : c_b_uniform;
-}
+/// c_b per method: every method is held to the uniform constant. (Until the second-generation fit, axis_angle
+/// and horn_matrix needed 64 and excused their stress families; the fast path of axis_angle, the converged
+/// in-lane Jacobi and horn_matrix's deflated second eigenvector removed both exceptions.)
+inline long double c_b(RotationMethod) { return c_b_uniform; }
 
 template <class T>
 inline constexpr long double eps = std::numeric_limits<T>::epsilon();
@@ -107,18 +100,6 @@ std::string violations(const Errors& e, const Reference& ref, long double cb) {
       out << " angle " << double(e.angle) << " rad > " << double(tol) << " rad (kappa " << double(ref.kappa) << ");";
   }
   return out.str();
-}
-
-/// The stress families whose matrices span hundreds of binades (wide_exponents) or weights spanning many
-/// orders of magnitude (wide_weights), for the two methods whose error is not a single backward-stable
-/// step: a handful of cases per 10^3 at kappa 1e4..1e8 exceed the bound by up to ~10x (axis_angle, double)
-/// or break down (horn_matrix: the normal matrix H^T H underflows and squares kappa). Reported, counted in
-/// docs/accuracy.md, and not hidden: every other family of these methods is held to the bound. `key` names
-/// the method and the family ("double axis_angle on wide_weights").
-inline bool known_limitation(const std::string& key) {
-  const bool method = key.find("horn_matrix") != std::string::npos;
-  const bool family = key.find("wide_exponents") != std::string::npos || key.find("wide_weights") != std::string::npos;
-  return method && family;
 }
 
 /// The same with method m's constant c_b(m): what the accuracy suite checks.
