@@ -50,8 +50,7 @@ struct DeformKernel : Simd<T, A> {
     if (fr.method == 1) {
       HornJacobi<T, A>::fit(hn, r);
     } else {
-      const M fallback = FitRotations<T, A>::fit(hn, r, stats);
-      if (any(fallback)) FitRotations<T, A>::scalar_lanes(fallback, hn, r, stats);
+      FitRotations<T, A>::fit(hn, r, stats);
     }
     V mu = scale;
     if (fr.transform == 1) {
@@ -181,7 +180,6 @@ struct DeformKernel : Simd<T, A> {
       for (std::size_t g = 0; g < kBlock && b * kBlock + g < fr.n; g += W) batch(fr, b, g, local);
     if (stats) {
       stats->near_double += local.near_double;
-      stats->scalar_fallback += local.scalar_fallback;
     }
   }
 };

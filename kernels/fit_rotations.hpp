@@ -1,9 +1,10 @@
 // The batched axis/angle rotation fit (Algorithm 1 steps 3-7), one matrix per SIMD lane:
-// normalise -> invariants (6) -> maximum_root (13) -> rotation_axis (14) -> sin_cos (15)/(5), each stage
-// with a fast path for every lane and a careful path for the lanes the fast one cannot settle.
+// normalise -> invariants (6) -> maximum_root (13) -> rotation_axis (14) -> sin_cos (15)/(5) for every lane,
+// and for the lanes this fast path cannot settle a careful path: K's top eigenvector by Jacobi.
 // Same stages, same order as detail::fit_rotation_axis_angle in core/src/axis_angle.hpp.
 #pragma once
 
+#include "jacobi.hpp"
 #include "kernel_table.hpp"
 #include "quartic_root.hpp"
 #include "rotation_axis.hpp"
@@ -25,10 +26,9 @@ struct FitRotations : Simd<T, A> {
 
   /// h: 9 lanes of H (row-major entries), not yet normalised; r: the rotations. Lanes with H = 0 get the
   /// identity. Every lane takes the fast path (upper_bound_root, fast_axis); the lanes it cannot settle
-  /// (a multiple or unconverged root, or a gap below cbrt(eps)) take the careful path (maximum_root,
-  /// rotation_axis), run only when some lane needs it. Returns the lanes the scalar code must redo (their r
-  /// is unspecified) and counts.
-  MLSDEFORM_KERNEL_INLINE static M fit(V (&h)[9], V (&r)[9], RotationStats& stats) {
+  /// (a multiple or unconverged root, or a gap below cbrt(eps)) take the careful path, the top eigenvector
+  /// of K by Jacobi (run only when some lane needs it). Counts the careful lanes in stats.near_double.
+  MLSDEFORM_KERNEL_INLINE static void fit(V (&h)[9], V (&r)[9], RotationStats& stats) {
     V m = abs(h[0]);
     for (int i = 1; i < 9; ++i) m = max(m, abs(h[i]));
     const M zero = m == V(T(0));
@@ -42,18 +42,14 @@ struct FitRotations : Simd<T, A> {
     typename RA::Vec4 q = RA::fast_axis(K, y, dk);
     const V n3 = inv.norm2 * inv.norm2 * inv.norm2;
     const M careful = ~zero & (~converged | ~(dk * dk > V(tau * tau) * n3));
-    M fallback = careful ^ careful;
     if (any(careful)) {
-      M near_double;
-      const V y1 = Q::maximum_root(inv);
-      const typename RA::Vec4 q1 = RA::rotation_axis(K, y1, Q::clustered_top_three(inv), near_double, fallback);
-      for (int i = 0; i < 4; ++i) q.v[i] = select(careful, q1.v[i], q.v[i]);
-      fallback = fallback & careful;
+      V q1[4];
+      Jacobi<T, A>::top_eigenvector(K.k, sqrt(V(T(4)) * inv.norm2), q1);
+      for (int i = 0; i < 4; ++i) q.v[i] = select(careful, q1[i], q.v[i]);
       stats.near_double += count(careful);
     }
     SinCos<T, A>::rotation_from_quaternion(q.v[0], q.v[1], q.v[2], q.v[3], r);
     for (int i = 0; i < 9; ++i) r[i] = select(zero, V(i % 4 == 0 ? T(1) : T(0)), r[i]);
-    return fallback;
   }
 
   static std::size_t count(M m) {
@@ -64,31 +60,11 @@ struct FitRotations : Simd<T, A> {
     return c;
   }
 
-  /// Redo the lanes in `fallback` with the scalar reference (normalised h in, r out).
-  static void scalar_lanes(M fallback, const V (&h)[9], V (&r)[9], RotationStats& stats) {
-    alignas(64) T hb[9][W], rb[9][W], fb[W];
-    for (int i = 0; i < 9; ++i) {
-      h[i].store_aligned(hb[i]);
-      r[i].store_aligned(rb[i]);
-    }
-    select(fallback, V(T(1)), V(T(0))).store_aligned(fb);
-    for (std::size_t lane = 0; lane < W; ++lane) {
-      if (fb[lane] == T(0)) continue;
-      T h9[9], r9[9];
-      for (int i = 0; i < 9; ++i) h9[i] = hb[i][lane];
-      fit_rotation_lane_fallback<T>(h9, r9);
-      for (int i = 0; i < 9; ++i) rb[i][lane] = r9[i];
-      ++stats.scalar_fallback;
-    }
-    for (int i = 0; i < 9; ++i) r[i] = V::load_aligned(rb[i]);
-  }
-
   /// One batch of W matrices at H + offset (loads of W consecutive values per entry).
   MLSDEFORM_KERNEL_INLINE static void run_batch(const T* H, T* R, std::size_t stride, std::size_t offset, RotationStats& stats) {
     V h[9], r[9];
     for (int i = 0; i < 9; ++i) h[i] = V::load_unaligned(H + std::size_t(i) * stride + offset);
-    const M fallback = fit(h, r, stats);
-    if (any(fallback)) scalar_lanes(fallback, h, r, stats);
+    fit(h, r, stats);
     for (int i = 0; i < 9; ++i) r[i].store_unaligned(R + std::size_t(i) * stride + offset);
   }
 
@@ -100,7 +76,6 @@ struct FitRotations : Simd<T, A> {
     });
     if (stats) {
       stats->near_double += local.near_double;
-      stats->scalar_fallback += local.scalar_fallback;
     }
   }
 };

@@ -10,8 +10,7 @@ namespace mlsdeform::kernels {
 
 /// Lanes that left the regular path of the batched axis/angle fit (see rotation_axis.hpp).
 struct RotationStats {
-  std::size_t near_double = 0;      ///< lanes on the careful path of the axis/angle fit (in the lanes)
-  std::size_t scalar_fallback = 0;  ///< lanes handed to the scalar reference (a triple root)
+  std::size_t near_double = 0;  ///< lanes on the careful path of the axis/angle fit (in the lanes)
 };
 
 /// Batched rotation fit over matrices [begin, end) of a 3 x 3 x n structure-of-arrays layout:
@@ -71,10 +70,5 @@ struct KernelTable {
 const KernelTable& kernel_table_sse4_2();
 const KernelTable& kernel_table_avx2();
 const KernelTable& kernel_table_avx512();
-
-/// The scalar reference for one lane that the SIMD path hands over (defined in core/, baseline flags):
-/// h9 row-major normalised H, r9 row-major rotation out.
-template <class T>
-void fit_rotation_lane_fallback(const T* h9, T* r9);
 
 }  // namespace mlsdeform::kernels

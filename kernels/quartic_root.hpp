@@ -1,7 +1,6 @@
 // Stage "maximum_root" of Algorithm 1 (eq. 13) in SIMD lanes, mirroring core/src/axis_angle.hpp:
-// invariants (eq. 6), then the fast path's Newton steps from an upper bound (upper_bound_root), and for the
-// careful path's lanes the resolvent cubic's closed form (Sec. 4.4) polished by Newton (maximum_root).
-// Lanes iterate under a mask; a loop ends when no lane is active.
+// invariants (eq. 6), then Newton steps from an upper bound of the root (upper_bound_root). Lanes iterate
+// under a mask; the loop ends when no lane is active.
 #pragma once
 
 #include "simd.hpp"
@@ -45,7 +44,7 @@ struct QuarticRoot : Simd<T, A> {
     return inv;
   }
 
-  /// Newton steps allowed in upper_bound_root; lanes still moving after them take the careful path.
+  /// Newton steps allowed; lanes still moving after them take the careful path.
   static constexpr int kMaxNewton = 16;
 
   /// Eq. (13), the fast path: Newton's method on P(y) = ((y^2 - 2n) y - 8 det) y + (n^2 - 4 c2) from an upper
@@ -57,7 +56,7 @@ struct QuarticRoot : Simd<T, A> {
   /// next error is then O(step^2 / gap): rounding level for a simple root) and counts as converged; it
   /// stops unconverged where P' sinks to its own rounding (64 eps y^3: P and P' are then noise, a (nearly)
   /// multiple root), where a step fails to shrink, or after kMaxNewton steps. `converged` returns the lanes
-  /// whose y is the root to rounding; the others take the careful path (maximum_root below).
+  /// whose y is the root to rounding; the others take the careful path (fit_rotations.hpp).
   MLSDEFORM_KERNEL_INLINE static V upper_bound_root(const Invariants& inv, M& converged) {
     const V a = V(T(-2)) * inv.norm2, b = V(T(-8)) * inv.det, c = mul_add(inv.norm2, inv.norm2, V(T(-4)) * inv.c2);
     const V cross = select(inv.det < V(T(0)), inv.c2, V(T(3)) * inv.c2);
@@ -78,87 +77,6 @@ struct QuarticRoot : Simd<T, A> {
       converged = converged | (active & reliable & (step <= V(tol) * y));
       active = ok & (step > V(tol) * y);
     }
-    return y;
-  }
-
-  /// Lanes whose top three eigenvalues of K cluster (scalar: clustered_top_three): det H < 0 and the
-  /// squared singular values spread less than their mean (m < shift / 2).
-  MLSDEFORM_KERNEL_INLINE static M clustered_top_three(const Invariants& inv) {
-    const V shift = inv.norm2 / V(T(3)), p = inv.c2 - inv.norm2 * shift;
-    return (inv.det < V(T(0))) & (-p / V(T(3)) < shift * shift / V(T(4)));
-  }
-
-  /// cos x for x in [0, pi/3] by its Taylor series (Horner in x^2), truncated where the next term is below
-  /// eps/2: x^18/18! < 4e-16 (double), x^12/12! < 4e-9 (float). Written here rather than xsimd::cos because
-  /// xsimd's cos pulls in a non-template inline helper (__kernel_rem_pio2) that every ISA object would
-  /// define as a weak symbol, compiled with that ISA's flags (../shared/TOOLCHAIN.md pitfall 3).
-  MLSDEFORM_KERNEL_INLINE static V cos_small(V x) {
-    const V x2 = x * x;
-    V p;
-    if constexpr (sizeof(T) == 4) {
-      p = V(T(-1.0 / 3628800));                         // -1/10!
-      p = p * x2 + V(T(1.0 / 40320));                   // 1/8!
-      p = p * x2 + V(T(-1.0 / 720));
-      p = p * x2 + V(T(1.0 / 24));
-    } else {
-      p = V(T(1.0 / 20922789888000.0));                 // 1/16!
-      p = p * x2 + V(T(-1.0 / 87178291200.0));          // -1/14!
-      p = p * x2 + V(T(1.0 / 479001600.0));             // 1/12!
-      p = p * x2 + V(T(-1.0 / 3628800.0));
-      p = p * x2 + V(T(1.0 / 40320.0));
-      p = p * x2 + V(T(-1.0 / 720.0));
-      p = p * x2 + V(T(1.0 / 24.0));
-    }
-    p = p * x2 + V(T(-0.5));
-    return p * x2 + V(T(1));
-  }
-
-  /// Largest eigenvalue of H^T H from the resolvent cubic (Sec. 4.4), Viete's trigonometric form.
-  MLSDEFORM_KERNEL_INLINE static V largest_eigenvalue_HtH(const Invariants& inv) {
-    const V shift = inv.norm2 / V(T(3));
-    const V p = inv.c2 - inv.norm2 * shift;
-    const V q = V(T(-2)) * shift * shift * shift + shift * inv.c2 - inv.det * inv.det;
-    const M regular = p < V(T(0));  // else a triple root: mu = shift
-    const V m = sqrt(max(-p / V(T(3)), V(T(0))));
-    V r = select(regular, V(T(-0.5)) * q / (m * m * m), V(T(0)));
-    r = min(max(r, V(T(-1))), V(T(1)));
-    const V t = V(T(2)) * m * cos_small(acos(r) / V(T(3)));
-    return select(regular, shift + t, shift);
-  }
-
-  /// Eq. (13): the largest root y = s1 + s2 + sign(det H) s3. `iterations` counts the loop trips.
-  MLSDEFORM_KERNEL_INLINE static V maximum_root(const Invariants& inv, int* iterations = nullptr) {
-    // cbrt(eps), as in the scalar code: the closed form's worst-case relative accuracy.
-    constexpr T cbrt_eps = sizeof(T) == 4 ? T(4.92156660e-3) : T(6.0554544523933395e-6);
-    const V mu1 = largest_eigenvalue_HtH(inv);
-    const V s1 = sqrt(max(mu1, V(T(0))));
-    const M s1pos = s1 > V(T(0));
-    const V rest = inv.norm2 - mu1 + select(s1pos, V(T(2)) * inv.det / s1, V(T(0)));
-    const V y_closed = s1 + sqrt(max(rest, V(T(0))));
-    const V a = V(T(-2)) * inv.norm2, b = V(T(-8)) * inv.det, c = inv.norm2 * inv.norm2 - V(T(4)) * inv.c2;
-    auto P = [&](V y) { return ((y * y + a) * y + b) * y + c; };
-    auto dP = [&](V y) { return (V(T(4)) * y * y + V(T(2)) * a) * y + b; };
-    const V norm = sqrt(inv.norm2);
-    const V upper = sqrt(V(T(3))) * norm;
-    // scalar: y = near_ok ? near : (P(far) >= 0 ? far : upper)
-    const V near = min(y_closed + V(T(64) * eps) * norm, upper);
-    const V far = min(y_closed + V(T(4) * cbrt_eps) * norm, upper);
-    const M near_ok = (P(near) >= V(T(0))) & (dP(near) > V(T(4) * Simd<T, A>::sqrt_eps) * inv.norm2 * norm);
-    V y = select(near_ok, near, select(P(far) >= V(T(0)), far, upper));
-    constexpr T inf = std::numeric_limits<T>::infinity();
-    V last_step(inf);
-    M active = Simd<T, A>::all_true();
-    int it = 0;
-    for (; it < 64; ++it) {
-      const V d = dP(y);
-      const V step = P(y) / d;
-      // scalar: if (!(d > 0) || !(step > 0) || !(step <= last_step) || !(y - step < y)) break;
-      active = active & (d > V(T(0))) & (step > V(T(0))) & (step <= last_step) & ((y - step) < y);
-      if (none(active)) break;
-      y = select(active, y - step, y);
-      last_step = select(active, step, last_step);
-    }
-    if (iterations) *iterations = it;
     return y;
   }
 };

@@ -39,12 +39,23 @@ Matrix3<T> fit_rotation_horn_matrix(const Matrix3<T>& H) {
   const Vector3<T> h1 = H * v1;
   if (h1.squaredNorm() == T(0)) return Matrix3<T>::Identity();
   Vector3<T> u1 = h1.normalized();
+  // x minus its component along the unit vector e, twice (Kahan, Parlett: "twice is enough"): when x is
+  // small against what it lost, one pass leaves a residue whose rounding is not orthogonal to e.
+  auto orthogonalise = [](Vector3<T>& x, const Vector3<T>& e) {
+    x -= e * e.dot(x);
+    x -= e * e.dot(x);
+  };
   // u2 = H v2 / s2, made exactly orthogonal to u1 (in exact arithmetic it already is).
   Vector3<T> u2 = H * v2;
-  u2 -= u1 * u1.dot(u2);
-  const T tiny = T(16) * std::numeric_limits<T>::epsilon() * h1.norm();
+  orthogonalise(u2, u1);
+  // Rank 1 only where H v2 is nothing but rounding of rounding (eps^2 |H v1|): a u2 taken from noise of order
+  // eps |H v1| is harmless (s2, s3 are then at rounding level and every turn about v1 is optimal to within
+  // it), while a larger threshold (16 eps |H v1|, as here before) misread float H with s2 ~ 1e-6 s1 (wide
+  // weights) as rank 1 and turned them arbitrarily about v1.
+  const T tiny = std::numeric_limits<T>::epsilon() * std::numeric_limits<T>::epsilon() * h1.norm();
   if (!(u2.norm() > tiny)) {  // rank 1: any rotation taking v1 to u1 is optimal
-    u2 = v2 - u1 * u1.dot(v2);
+    u2 = v2;
+    orthogonalise(u2, u1);
     if (!(u2.norm() > T(0.5))) u2 = u1.unitOrthogonal();
   }
   u2.normalize();
@@ -58,13 +69,13 @@ Matrix3<T> fit_rotation_horn_matrix(const Matrix3<T>& H) {
     const T n1 = a1.norm();
     if (!(n1 > T(0))) break;
     a1 /= n1;
-    a2 -= a1 * a1.dot(a2);
+    orthogonalise(a2, a1);
     if (!(a2.norm() > tiny)) break;
     a2.normalize();
     w1 = a1, w2 = a2;
     Vector3<T> b1 = H * w1, b2 = H * w2;
     b1.normalize();
-    b2 -= b1 * b1.dot(b2);
+    orthogonalise(b2, b1);
     if (!(b2.norm() > tiny)) break;
     u1 = b1, u2 = b2.normalized();
   }

@@ -82,14 +82,13 @@ void fit_rotations(const T* H, T* R, std::size_t n, RotationMethod method, int t
   if (threads == 1 || n <= kChunk) {
     range(0, n, &total);
   } else {
-    std::atomic<std::size_t> near_double{0}, fallback{0};
+    std::atomic<std::size_t> near_double{0};
     auto parallel = [&] {
       tbb::parallel_for(tbb::blocked_range<std::size_t>(0, (n + kChunk - 1) / kChunk),
                         [&](const tbb::blocked_range<std::size_t>& chunks) {
                           kernels::RotationStats st;
                           range(chunks.begin() * kChunk, std::min(n, chunks.end() * kChunk), &st);
                           near_double += st.near_double;
-                          fallback += st.scalar_fallback;
                         });
     };
     if (threads > 1) {
@@ -99,12 +98,8 @@ void fit_rotations(const T* H, T* R, std::size_t n, RotationMethod method, int t
       parallel();
     }
     total.near_double = near_double;
-    total.scalar_fallback = fallback;
   }
-  if (stats) {
-    stats->near_double += total.near_double;
-    stats->scalar_fallback += total.scalar_fallback;
-  }
+  if (stats) stats->near_double += total.near_double;
 }
 
 template void fit_rotations<float>(const float*, float*, std::size_t, RotationMethod, int, BatchStats*);

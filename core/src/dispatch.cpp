@@ -87,18 +87,5 @@ const kernels::KernelTable* active_kernels() {
 
 }  // namespace detail
 
-namespace kernels {
-
-template <class T>
-void fit_rotation_lane_fallback(const T* h9, T* r9) {
-  Matrix3<T> H;
-  for (int i = 0; i < 9; ++i) H(i / 3, i % 3) = h9[i];
-  const Matrix3<T> R = detail::fit_rotation_careful(H, detail::invariants(H));  // lanes of the careful path
-  for (int i = 0; i < 9; ++i) r9[i] = R(i / 3, i % 3);
-}
-template void fit_rotation_lane_fallback<float>(const float*, float*);
-template void fit_rotation_lane_fallback<double>(const double*, double*);
-
-}  // namespace kernels
 
 }  // namespace mlsdeform

@@ -28,8 +28,9 @@ std::size_t simd_lanes(bool double_precision);
 
 /// Lanes that left the batched axis/angle fit's regular path (see docs in kernels/rotation_axis.hpp).
 struct BatchStats {
-  std::size_t near_double = 0;      ///< lanes on the careful path (a nearly multiple root, a small gap), in the lanes
-  std::size_t scalar_fallback = 0;  ///< lanes handed to the scalar reference (a triple root)
+  /// axis_angle: lanes its fast path could not settle (a nearly multiple root of (13), a gap s2 + d s3 below
+  /// cbrt(eps) s1), solved on the careful path, still in the lanes (the top eigenvector of K by Jacobi).
+  std::size_t near_double = 0;
 };
 
 /// n rotation fits at once. Layout (3 x 3 x n, structure of arrays): entry (r, c) of matrix i is
