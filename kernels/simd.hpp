@@ -1,6 +1,6 @@
 // Common definitions for the structure-of-arrays kernels: one matrix (or vertex) per SIMD lane.
 // Everything is a static member of a class template on the xsimd arch A, so each ISA translation unit gets
-// its own symbols (no weak symbol is shared between ISA objects; tests/test_dispatch.cpp checks).
+// its own symbols (no weak symbol is shared between ISA objects; tests/scripts/check_weak_symbols.cmake checks).
 #pragma once
 
 #include <xsimd/xsimd.hpp>

@@ -1,6 +1,7 @@
 // Stage "sin_cos" of Algorithm 1 (eqs. 15 and 5) in SIMD lanes, mirroring rotation_from_quaternion in
 // core/src/axis_angle.hpp: with q = (w, x) unnormalised and n = |q|^2, cos a = (w^2 - |x|^2)/n and
-// sin a e = 2 w x / n, so R = ((w^2 - |x|^2) I + 2 x x^T + 2 w [x]_x) / n. And stage "apply": d = R vhat.
+// sin a e = 2 w x / n, so R = ((w^2 - |x|^2) I + 2 x x^T + 2 w [x]_x) / n, sums of products fused (mul_add).
+// (Stage "apply", d = R vhat, is in deform_kernel.hpp.)
 #pragma once
 
 #include "simd.hpp"

@@ -1,4 +1,4 @@
-# Install-and-consume test (issue #2, point 3): `cmake --install` this build into a fresh prefix, then
+# Install-and-consume test: `cmake --install` this build into a fresh prefix, then
 # configure, build and run tests/consumer, a separate project that only does find_package(mlsdeform) and
 # links mlsdeform::mlsdeform.
 #

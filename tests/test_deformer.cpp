@@ -1,4 +1,4 @@
-// The MLS deformer (issue #3): properties on random scenes, for the three transforms and both precisions.
+// The MLS deformer: properties on random scenes, for the three transforms and both precisions.
 // Identity, interpolation, reproduction of rigid / similarity / affine maps, translation, scale
 // invariance, thread-count invariance, the stateful API, the interleaved output and the memory figures.
 // Tolerances: the per-vertex bound of test_deformer_common.hpp (derived from eps and the conditioning of

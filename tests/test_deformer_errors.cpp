@@ -1,4 +1,4 @@
-// Bad input (issue #3, point 3): std::invalid_argument with a message naming the problem, and `out` left
+// Bad input: std::invalid_argument with a message naming the problem, and `out` left
 // untouched (bitwise, size included).
 #include "test_deformer_common.hpp"
 

@@ -1,4 +1,4 @@
-// deform() and fit_rotations() allocate nothing once the output has its size (issue #4, item 7). The C
+// deform() and fit_rotations() allocate nothing once the output has its size. The C
 // allocator itself is replaced by a counting one for this test binary (Eigen and std::aligned_alloc call
 // malloc directly; operator new ends there too), forwarding to glibc's __libc_* entry points. Not run under
 // the sanitizers, which interpose the allocator themselves (label no_sanitizer, tests/no_allocation.cmake).

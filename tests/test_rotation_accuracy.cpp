@@ -1,4 +1,4 @@
-// Accuracy suite for fit_rotation (issue #2, point 6): every method, float and double, against the
+// Accuracy suite for fit_rotation: every method, float and double, against the
 // independent long-double SVD reference of tests/support/rotation_cases.hpp, on the random and degenerate
 // case families listed there.
 //

@@ -1,4 +1,4 @@
-// The public rotation API: names, errors on bad input, and the special matrices of issue #2 point 5.
+// The public rotation API: names, errors on bad input, and the special matrices (zero, rank-deficient, reflections, extreme scales).
 #include <mlsdeform/mlsdeform.hpp>
 
 #include <catch2/catch.hpp>

@@ -1,4 +1,4 @@
-# accuracy_report: writes docs/accuracy.md from the accuracy suite's case families (issue #2, point 7).
+# accuracy_report: writes docs/accuracy.md from the accuracy suite's case families.
 # It compiles the shared test helpers' sources itself (they need only Eigen and the library, not Catch2),
 # so it builds whether or not the tests are enabled.
 add_executable(accuracy_report ${CMAKE_CURRENT_SOURCE_DIR}/accuracy_report.cpp

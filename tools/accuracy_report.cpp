@@ -2,7 +2,7 @@
 // rotation method in float and double, and writes a Markdown report (docs/accuracy.md): per family and
 // method, the median, 99.9th percentile and maximum of the angle error and of the relative trace loss,
 // the worst angle in units of eps * kappa, the NaN count and the number of cases beyond the suite's bounds
-// (tests/support/accuracy_bounds.hpp). Issue #2, point 7.
+// (tests/support/accuracy_bounds.hpp).
 //
 //   accuracy_report [--seed N] [--cases N] [--out FILE|-] [--families a,b,...] [--threads N]
 //

@@ -174,7 +174,7 @@ def main():
               "Skipped benchmarks are listed at the end with their messages.\n")
 
     # ----------------------------------------------------------------------------------------------------
-    # Targets (issue 9: the rotation fit; issue 4: the deformer)
+    # Targets: the rotation fit's and the deformer's
     # ----------------------------------------------------------------------------------------------------
     best_isa = None
     for isa in ["avx512", "avx2", "sse4_2"]:
@@ -222,7 +222,7 @@ def main():
         fps = sc.get(f"scaling/vertices/{st}/n:1000000", "fps")
         targets.append([f"10^6 vertices, 10 handles, float, both cores ({st})", ">= 60 fps",
                         f"{fmt(fps)} fps" if fps else "n/a", status(fps is not None and fps >= 60)])
-    md.append("## Targets (issues 9 and 4), measured in this run\n")
+    md.append("## Targets, measured in this run\n")
     md.append(table(["what", "target", "measured", ""], targets))
     md.append("")
 

@@ -1,4 +1,4 @@
-// The accuracy suite's bounds (issue #2, point 6), shared by tests/test_rotation_accuracy.cpp and
+// The accuracy suite's bounds, shared by tests/test_rotation_accuracy.cpp and
 // tools/accuracy_report.cpp so that the report counts exactly the cases the suite would reject.
 //
 // eps = std::numeric_limits<T>::epsilon(). Two constants state what "small multiple" means,

@@ -1,5 +1,5 @@
 // Shared test helpers for the rotation fit: an independent long-double SVD reference, error measures, and
-// deterministic random case families (issue #2, points 5 and 6). Used by the accuracy suite
+// deterministic random case families. Used by the accuracy suite
 // (tests/test_rotation_accuracy*.cpp), the accuracy report (tools/accuracy_report.cpp) and any benchmark
 // that wants to check its results; depends on Eigen and the public API only (no Catch2).
 //

@@ -12,8 +12,8 @@ namespace mlsdeform {
 /// Instruction sets the kernels are built for. The library is compiled once for generic x86-64 and picks
 /// the best one the CPU runs; the environment variable MLSDEFORM_ISA=scalar|sse4_2|avx2|avx512 forces one
 /// (read once, at the first call that needs it; an unknown or unsupported value throws).
-/// avx512 is tested wherever the CPU reports AVX-512F (the development machine, an AMD EPYC Zen 4, does:
-/// every agreement test runs it); set_isa or MLSDEFORM_ISA=avx2 reproduces an AVX2-only machine.
+/// The tests run every ISA the CPU reports (avx512 wherever it has AVX-512F); set_isa or MLSDEFORM_ISA=avx2
+/// reproduces an AVX2-only machine.
 enum class Isa { scalar, sse4_2, avx2, avx512 };
 
 std::string_view to_string(Isa isa);
