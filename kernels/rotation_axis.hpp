@@ -11,7 +11,6 @@ template <class T, class A>
 struct RotationAxis : Simd<T, A> {
   using typename Simd<T, A>::V;
   using typename Simd<T, A>::M;
-  using Simd<T, A>::eps;
 
   /// The symmetric 4x4 Davenport matrix K, full storage k[4 i + j].
   struct Mat4 {
@@ -34,9 +33,9 @@ struct RotationAxis : Simd<T, A> {
 
   /// The fast path of eq. (14): the column of adj(K - y I) with the largest diagonal entry, then one step of
   /// the power method on that adjugate (mirrors the scalar fast_axis; see there for the error analysis).
-  /// adj is symmetric: its 10 distinct entries from the 12 complementary 2x2 minors of rows (0, 1) and (2, 3) (11 of
-  /// the 12: the symmetric entries need no c0),
-  /// sums of products fused. `dk` returns the largest |diagonal entry| (the careful path's trigger).
+  /// adj is symmetric: its 10 distinct entries come from 11 of the 12 complementary 2x2 minors of the row
+  /// pairs (0, 1) and (2, 3) (the upper triangle needs no c0), sums of products fused. `dk` returns the
+  /// largest |diagonal entry| (the careful path's trigger).
   MLSDEFORM_KERNEL_INLINE static Vec4 fast_axis(const Mat4& K, V y, V& dk) {
     const V S00 = K.k[0] - y, S11 = K.k[5] - y, S22 = K.k[10] - y, S33 = K.k[15] - y;
     const V S01 = K.k[1], S02 = K.k[2], S03 = K.k[3], S12 = K.k[6], S13 = K.k[7], S23 = K.k[11];
