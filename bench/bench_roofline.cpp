@@ -26,7 +26,7 @@
 #include "flop_count.hpp"
 #include "reference.hpp"
 
-#include "axis_angle.hpp"  // core/src: the scalar reference, instantiated on bench::Counted for the count
+#include "rotation/axis_angle.hpp"  // core/src: the scalar reference, instantiated on bench::Counted for the count
 
 #include <mlsdeform/batch.hpp>
 #include <mlsdeform/deformer.hpp>

@@ -1,11 +1,11 @@
 // The paper's rotation axis step taken literally, for the error-versus-half-turn plot only (it is not a
-// library method and is not timed): the largest root y of (13) (the library's upper_bound_root),
+// library method and is not timed): the largest root y of (13) (the library's maximum_root),
 // then (14), (N - lambda I) u = V with lambda = y + E, solved by Cramer's rule, and (15)/(5) from the Gibbs
 // vector u = e tan(alpha / 2). As alpha -> pi, N - lambda I becomes singular and |u| -> inf, which is why the
 // library solves (14) in a frame turned by pi about the best axis (Shuster's sequential rotations) instead.
 #pragma once
 
-#include "axis_angle.hpp"  // core/src: invariants, upper_bound_root (the library's scalar reference)
+#include "rotation/axis_angle.hpp"  // core/src: invariants, maximum_root (the library's scalar reference)
 
 #include <mlsdeform/rotation.hpp>
 
@@ -19,7 +19,7 @@ mlsdeform::Matrix3<T> fit_rotation_paper_literal(const mlsdeform::Matrix3<T>& H_
   const mlsdeform::Matrix3<T> H = H_in * std::ldexp(T(1), -std::ilogb(m));
   const d::Invariants<T> inv = d::invariants(H);
   bool converged;  // (the plot's point sets are far from multiple roots)
-  const T y = d::upper_bound_root(inv, converged);
+  const T y = d::maximum_root(inv, converged);
   const T lambda = y + inv.E;
   mlsdeform::Matrix3<T> A = H + H.transpose();  // N
   A.diagonal().array() -= lambda;

@@ -8,6 +8,7 @@
 #include <cstddef>
 #include <cstdint>
 #include <limits>
+#include <utility>
 
 /// Stage functions are inlined into the per-batch loop: called out of line, their batch arguments and results
 /// travel through memory (measured: ~1.5x slower on AVX2).
@@ -143,6 +144,13 @@ MLSDEFORM_KERNEL_INLINE bool any(const PairMask<BM>& m) { return xsimd::any(m.lo
 template <class BM>
 MLSDEFORM_KERNEL_INLINE bool none(const PairMask<BM>& m) { return xsimd::none(m.lo | m.hi); }
 
+/// The element type and the mask type of a vector type V (an xsimd batch or a Pair): the stage functions of
+/// kernels/rotation/ and kernels/deformer/ are templates on V, like their scalar twins on T.
+template <class V>
+using scalar_of = typename V::value_type;
+template <class V>
+using mask_of = decltype(std::declval<V>() < std::declval<V>());
+
 /// What every vector type shares: constants and the batch walk over a 3 x 3 x n layout.
 template <class T, std::size_t Width>
 struct SimdCommon {
@@ -202,5 +210,15 @@ struct Simd<T, Twin<A>> : SimdCommon<T, 2 * xsimd::batch<T, A>::size> {
     return {Simd<T, A>::pow2_inverse_exponent(m.lo), Simd<T, A>::pow2_inverse_exponent(m.hi)};
   }
 };
+
+/// 2^-e per lane (see Simd::pow2_inverse_exponent), for either vector type.
+template <class T, class A>
+MLSDEFORM_KERNEL_INLINE xsimd::batch<T, A> pow2_inverse_exponent(const xsimd::batch<T, A>& m) {
+  return Simd<T, A>::pow2_inverse_exponent(m);
+}
+template <class B>
+MLSDEFORM_KERNEL_INLINE Pair<B> pow2_inverse_exponent(const Pair<B>& m) {
+  return {pow2_inverse_exponent(m.lo), pow2_inverse_exponent(m.hi)};
+}
 
 }  // namespace mlsdeform::kernels

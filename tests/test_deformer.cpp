@@ -5,7 +5,7 @@
 // each vertex's fit), or exact equality where the algorithm is exact.
 #include "test_deformer_common.hpp"
 
-#include "deformer_data.hpp"
+#include "deformer/data.hpp"
 
 #include <atomic>
 #include <cstdio>

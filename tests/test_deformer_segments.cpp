@@ -3,7 +3,7 @@
 // densely sampled as point handles.
 #include "test_deformer_common.hpp"
 
-#include "weights.hpp"
+#include "deformer/weights.hpp"
 
 #include <iostream>
 

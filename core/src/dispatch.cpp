@@ -1,7 +1,5 @@
 #include "dispatch.hpp"
 
-#include "axis_angle.hpp"
-
 #include <atomic>
 #include <cstdlib>
 #include <stdexcept>
@@ -68,24 +66,22 @@ void set_isa(Isa isa) {
 }
 
 std::size_t simd_lanes(bool double_precision) {
-  const kernels::KernelTable* k = detail::active_kernels();
-  if (!k) return 1;
-  return double_precision ? k->lanes_double : k->lanes_float;
+  const kernels::KernelTable& k = detail::active_kernels();
+  return double_precision ? k.lanes_double : k.lanes_float;
 }
 
 namespace detail {
 
-const kernels::KernelTable* active_kernels() {
+const kernels::KernelTable& active_kernels() {
   switch (active_isa()) {
-    case Isa::scalar: return nullptr;
-    case Isa::sse4_2: return &kernels::kernel_table_sse4_2();
-    case Isa::avx2: return &kernels::kernel_table_avx2();
-    case Isa::avx512: return &kernels::kernel_table_avx512();
+    case Isa::scalar: return kernels::kernel_table_scalar();
+    case Isa::sse4_2: return kernels::kernel_table_sse4_2();
+    case Isa::avx2: return kernels::kernel_table_avx2();
+    case Isa::avx512: return kernels::kernel_table_avx512();
   }
-  return nullptr;
+  return kernels::kernel_table_scalar();
 }
 
 }  // namespace detail
-
 
 }  // namespace mlsdeform

@@ -7,7 +7,13 @@
 
 namespace mlsdeform::detail {
 
-/// The kernels of the active ISA, or nullptr when it is Isa::scalar.
-const kernels::KernelTable* active_kernels();
+/// The kernels of the active ISA (for Isa::scalar, the scalar reference's table).
+const kernels::KernelTable& active_kernels();
+
+/// Matrices [begin, end) of a 3 x 3 x n layout fitted one at a time by fit_rotation (every method; the
+/// scalar table's fit entries, and fit_rotations' path for the methods without a SIMD kernel).
+template <class T>
+void fit_rotations_reference(const T* H, T* R, std::size_t stride, std::size_t begin, std::size_t end,
+                             RotationMethod method);
 
 }  // namespace mlsdeform::detail

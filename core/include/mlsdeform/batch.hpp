@@ -2,6 +2,7 @@
 #pragma once
 
 #include <mlsdeform/rotation.hpp>
+#include <mlsdeform/stats.hpp>
 
 #include <cstddef>
 #include <string_view>
@@ -25,13 +26,6 @@ Isa active_isa();
 void set_isa(Isa isa);
 /// SIMD lanes of the active ISA for float or double (1 for scalar).
 std::size_t simd_lanes(bool double_precision);
-
-/// Lanes that left the batched axis/angle fit's regular path (see docs in kernels/rotation_axis.hpp).
-struct BatchStats {
-  /// axis_angle: lanes its fast path could not settle (a nearly multiple root of (13), a gap s2 + d s3 below
-  /// cbrt(eps) s1), solved on the careful path, still in the lanes (the top eigenvector of K by Jacobi).
-  std::size_t near_double = 0;
-};
 
 /// n rotation fits at once. Layout (3 x 3 x n, structure of arrays): entry (r, c) of matrix i is
 /// H[(3 r + c) * n + i]; R is written the same way. Each result equals fit_rotation(H_i, method) to within

@@ -12,8 +12,6 @@
 
 namespace mlsdeform {
 
-enum class Transform { rigid, similarity, affine };
-
 /// How a segment handle's weight varies along it (Sec. 6.2).
 enum class SegmentWeight {
   /// The paper's simplification: constant d^-u (d = distance from the vertex to the segment), so

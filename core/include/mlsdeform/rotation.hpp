@@ -11,6 +11,8 @@
 // phat R qhat^T; with H = sum q p^T, taking eq. (15)'s sin(alpha) = -2|u|/(1+|u|^2) literally yields R^T.)
 #pragma once
 
+#include <mlsdeform/enums.hpp>
+
 #include <Eigen/Core>
 
 #include <stdexcept>
@@ -19,23 +21,6 @@
 #include <type_traits>
 
 namespace mlsdeform {
-
-/// The rotation solvers. All return the same optimum (where it is unique) to within rounding.
-enum class RotationMethod {
-  /// The paper's method (Sec. 4.3-4.6): largest root of the depressed quartic (13), rotation axis from the
-  /// 3x3 system (14) (generalised to the best-conditioned of the four equivalent systems, Shuster's
-  /// sequential rotations, so that it stays exact near 180 degrees), sine and cosine from (15).
-  axis_angle,
-  /// Horn 1987: unit quaternion = eigenvector of the largest eigenvalue of the symmetric 4x4 matrix.
-  horn_quaternion,
-  /// Horn, Hilden, Negahdaripour 1988: R = H (H^T H)^{-1/2}, with the correction for det H < 0 (and rank 2).
-  horn_matrix,
-  /// Kanatani 1994: R = V diag(1, 1, det(V U^T)) U^T from the SVD of the correlation matrix
-  /// K = sum_i w_i phat_i qhat_i^T = H^T (Kanatani's own orientation of the data).
-  kanatani,
-  /// Arun, Huang, Blostein 1987 (SVD, R = U V^T) with Umeyama's 1991 reflection fix diag(1, 1, det(U V^T)).
-  svd,
-};
 
 /// All methods, in declaration order (handy for tests, benchmarks and reports).
 inline constexpr RotationMethod all_rotation_methods[] = {RotationMethod::axis_angle, RotationMethod::horn_quaternion,

@@ -1,17 +1,19 @@
-// One frame of the MLS deformation in SIMD lanes, one vertex per lane, mirroring the scalar reference
-// core/src/deformer_scalar.hpp stage by stage over the precomputed table of core/src/deformer_data.hpp:
-//   weighted_centroid   q* = sum_j omega_j q_j                         (eq. 2)
-//   correlation_matrix  H  = sum_j (q_j - c) A_j^T                     (eq. 6, Sec. 6.2)
-//   fit                 R  (FitRotations: eqs. 13-15; or HornJacobi)
-//   scale               mu = trace(R^T H) / D (similarity, Sec. 6.1), else 1
-//   apply               v' = q* + mu R vhat                            (Algorithm 1 steps 8-10)
+// One frame of the MLS deformation in SIMD lanes, one vertex per lane: the kernel-table entry
+// (DeformBlocksFn), twin of core/src/deformer/reference.hpp over the same DeformFrame (kernels/contract.hpp),
+// stage by stage (stages.hpp; the rotation fit of kernels/rotation/):
+//   weighted_centroid, correlation_matrix    one pass over the pseudo-handles
+//   fit                                      R (fit_rotation_axis_angle, or the Horn-Jacobi baseline)
+//   similarity_scale                         mu (similarity), else 1
+//   apply                                    v' = q* + mu R vhat
 // Affine: v' = sum_j alpha_j q_j. The pseudo-handles are visited in the same order as the scalar code, so a
 // vertex's sums see the same terms in the same order (its lane), whatever the thread or block schedule.
 #pragma once
 
-#include "fit_rotations.hpp"
-#include "horn_jacobi.hpp"
-#include "kernel_table.hpp"
+#include "../contract.hpp"
+#include "../kernel_table.hpp"
+#include "../rotation/axis_angle.hpp"
+#include "../rotation/horn_jacobi.hpp"
+#include "stages.hpp"
 
 namespace mlsdeform::kernels {
 
@@ -20,10 +22,9 @@ struct DeformKernel : Simd<T, A> {
   using typename Simd<T, A>::V;
   using typename Simd<T, A>::M;
   using Simd<T, A>::W;
-  static constexpr std::size_t kBlock = 16;  // detail::kLanes
-  static_assert(kBlock % W == 0, "a block holds a whole number of batches");
+  static_assert(kLanes % W == 0, "a block holds a whole number of batches");
 
-  /// f(j, x, y, z) for every pseudo-handle in the scalar code's order: points, then each segment's ends.
+  /// f(j, q) for every pseudo-handle in the scalar code's order: points, then each segment's ends.
   template <class F>
   static void for_each_target(const DeformFrame<T>& fr, F&& f) {
     std::size_t j = 0;
@@ -40,33 +41,24 @@ struct DeformKernel : Simd<T, A> {
     return exp2(V(half_u) * log2(r2));
   }
 
-  /// The rotation stage shared by both weight storages: R from H (fit or Horn-Jacobi), mu, and
-  /// out = q* + mu R vhat. `scale` multiplies vhat for rigid (the on-the-fly local frame).
-  MLSDEFORM_KERNEL_INLINE static void apply_rotation(const DeformFrame<T>& fr, const V (&h)[9], const V (&qs)[3],
-                                                     const V (&vh)[3], V D, V scale, V (&out)[3],
-                                                     RotationStats& stats) {
+  /// The stages after H, shared by both weight sources: R from H, mu (similarity_scale, else `scale`), and
+  /// apply. `scale` multiplies vhat for rigid (the on-the-fly local frame).
+  MLSDEFORM_KERNEL_INLINE static void rotate_and_apply(const DeformFrame<T>& fr, const V (&h)[9], const V (&qs)[3],
+                                                       const V (&vh)[3], V D, V scale, V (&out)[3]) {
     V hn[9], r[9];
-    for (int i = 0; i < 9; ++i) hn[i] = h[i];  // fit normalises its argument in place
-    if (fr.method == 1) {
-      HornJacobi<T, A>::fit(hn, r);
+    for (int i = 0; i < 9; ++i) hn[i] = h[i];  // the fit normalises its argument in place
+    std::size_t careful = 0;                   // not reported per frame
+    if (fr.method == RotationMethod::horn_quaternion) {
+      fit_rotation_horn_jacobi(hn, r);
     } else {
-      FitRotations<T, A>::fit(hn, r, stats);
+      fit_rotation_axis_angle(hn, r, careful);
     }
-    V mu = scale;
-    if (fr.transform == 1) {
-      V tr = r[0] * h[0];
-      for (int i = 1; i < 9; ++i) tr = tr + r[i] * h[i];
-      mu = select(D > V(T(0)), tr / D, scale);  // scalar: if (D > 0) mu = trace(R^T H) / D
-    }
-    for (int i = 0; i < 3; ++i) {
-      const V rv = r[3 * i] * vh[0] + r[3 * i + 1] * vh[1] + r[3 * i + 2] * vh[2];
-      out[i] = qs[i] + mu * rv;
-    }
+    const V mu = fr.transform == Transform::similarity ? similarity_scale(r, h, D, scale) : scale;
+    apply(qs, mu, r, vh, out);
   }
 
-  /// On-the-fly weights, mirroring the scalar deform_block_on_the_fly (two passes over the point handles).
-  static void batch_on_the_fly(const DeformFrame<T>& fr, std::size_t b, std::size_t g, RotationStats& stats) {
-    const std::size_t v0 = b * kBlock + g;
+  /// On-the-fly weights, twin of the scalar deform_block_on_the_fly (two passes over the point handles).
+  static void batch_on_the_fly(const DeformFrame<T>& fr, std::size_t v0) {
     const V vx = V::load_aligned(fr.v_local + v0), vy = V::load_aligned(fr.v_local + fr.padded + v0),
             vz = V::load_aligned(fr.v_local + 2 * fr.padded + v0), dref2 = V::load_aligned(fr.dref2 + v0);
     const T *px = fr.p_local, *py = px + fr.k, *pz = px + 2 * fr.k;
@@ -76,8 +68,7 @@ struct DeformKernel : Simd<T, A> {
       const V w = relative_weight(dref2 / (dx * dx + dy * dy + dz * dz), fr.half_u);
       S = S + w;
       ps[0] = ps[0] + w * dx, ps[1] = ps[1] + w * dy, ps[2] = ps[2] + w * dz;
-      qs[0] = qs[0] + w * V(fr.points[j]), qs[1] = qs[1] + w * V(fr.points[fr.k + j]);
-      qs[2] = qs[2] + w * V(fr.points[2 * fr.k + j]);
+      weighted_centroid(qs, w, {V(fr.points[j]), V(fr.points[fr.k + j]), V(fr.points[2 * fr.k + j])});
     }
     const V inv_S = V(T(1)) / S;
     for (V& x : ps) x = x * inv_S;
@@ -91,11 +82,7 @@ struct DeformKernel : Simd<T, A> {
       const V a[3] = {w * ph[0], w * ph[1], w * ph[2]};
       const V d[3] = {V(fr.points[j] - fr.centre[0]), V(fr.points[fr.k + j] - fr.centre[1]),
                       V(fr.points[2 * fr.k + j] - fr.centre[2])};
-      for (int r = 0; r < 3; ++r) {
-        h[3 * r + 0] = h[3 * r + 0] + d[r] * a[0];
-        h[3 * r + 1] = h[3 * r + 1] + d[r] * a[1];
-        h[3 * r + 2] = h[3 * r + 2] + d[r] * a[2];
-      }
+      correlation_matrix(h, d, a);
       for (int r = 0; r < 3; ++r) sum_a[r] = sum_a[r] + a[r];
       D = D + (a[0] * ph[0] + a[1] * ph[1] + a[2] * ph[2]);
     }
@@ -103,7 +90,7 @@ struct DeformKernel : Simd<T, A> {
       for (int c = 0; c < 3; ++c) h[3 * r + c] = h[3 * r + c] - (qs[r] - V(fr.centre[r])) * sum_a[c];
     const V vh[3] = {-ps[0], -ps[1], -ps[2]};
     V out[3];
-    apply_rotation(fr, h, qs, vh, D, V(fr.world_scale), out, stats);
+    rotate_and_apply(fr, h, qs, vh, D, V(fr.world_scale), out);
     // Vertices on a handle (scalar: write q_j exactly); padding lanes have snap = -1.
     const V snap = V::load_aligned(fr.snap + v0);
     if (any(snap >= V(T(0)))) {
@@ -121,44 +108,34 @@ struct DeformKernel : Simd<T, A> {
   }
 
   /// The W vertices starting at lane `g` of block b.
-  static void batch(const DeformFrame<T>& fr, std::size_t b, std::size_t g, RotationStats& stats) {
-    if (fr.on_the_fly) return batch_on_the_fly(fr, b, g, stats);
+  static void batch(const DeformFrame<T>& fr, std::size_t b, std::size_t g) {
+    const std::size_t v0 = b * kLanes + g;
+    if (fr.weights == WeightSource::on_the_fly) return batch_on_the_fly(fr, v0);
     const std::size_t J = fr.k + 2 * fr.s;
     V out[3];
-    if (fr.transform == 2) {
-      V x(T(0)), y(T(0)), z(T(0));
+    if (fr.transform == Transform::affine) {
+      for (V& x : out) x = V(T(0));
       for_each_target(fr, [&](std::size_t j, T qx, T qy, T qz) {
-        const V alpha = V::load_aligned(fr.table + (b * J + j) * kBlock + g);
-        x = x + alpha * V(qx);
-        y = y + alpha * V(qy);
-        z = z + alpha * V(qz);
+        const V alpha = V::load_aligned(fr.table + table_offset(b, j, J, fr.transform) + g);
+        weighted_centroid(out, alpha, {V(qx), V(qy), V(qz)});
       });
-      out[0] = x, out[1] = y, out[2] = z;
     } else {
       V qs[3] = {V(T(0)), V(T(0)), V(T(0))};
       V h[9];
       for (V& e : h) e = V(T(0));
       for_each_target(fr, [&](std::size_t j, T qx, T qy, T qz) {
-        const T* co = fr.table + (b * J + j) * 4 * kBlock + g;
-        const V omega = V::load_aligned(co), ax = V::load_aligned(co + kBlock), ay = V::load_aligned(co + 2 * kBlock),
-                az = V::load_aligned(co + 3 * kBlock);
-        qs[0] = qs[0] + omega * V(qx);
-        qs[1] = qs[1] + omega * V(qy);
-        qs[2] = qs[2] + omega * V(qz);
-        const V d[3] = {V(qx - fr.centre[0]), V(qy - fr.centre[1]), V(qz - fr.centre[2])};
-        for (int r = 0; r < 3; ++r) {
-          h[3 * r + 0] = h[3 * r + 0] + d[r] * ax;
-          h[3 * r + 1] = h[3 * r + 1] + d[r] * ay;
-          h[3 * r + 2] = h[3 * r + 2] + d[r] * az;
-        }
+        const T* co = fr.table + table_offset(b, j, J, fr.transform) + g;
+        const V omega = V::load_aligned(co);
+        const V a[3] = {V::load_aligned(co + kLanes), V::load_aligned(co + 2 * kLanes), V::load_aligned(co + 3 * kLanes)};
+        weighted_centroid(qs, omega, {V(qx), V(qy), V(qz)});
+        correlation_matrix(h, {V(qx - fr.centre[0]), V(qy - fr.centre[1]), V(qz - fr.centre[2])}, a);
       });
-      const std::size_t v0 = b * kBlock + g;
       const V vh[3] = {V::load_aligned(fr.vhat + v0), V::load_aligned(fr.vhat + fr.padded + v0),
                        V::load_aligned(fr.vhat + 2 * fr.padded + v0)};
-      const V D = fr.transform == 1 ? V::load_aligned(fr.D + v0) : V(T(0));
-      apply_rotation(fr, h, qs, vh, D, V(T(1)), out, stats);
+      const V D = fr.transform == Transform::similarity ? V::load_aligned(fr.D + v0) : V(T(0));
+      rotate_and_apply(fr, h, qs, vh, D, V(T(1)), out);
     }
-    store(fr, b * kBlock + g, out);
+    store(fr, v0, out);
   }
 
   static void store(const DeformFrame<T>& fr, std::size_t v0, const V (&out)[3]) {
@@ -174,13 +151,10 @@ struct DeformKernel : Simd<T, A> {
       for (std::size_t c = 0; c < 3; ++c) fr.out[c * fr.out_coord_stride + (v0 + l) * fr.out_vertex_stride] = buf[c][l];
   }
 
-  static void run(const DeformFrame<T>& fr, std::size_t block_begin, std::size_t block_end, RotationStats* stats) {
-    RotationStats local;
+  /// The kernel-table entry: blocks [block_begin, block_end).
+  static void run(const DeformFrame<T>& fr, std::size_t block_begin, std::size_t block_end) {
     for (std::size_t b = block_begin; b < block_end; ++b)
-      for (std::size_t g = 0; g < kBlock && b * kBlock + g < fr.n; g += W) batch(fr, b, g, local);
-    if (stats) {
-      stats->near_double += local.near_double;
-    }
+      for (std::size_t g = 0; g < kLanes && b * kLanes + g < fr.n; g += W) batch(fr, b, g);
   }
 };
 

@@ -1,3 +1,4 @@
+#include "axis_angle.hpp"
 #include "baselines.hpp"
 
 #include <mlsdeform/rotation.hpp>

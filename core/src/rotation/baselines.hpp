@@ -2,7 +2,9 @@
 // (max |H_ij| in [1, 2) or H = 0) and returns the proper rotation maximising trace(R^T H).
 #pragma once
 
-#include "axis_angle.hpp"
+#include "invariants.hpp"
+#include "rotation_axis.hpp"
+#include "sin_cos.hpp"
 
 #include <Eigen/Eigenvalues>
 #include <Eigen/SVD>
@@ -14,9 +16,9 @@ namespace mlsdeform::detail {
 template <class T>
 Matrix3<T> fit_rotation_horn_quaternion(const Matrix3<T>& H) {
   const Invariants<T> inv = invariants(H);
-  const Eigen::Matrix<T, 4, 4> K = shifted_davenport(H, inv, T(0));
+  const Eigen::Matrix<T, 4, 4> K = davenport(H, inv);
   Eigen::SelfAdjointEigenSolver<Eigen::Matrix<T, 4, 4>> eig(K);
-  return rotation_from_quaternion<T>(eig.eigenvectors().col(3));  // eigenvalues ascend
+  return sin_cos<T>(eig.eigenvectors().col(3));  // eigenvalues ascend
 }
 
 /// Horn, Hilden, Negahdaripour 1988: R = H (H^T H)^{-1/2} = sum_k (H v_k / s_k) v_k^T over the eigenvectors

@@ -1,10 +1,7 @@
-#include "dispatch.hpp"
+#include "../dispatch.hpp"
+#include "../parallel.hpp"
 
 #include <mlsdeform/batch.hpp>
-
-#include <tbb/blocked_range.h>
-#include <tbb/parallel_for.h>
-#include <tbb/task_arena.h>
 
 #include <atomic>
 #include <bit>
@@ -48,16 +45,17 @@ void validate(const T* H, const T* R, std::size_t n) {
                                     std::to_string(e / 3) + ", " + std::to_string(e % 3) + ") is NaN or infinite");
 }
 
+/// The in-lane kernel of `method` in the active table, or nullptr for the methods fitted one matrix at a time
+/// (horn_matrix, kanatani, svd).
 template <class T>
-kernels::FitRotationsFn<T> simd_kernel(RotationMethod method) {
-  const kernels::KernelTable* k = detail::active_kernels();
-  if (!k) return nullptr;
+kernels::FitRotationsFn<T> lane_kernel(RotationMethod method) {
+  const kernels::KernelTable& k = detail::active_kernels();
   if constexpr (std::is_same_v<T, float>) {
-    if (method == RotationMethod::axis_angle) return k->fit_axis_angle_f;
-    if (method == RotationMethod::horn_quaternion) return k->fit_horn_f;
+    if (method == RotationMethod::axis_angle) return k.fit_axis_angle_f;
+    if (method == RotationMethod::horn_quaternion) return k.fit_horn_f;
   } else {
-    if (method == RotationMethod::axis_angle) return k->fit_axis_angle_d;
-    if (method == RotationMethod::horn_quaternion) return k->fit_horn_d;
+    if (method == RotationMethod::axis_angle) return k.fit_axis_angle_d;
+    if (method == RotationMethod::horn_quaternion) return k.fit_horn_d;
   }
   return nullptr;
 }
@@ -68,38 +66,19 @@ template <class T>
 void fit_rotations(const T* H, T* R, std::size_t n, RotationMethod method, int threads, BatchStats* stats) {
   if (n == 0) return;
   validate(H, R, n);
-  const kernels::FitRotationsFn<T> kernel = simd_kernel<T>(method);
-  auto range = [&](std::size_t begin, std::size_t end, kernels::RotationStats* st) {
+  const kernels::FitRotationsFn<T> kernel = lane_kernel<T>(method);
+  auto range = [&](std::size_t begin, std::size_t end, BatchStats* st) {
     if (kernel) return kernel(H, R, n, begin, end, st);
-    for (std::size_t i = begin; i < end; ++i) {  // scalar methods, one matrix at a time
-      Matrix3<T> Hi;
-      for (std::size_t e = 0; e < 9; ++e) Hi(e / 3, e % 3) = H[e * n + i];
-      const Matrix3<T> Ri = fit_rotation<T>(Hi, method);
-      for (std::size_t e = 0; e < 9; ++e) R[e * n + i] = Ri(e / 3, e % 3);
-    }
+    detail::fit_rotations_reference(H, R, n, begin, end, method);
   };
-  kernels::RotationStats total;
-  if (threads == 1 || n <= kChunk) {
-    range(0, n, &total);
-  } else {
-    std::atomic<std::size_t> near_double{0};
-    auto parallel = [&] {
-      tbb::parallel_for(tbb::blocked_range<std::size_t>(0, (n + kChunk - 1) / kChunk),
-                        [&](const tbb::blocked_range<std::size_t>& chunks) {
-                          kernels::RotationStats st;
-                          range(chunks.begin() * kChunk, std::min(n, chunks.end() * kChunk), &st);
-                          near_double += st.near_double;
-                        });
-    };
-    if (threads > 1) {
-      tbb::task_arena arena(threads);
-      arena.execute(parallel);
-    } else {
-      parallel();
-    }
-    total.near_double = near_double;
-  }
-  if (stats) stats->near_double += total.near_double;
+  const auto arena = detail::make_arena(threads);
+  std::atomic<std::size_t> near_double{0};
+  detail::parallel_ranges((n + kChunk - 1) / kChunk, threads, arena.get(), [&](std::size_t c0, std::size_t c1) {
+    BatchStats st;
+    range(c0 * kChunk, std::min(n, c1 * kChunk), &st);
+    near_double += st.near_double;
+  });
+  if (stats) stats->near_double += near_double;
 }
 
 template void fit_rotations<float>(const float*, float*, std::size_t, RotationMethod, int, BatchStats*);

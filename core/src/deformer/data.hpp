@@ -1,6 +1,7 @@
 // The MLS deformer's precomputed session data (paper Sec. 5: "all values of vhat, p*, w and phat_i are
-// precomputed"), laid out for structure-of-arrays kernels. Written by deformer.cpp; read by the scalar
-// reference (deformer_scalar.hpp) and by the SIMD kernels, which include this header.
+// precomputed"), laid out for structure-of-arrays kernels. Written by precompute*.cpp; the session hands it
+// to the kernels (the scalar reference reference.hpp and the SIMD kernels alike) as a DeformFrame, whose
+// layout constants and table indexing are kernels/contract.hpp.
 //
 // Pseudo-handles. Every handle is reduced to pseudo-handles j = 0 .. J-1, each with a rest position p_j and
 // a target q_j: point handle i is pseudo-handle i (p = points(i), q = moved points(i)); segment handle s
@@ -34,7 +35,7 @@
 //   v' = q* + H G^-1 vhat = sum_j alpha_j q_j,   alpha_j = omega_j + A_j . (G^-1 vhat)   (precomputed)
 //
 // Snapped vertices (closer to a handle than 64 eps(T) times the scene size) take the map's limit at that
-// handle (deformer.cpp). At a point handle, or a segment with exact_integral weights: omega = 1 on that point
+// handle (precompute_table.cpp). At a point handle, or a segment with exact_integral weights: omega = 1 on that point
 // handle (or 1 - t, t on the ends of that segment, t the closest point), A = 0, vhat = 0 and D = 0: H = 0,
 // fit_rotation gives the identity, and v' = q* exactly. At a segment with paper_constant weights: the
 // coefficients of that segment alone with constant weight (omega = 1/2 at each end), as if every other
@@ -48,6 +49,8 @@
 //   D (similarity only):       [v]
 #pragma once
 
+#include <contract.hpp>
+
 #include <mlsdeform/deformer.hpp>
 
 #include <cstddef>
@@ -57,10 +60,8 @@
 
 namespace mlsdeform::detail {
 
-/// Vertices per block (the widest SIMD register holds 16 floats).
-inline constexpr std::size_t kLanes = 16;
-/// Alignment of every precomputed array, in bytes (one cache line; the widest vector register).
-inline constexpr std::size_t kAlignment = 64;
+using kernels::kAlignment;
+using kernels::kLanes;
 
 template <class T>
 struct AlignedAllocator {
@@ -99,7 +100,7 @@ struct DeformerData {
   AlignedVector<T> D;         ///< similarity: sum_j A_j . phat_j (= sum_i w_i |phat_i|^2 / S), padded
 
   // WeightStorage::on_the_fly (rigid and similarity with point handles only): no table; per frame the
-  // weights are recomputed from the distances (deformer_scalar.hpp, deform_block_on_the_fly). Local frame:
+  // weights are recomputed from the distances (reference.hpp, deform_block_on_the_fly). Local frame:
   // x_local = (x - centre) / world_scale.
   bool on_the_fly = false;
   AlignedVector<T> v_local;   ///< rest vertices, local frame, SoA, padded
@@ -112,19 +113,15 @@ struct DeformerData {
   std::size_t pseudo_handles() const { return points + 2 * segments; }
   std::size_t padded() const { return blocks * kLanes; }
   /// Values per block and pseudo-handle: 4 (omega, Ax, Ay, Az) or 1 (alpha).
-  std::size_t components() const { return transform == Transform::affine ? 1 : 4; }
+  std::size_t components() const { return kernels::table_components(transform); }
   /// The 16-lane arrays of block b, pseudo-handle j: omega at [0], Ax at [16], Ay at [32], Az at [48]
   /// (rigid, similarity) or alpha at [0] (affine).
   const T* coefficients(std::size_t b, std::size_t j) const {
-    return table.data() + (b * pseudo_handles() + j) * components() * kLanes;
+    return table.data() + kernels::table_offset(b, j, pseudo_handles(), transform);
   }
   T* coefficients(std::size_t b, std::size_t j) {
-    return table.data() + (b * pseudo_handles() + j) * components() * kLanes;
+    return table.data() + kernels::table_offset(b, j, pseudo_handles(), transform);
   }
-  /// Coordinate c of the per-vertex SoA arrays, from vertex 16 b on.
-  const T* p_star_block(std::size_t b, int c) const { return p_star.data() + c * padded() + b * kLanes; }
-  const T* vhat_block(std::size_t b, int c) const { return vhat.data() + c * padded() + b * kLanes; }
-  const T* D_block(std::size_t b) const { return D.data() + b * kLanes; }
 
   std::size_t bytes() const {
     return (table.capacity() + p_star.capacity() + vhat.capacity() + D.capacity() + v_local.capacity() +

@@ -1,0 +1,59 @@
+#include "local_frame.hpp"
+
+#include "validation.hpp"
+
+#include <limits>
+#include <stdexcept>
+
+namespace mlsdeform::detail {
+
+using Vec3d = Eigen::Vector3d;
+
+template <class T>
+LocalFrame make_local_frame(const Points<T>& vertices, const Handles<T>& handles) {
+  Vec3d lo = Vec3d::Constant(std::numeric_limits<double>::infinity()), hi = -lo;
+  auto add = [&](const Points<T>& p) {
+    for (Eigen::Index i = 0; i < p.rows(); ++i) {
+      const Vec3d x = p.row(i).transpose().template cast<double>();
+      lo = lo.cwiseMin(x);
+      hi = hi.cwiseMax(x);
+    }
+  };
+  add(vertices);
+  add(handles.points);
+  add(handles.segment_a);
+  add(handles.segment_b);
+  LocalFrame s;
+  const Vec3d half = 0.5 * hi - 0.5 * lo;  // halves first: no overflow
+  s.centre = 0.5 * hi + 0.5 * lo;
+  const double m = half.maxCoeff();
+  const double diag = m > 0 ? 2 * m * (half / m).norm() : 0.0;
+  if (!(diag <= double(coordinate_limit<T>())))
+    throw std::invalid_argument("Deformer: the scene (bounding box of rest vertices and handles) is too large for the "
+                                "precision: diagonal " + num(diag));
+  s.e = diag > 0 ? std::ilogb(diag) : 0;
+  s.size_local = std::ldexp(diag, -s.e);
+  return s;
+}
+
+template <class T>
+RestHandles make_rest_handles(const Handles<T>& h, const LocalFrame& scene) {
+  RestHandles r;
+  r.k = static_cast<std::size_t>(h.points.rows());
+  r.s = static_cast<std::size_t>(h.segment_a.rows());
+  r.P.reserve(r.k + 2 * r.s);
+  for (Eigen::Index i = 0; i < h.points.rows(); ++i)
+    r.P.push_back(scene.local(h.points.row(i).transpose().template cast<double>()));
+  for (Eigen::Index i = 0; i < h.segment_a.rows(); ++i) {
+    r.P.push_back(scene.local(h.segment_a.row(i).transpose().template cast<double>()));
+    r.P.push_back(scene.local(h.segment_b.row(i).transpose().template cast<double>()));
+  }
+  return r;
+}
+
+template LocalFrame make_local_frame<float>(const Points<float>&, const Handles<float>&);
+template LocalFrame make_local_frame<double>(const Points<double>&, const Handles<double>&);
+template RestHandles make_rest_handles<float>(const Handles<float>&, const LocalFrame&);
+template RestHandles make_rest_handles<double>(const Handles<double>&, const LocalFrame&);
+
+}  // namespace mlsdeform::detail

@@ -1,0 +1,86 @@
+#include "precompute.hpp"
+
+#include "validation.hpp"
+
+#include <cmath>
+#include <cstdio>
+#include <limits>
+#include <stdexcept>
+#include <string>
+
+namespace mlsdeform::detail {
+
+namespace {
+
+/// WeightStorage (deformer.hpp): on the fly is implemented for rigid and similarity with point handles
+/// only. `automatic` picks it (and refuses settings without it) when the precomputed table (16 bytes per
+/// vertex and handle in float, 32 in double; affine 4 and 8) would exceed precompute_budget_bytes (default
+/// 32 MiB, about a last-level cache), so that it never allocates more than the budget: beyond the cache
+/// the table streams from memory every frame, and recomputing the weights (two passes of a few tens of flops
+/// per handle) costs about as much as reading 16-32 bytes per handle (bench/bench_scaling.cpp measures both).
+template <class T>
+bool use_on_the_fly(const Options& o, const RestHandles& rh, std::size_t padded) {
+  const bool supported = o.transform != Transform::affine && rh.s == 0;
+  if (o.weight_storage == WeightStorage::on_the_fly && !supported)
+    throw std::invalid_argument(std::string("Deformer: WeightStorage::on_the_fly supports rigid and similarity "
+                                            "transforms with point handles only (got ") +
+                                (o.transform == Transform::affine ? "the affine transform" : "segment handles") +
+                                "); use precomputed or automatic");
+  if (o.weight_storage != WeightStorage::automatic) return o.weight_storage == WeightStorage::on_the_fly;
+  const double components = o.transform == Transform::affine ? 1 : 4;
+  const double table = double(padded) * double(rh.P.size()) * components * sizeof(T);
+  if (!(table > double(o.precompute_budget_bytes))) return false;
+  if (supported) return true;
+  char msg[512];
+  std::snprintf(msg, sizeof msg,
+                "Deformer: the weight table would take %.1f MiB (%zu vertices x %zu pseudo-handles), over "
+                "precompute_budget_bytes = %.1f MiB, and on-the-fly weights support only rigid and similarity "
+                "transforms with point handles (got %s); raise Options::precompute_budget_bytes (CLI: "
+                "--weight-budget MiB) or set WeightStorage::precomputed to allow it",
+                table / 1048576.0, padded, rh.P.size(), double(o.precompute_budget_bytes) / 1048576.0,
+                o.transform == Transform::affine ? "the affine transform" : "segment handles");
+  throw std::invalid_argument(msg);
+}
+
+}  // namespace
+
+template <class T>
+DeformerData<T> precompute(const Points<T>& vertices, const Handles<T>& handles, const Options& o,
+                                   tbb::task_arena* arena) {
+  check_options(o);
+  check_points(vertices, "rest vertices", "", std::numeric_limits<T>::max());
+  check_handles(handles, "rest handles", std::numeric_limits<T>::max());
+  if (handles.points.rows() + handles.segment_a.rows() == 0)
+    throw std::invalid_argument("Deformer: no handles (need at least one point or segment handle)");
+  const LocalFrame scene = make_local_frame(vertices, handles);
+  const RestHandles rh = make_rest_handles(handles, scene);
+  // A segment shorter than the snapping distance is a point: reject it rather than divide by its length.
+  const double snap = 64 * double(std::numeric_limits<T>::epsilon()) * scene.size_local;
+  for (std::size_t q = 0; q < rh.s; ++q)
+    if (!((rh.P[rh.k + 2 * q + 1] - rh.P[rh.k + 2 * q]).norm() > snap))
+      throw std::invalid_argument("Deformer: segment handle " + std::to_string(q) +
+                                  " has zero length (|b - a| <= 64 eps times the scene size); use a point handle");
+  if (o.transform == Transform::affine) check_affine_rank<T>(rh.P);
+
+  DeformerData<T> data;
+  data.transform = o.transform;
+  data.n = static_cast<std::size_t>(vertices.rows());
+  data.blocks = (data.n + kLanes - 1) / kLanes;
+  data.points = rh.k;
+  data.segments = rh.s;
+  data.scale = std::ldexp(1.0, scene.e);
+  const std::size_t np = data.padded();
+  if (use_on_the_fly<T>(o, rh, np)) {
+    precompute_on_the_fly(data, vertices, scene, rh, o, arena);
+    return data;
+  }
+  precompute_table(data, vertices, scene, rh, o, arena);
+  return data;
+}
+
+template DeformerData<float> precompute<float>(const Points<float>&, const Handles<float>&, const Options&,
+                                               tbb::task_arena*);
+template DeformerData<double> precompute<double>(const Points<double>&, const Handles<double>&, const Options&,
+                                                 tbb::task_arena*);
+
+}  // namespace mlsdeform::detail

@@ -1,0 +1,31 @@
+// The rest-pose precomputation of paper Sec. 5 (what is stored: data.hpp): validation, the local frame, the
+// choice of weight storage, then the table (precompute_table.cpp) or the on-the-fly data
+// (precompute_on_the_fly.cpp), over blocks of kLanes vertices in parallel.
+#pragma once
+
+#include "data.hpp"
+#include "local_frame.hpp"
+
+#include <mlsdeform/deformer.hpp>
+
+#include <tbb/task_arena.h>
+
+namespace mlsdeform::detail {
+
+/// Validates the rest pose and builds the session data. Throws std::invalid_argument (nothing is changed).
+template <class T>
+DeformerData<T> precompute(const Points<T>& vertices, const Handles<T>& handles, const Options& o,
+                           tbb::task_arena* arena);
+
+/// The coefficient table (data.table, p_star, vhat, D) of every block.
+template <class T>
+void precompute_table(DeformerData<T>& data, const Points<T>& vertices, const LocalFrame& scene,
+                      const RestHandles& rh, const Options& o, tbb::task_arena* arena);
+
+/// The on-the-fly session data: the rest vertices and handles in the local frame, each vertex's squared
+/// distance to its nearest handle (weights are relative to it), and the handle a vertex sits on, if any.
+template <class T>
+void precompute_on_the_fly(DeformerData<T>& data, const Points<T>& vertices, const LocalFrame& scene,
+                           const RestHandles& rh, const Options& o, tbb::task_arena* arena);
+
+}  // namespace mlsdeform::detail

@@ -1,0 +1,52 @@
+// Paper Sec. 5 for on-the-fly weights (WeightStorage::on_the_fly): no table; the rest geometry in the local
+// frame, from which the kernels recompute the weights every frame (core/src/deformer/reference.hpp).
+#include "precompute.hpp"
+
+#include "../parallel.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+namespace mlsdeform::detail {
+
+using Vec3d = Eigen::Vector3d;
+
+template <class T>
+void precompute_on_the_fly(DeformerData<T>& data, const Points<T>& vertices, const LocalFrame& scene,
+                           const RestHandles& rh, const Options& o, tbb::task_arena* arena) {
+  const std::size_t np = data.padded(), k = rh.k;
+  data.on_the_fly = true;
+  data.world_scale = std::ldexp(1.0, scene.e);
+  data.half_u = T(o.weight_exponent / 2);
+  data.v_local.assign(3 * np, T(0));
+  data.dref2.assign(np, T(1));
+  data.snap.assign(np, T(-1));
+  data.p_local.assign(3 * k, T(0));
+  for (std::size_t j = 0; j < k; ++j)
+    for (int c = 0; c < 3; ++c) data.p_local[std::size_t(c) * k + j] = T(rh.P[j][c]);
+  const double snap = 64 * double(std::numeric_limits<T>::epsilon()) * scene.size_local;
+  parallel_ranges(data.blocks, o.threads, arena, [&](std::size_t b0, std::size_t b1) {
+    for (std::size_t i = b0 * kLanes; i < std::min(data.n, b1 * kLanes); ++i) {
+      const Vec3d v = scene.local(vertices.row(static_cast<Eigen::Index>(i)).transpose().template cast<double>());
+      double d2 = std::numeric_limits<double>::infinity();
+      std::size_t nearest = 0;
+      for (std::size_t j = 0; j < k; ++j) {
+        // The same rounded coordinates the per-frame pass uses, so that the nearest handle gets w = 1.
+        const Vec3d p(double(data.p_local[j]), double(data.p_local[k + j]), double(data.p_local[2 * k + j]));
+        const double dj = (p - Vec3d(double(T(v[0])), double(T(v[1])), double(T(v[2])))).squaredNorm();
+        if (dj < d2) d2 = dj, nearest = j;
+      }
+      for (int c = 0; c < 3; ++c) data.v_local[std::size_t(c) * np + i] = T(v[c]);
+      data.dref2[i] = T(d2);
+      if (!(std::sqrt(d2) > snap) || !(T(d2) > T(0))) data.snap[i] = T(nearest);
+    }
+  });
+}
+
+template void precompute_on_the_fly<float>(DeformerData<float>&, const Points<float>&, const LocalFrame&,
+                                           const RestHandles&, const Options&, tbb::task_arena*);
+template void precompute_on_the_fly<double>(DeformerData<double>&, const Points<double>&, const LocalFrame&,
+                                            const RestHandles&, const Options&, tbb::task_arena*);
+
+}  // namespace mlsdeform::detail

@@ -1,0 +1,206 @@
+// Paper Sec. 5 for precomputed weights: per vertex, the centroid weights omega_j and the vectors A_j (or the
+// affine alpha_j), p*, vhat and D, in double in the local frame, rounded to T once (data.hpp has the algebra).
+#include "precompute.hpp"
+
+#include "../parallel.hpp"
+#include "weights.hpp"
+
+#include <Eigen/Eigenvalues>
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <vector>
+
+namespace mlsdeform::detail {
+
+namespace {
+
+using Vec3d = Eigen::Vector3d;
+
+/// Sec. 5: the rest-pose precomputation for the vertices of block b (see deformer_data.hpp for what is
+/// stored). Everything in double in the local frame; results rounded to T once, at the end.
+template <class T>
+void precompute_block(DeformerData<T>& data, std::size_t b, const Points<T>& vertices, const LocalFrame& scene,
+                      const RestHandles& rh, const Options& o) {
+  const std::size_t J = rh.P.size(), k = rh.k, s = rh.s;
+  const double u = o.weight_exponent;
+  // A vertex this close to a handle maps exactly to its target (no 0 * inf, no overflow of w = d^-u).
+  const double snap = 64 * double(std::numeric_limits<T>::epsilon()) * scene.size_local;
+  const bool affine = data.transform == Transform::affine;
+  const bool exact = o.segment_weight == SegmentWeight::exact_integral;
+  std::vector<double> dist(k), omega(J);
+  std::vector<SegmentGeometry> geo(s);
+  std::vector<SegmentMoments> mom(s);
+  std::vector<Vec3d> A(J);
+  const std::size_t first = b * kLanes, count = std::min(kLanes, data.n - first), np = data.padded();
+  for (std::size_t lane = 0; lane < count; ++lane) {
+    const std::size_t i = first + lane;
+    const Vec3d v = scene.local(vertices.row(static_cast<Eigen::Index>(i)).transpose().template cast<double>());
+    // Distances to every handle; the nearest one.
+    double d_min = std::numeric_limits<double>::infinity();
+    std::size_t nearest = 0;  // point index, or k + segment index
+    for (std::size_t p = 0; p < k; ++p) {
+      dist[p] = (rh.P[p] - v).norm();
+      if (dist[p] < d_min) d_min = dist[p], nearest = p;
+    }
+    for (std::size_t q = 0; q < s; ++q) {
+      geo[q] = segment_geometry(v, rh.P[k + 2 * q], rh.P[k + 2 * q + 1]);
+      if (geo[q].d < d_min) d_min = geo[q].d, nearest = k + q;
+    }
+    std::fill(omega.begin(), omega.end(), 0.0);
+    std::fill(A.begin(), A.end(), Vec3d::Zero());
+    Vec3d p_star, vhat = Vec3d::Zero();
+    double D = 0;
+    Eigen::Matrix3d G_vertex = Eigen::Matrix3d::Zero();  // G = sum_j A_j phat_j^T, symmetric (affine; D = trace)
+    // At a handle (closer than `snap`) the vertex takes the map's limit there, so that the map is continuous:
+    //   point handle, or segment with exact_integral weights: the weight concentrates at the closest point,
+    //     and the limit is the interpolation f(p_i) = q_i (Sec. 3), (1 - t) c + t d on a segment;
+    //   segment with paper_constant weights: the segment's weight is constant along it (Sec. 6.2), so the
+    //     limit is the fit to that segment alone (every other weight vanishes relative to it): p* and q* its
+    //     midpoints, H = (d - c)(b - a)^T / 12. Rigid maps a stretched segment rigidly, not onto c..d, so
+    //     interpolating there would be a jump; similarity and affine reproduce (1 - t) c + t d.
+    const bool snapped = d_min <= snap;
+    const bool interpolate = snapped && (nearest < k || exact);
+    if (interpolate) {
+      // All weight on the nearest handle, A = 0, vhat = 0.
+      if (nearest < k) {
+        omega[nearest] = 1;
+        p_star = rh.P[nearest];
+      } else {
+        const std::size_t q = nearest - k;
+        const double t = geo[q].tc;
+        omega[k + 2 * q] = 1 - t;
+        omega[k + 2 * q + 1] = t;
+        p_star = (1 - t) * rh.P[k + 2 * q] + t * rh.P[k + 2 * q + 1];
+      }
+    } else {
+      // Weights relative to the nearest handle (weights.hpp): the nearest has weight 1, all are in [0, 1].
+      // Snapped to a paper_constant segment: only that segment, with relative weight 1 (the limit above).
+      double S = 0;
+      for (std::size_t p = 0; p < k; ++p) {
+        omega[p] = snapped ? 0.0 : relative_weight(d_min / dist[p], u);
+        S += omega[p];
+      }
+      for (std::size_t q = 0; q < s; ++q) {
+        if (snapped)
+          mom[q] = q + k == nearest ? segment_moments_of_constant(1.0, geo[q].tc) : SegmentMoments{};
+        else
+          mom[q] = exact ? segment_moments_exact(geo[q], d_min, u)
+                         : segment_moments_constant(geo[q], d_min, u);
+        S += mom[q].I0 + 2 * mom[q].I1 + mom[q].I2;
+      }
+      // Weighted centroid p* (eq. 2; Sec. 6.2: segment end points weighted by int w (1-t) and int w t).
+      for (std::size_t p = 0; p < k; ++p) omega[p] /= S;
+      for (std::size_t q = 0; q < s; ++q) {
+        omega[k + 2 * q] = (mom[q].I0 + mom[q].I1) / S;
+        omega[k + 2 * q + 1] = (mom[q].I1 + mom[q].I2) / S;
+      }
+      p_star.setZero();
+      for (std::size_t j = 0; j < J; ++j) p_star += omega[j] * rh.P[j];
+      // A_j (deformer_data.hpp): sum_j q_j A_j^T = sum_i w_i qhat_i phat_i^T / S, with the segments' W_i.
+      // Segments about their closest point pc = p(tc): phat(t) = g + (t - tc) e with g = pc - p* and e = b - a,
+      // so A_c = int w (1 - t) phat / S = (g (I0 + I1) + e ((1 - tc) J1 - J2)) / S and
+      // A_d = int w t phat / S = (g (I1 + I2) + e (tc J1 + J2)) / S: near a segment g, J1 and J2 are small
+      // and each term keeps its relative accuracy (as I0 ahat + I1 bhat the O(1) end points would cancel).
+      // The segment's share of G = sum_i int w phat phat^T / S (affine) and of D = trace G (similarity) is
+      // (J0 g g^T + J1 (g e^T + e g^T) + J2 e e^T) / S likewise, J0 = I0 + 2 I1 + I2.
+      Eigen::Matrix3d G = Eigen::Matrix3d::Zero();
+      for (std::size_t p = 0; p < k; ++p) {
+        A[p] = omega[p] * (rh.P[p] - p_star);
+        G += A[p] * (rh.P[p] - p_star).transpose();
+      }
+      for (std::size_t q = 0; q < s; ++q) {
+        const SegmentMoments& m = mom[q];
+        const Vec3d a = rh.P[k + 2 * q], e = rh.P[k + 2 * q + 1] - a;
+        const double tc = geo[q].tc;
+        const Vec3d g = (a + tc * e) - p_star;
+        A[k + 2 * q] = (g * (m.I0 + m.I1) + e * ((1 - tc) * m.J1 - m.J2)) / S;
+        A[k + 2 * q + 1] = (g * (m.I1 + m.I2) + e * (tc * m.J1 + m.J2)) / S;
+        const double J0 = m.I0 + 2 * m.I1 + m.I2;
+        G += (J0 * g * g.transpose() + m.J1 * (g * e.transpose() + e * g.transpose()) + m.J2 * e * e.transpose()) / S;
+      }
+      // sum_j A_j = 0 exactly, but the rounding error of p* (eps times the scene size, shared by every
+      // phat_j) enters each A_j as -omega_j dp* and their sum as -dp*: near a handle, where every A_j is
+      // small (omega_j tiny or phat_j tiny), that common error would dominate H = sum q_j A_j^T. Project it
+      // out: A_j -= omega_j sum_k A_k removes any error of the form -omega_j d (sum_j omega_j = 1), so what
+      // remains of each A_j is its own relative rounding.
+      Vec3d sum_A = Vec3d::Zero();
+      for (std::size_t j = 0; j < J; ++j) sum_A += A[j];
+      for (std::size_t j = 0; j < J; ++j) A[j] -= omega[j] * sum_A;
+      vhat = v - p_star;
+      // Sec. 6.1: D = sum_i w_i |phat_i|^2 / S (segments: int w |phat(t)|^2 / S).
+      D = G.trace();
+      G_vertex = 0.5 * (G + G.transpose());
+    }
+    // H matters only up to a positive factor (the rotation fit is scale-invariant and mu = trace(R^T H) / D,
+    // and for affine only H G^-1 does), so A and D are scaled per vertex by a power of two 2^s that brings
+    // sum_j |A_j|_1 into [1, 2): near a handle every A_j is about (d_min / d)^u, which for u = 8 is below the
+    // float range a few 1e-5 of the scene away, and would drop out of H entirely; for affine, G^-1 vhat
+    // would overflow where G is that small. (The sum, not the largest: |H| <= 2 max_j |q_j - c|.)
+    double a_sum = 0;
+    for (std::size_t j = 0; j < J; ++j) a_sum += A[j].cwiseAbs().sum();
+    const int s_v = a_sum > 0 ? -std::ilogb(a_sum) : 0;
+    for (std::size_t j = 0; j < J; ++j)
+      for (int c = 0; c < 3; ++c) A[j][c] = std::ldexp(A[j][c], s_v);
+    D = std::ldexp(D, s_v);
+    G_vertex *= std::ldexp(1.0, s_v);
+    if (affine) {
+      // Normal equations: L G = H with G = sum_j A_j phat_j^T (symmetric positive definite when the handles
+      // span 3D), so v' = q* + H G^-1 vhat = sum_j (omega_j + A_j . G^-1 vhat) q_j. G is solved through its
+      // eigen-decomposition; eigenvalues below 64 eps lambda_max (reachable only when weights leave the
+      // double range, u log10(d_min / d) < -300) are dropped (minimum-norm solution) instead of dividing by
+      // rounding noise.
+      Vec3d x = Vec3d::Zero();
+      if (vhat != Vec3d::Zero()) {
+        const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> es(G_vertex);
+        const Vec3d lambda = es.eigenvalues();
+        const double cut = 64 * std::numeric_limits<double>::epsilon() * lambda[2];
+        for (int c = 0; c < 3; ++c)
+          if (lambda[c] > cut) x += (es.eigenvectors().col(c).dot(vhat) / lambda[c]) * es.eigenvectors().col(c);
+      }
+      // alpha_j = omega_j + beta_j with beta_j = A_j . x; as for A, project beta onto sum_j beta_j = 0 so
+      // that the rounding of x (relative eps kappa(G)) cannot move q* = sum_j omega_j q_j.
+      double sum_beta = 0;
+      for (std::size_t j = 0; j < J; ++j) sum_beta += A[j].dot(x);
+      for (std::size_t j = 0; j < J; ++j)
+        data.coefficients(b, j)[lane] = T(omega[j] + (A[j].dot(x) - omega[j] * sum_beta));
+    } else {
+      for (std::size_t j = 0; j < J; ++j) {
+        T* co = data.coefficients(b, j) + lane;
+        co[0] = T(omega[j]);
+        for (int c = 0; c < 3; ++c) co[(c + 1) * kLanes] = T(A[j][c]);
+      }
+      for (int c = 0; c < 3; ++c) {
+        data.p_star[c * np + i] = T(scene.centre[c] + std::ldexp(p_star[c], scene.e));
+        data.vhat[c * np + i] = T(std::ldexp(vhat[c], scene.e));
+      }
+      // Units (deformer_data.hpp): A in local units times 2^s, D as (physical D) / 2^e times 2^s.
+      if (data.transform == Transform::similarity) data.D[i] = T(std::ldexp(D, scene.e));
+    }
+  }
+}
+
+}  // namespace
+
+template <class T>
+void precompute_table(DeformerData<T>& data, const Points<T>& vertices, const LocalFrame& scene,
+                      const RestHandles& rh, const Options& o, tbb::task_arena* arena) {
+  const std::size_t np = data.padded();
+  data.table.assign(np * rh.P.size() * data.components(), T(0));
+  if (o.transform != Transform::affine) {
+    data.p_star.assign(3 * np, T(0));
+    data.vhat.assign(3 * np, T(0));
+  }
+  if (o.transform == Transform::similarity) data.D.assign(np, T(0));
+  parallel_ranges(data.blocks, o.threads, arena, [&](std::size_t b0, std::size_t b1) {
+    for (std::size_t b = b0; b < b1; ++b) precompute_block(data, b, vertices, scene, rh, o);
+  });
+}
+
+template void precompute_table<float>(DeformerData<float>&, const Points<float>&, const LocalFrame&,
+                                      const RestHandles&, const Options&, tbb::task_arena*);
+template void precompute_table<double>(DeformerData<double>&, const Points<double>&, const LocalFrame&,
+                                       const RestHandles&, const Options&, tbb::task_arena*);
+
+}  // namespace mlsdeform::detail

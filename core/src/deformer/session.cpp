@@ -1,0 +1,225 @@
+// The Deformer session (deformer.hpp): construction (precompute.hpp), targets, and the per-frame driver that
+// hands a DeformFrame (kernels/contract.hpp) to the kernel table over blocks of kLanes vertices.
+#include "../dispatch.hpp"
+#include "../parallel.hpp"
+#include "precompute.hpp"
+#include "validation.hpp"
+
+#include <mlsdeform/deformer.hpp>
+
+#include <memory>
+#include <stdexcept>
+#include <string>
+#include <type_traits>
+#include <utility>
+
+namespace mlsdeform {
+
+namespace detail {
+
+/// The centring point c of the correlation matrix: the mean target, summed in pseudo-handle order in T.
+template <class T>
+Vector3<T> target_centre(const Handles<T>& q) {
+  T sx = 0, sy = 0, sz = 0;
+  std::size_t J = 0;
+  auto add = [&](const Points<T>& p) {
+    for (Eigen::Index i = 0; i < p.rows(); ++i) sx += p(i, 0), sy += p(i, 1), sz += p(i, 2), ++J;
+  };
+  add(q.points);
+  for (Eigen::Index i = 0; i < q.segment_a.rows(); ++i) {
+    sx += q.segment_a(i, 0), sy += q.segment_a(i, 1), sz += q.segment_a(i, 2);
+    sx += q.segment_b(i, 0), sy += q.segment_b(i, 1), sz += q.segment_b(i, 2);
+    J += 2;
+  }
+  if (J == 0) return Vector3<T>::Zero();
+  const T inv = T(1) / T(J);
+  return Vector3<T>(sx * inv, sy * inv, sz * inv);
+}
+
+}  // namespace detail
+
+template <class T>
+struct Deformer<T>::Impl {
+  Options options;
+  Handles<T> rest, targets;
+  detail::CoincidentPairs coincident;  ///< point handles at one rest position
+  detail::DeformerData<T> data;
+  std::unique_ptr<tbb::task_arena> arena;
+
+  /// The kernel for this session's settings: the active ISA's, or the scalar reference's for Backend::scalar,
+  /// Isa::scalar, or a rotation method without a SIMD kernel (kanatani, horn_matrix, svd).
+  kernels::DeformBlocksFn<T> kernel() const {
+    const bool in_lanes = data.transform == Transform::affine || options.method == RotationMethod::axis_angle ||
+                          options.method == RotationMethod::horn_quaternion;
+    const kernels::KernelTable& k =
+        options.backend == Backend::simd && in_lanes ? detail::active_kernels() : kernels::kernel_table_scalar();
+    if constexpr (std::is_same_v<T, float>) return k.deform_f;
+    else return k.deform_d;
+  }
+
+  /// One frame for validated `moved`: vertex v, coordinate c goes to out[c * cstride + v * vstride]. Nothing
+  /// is allocated here; scratch lives on the stack of each block.
+  void run(const Handles<T>& moved, T* out, std::size_t vstride, std::size_t cstride) const {
+    kernels::DeformFrame<T> fr{};
+    fr.transform = data.transform;
+    fr.method = options.method;
+    fr.weights = data.on_the_fly ? kernels::WeightSource::on_the_fly : kernels::WeightSource::table;
+    fr.n = data.n;
+    fr.padded = data.padded();
+    fr.table = data.table.empty() ? nullptr : data.table.data();
+    fr.vhat = data.vhat.empty() ? nullptr : data.vhat.data();
+    fr.D = data.D.empty() ? nullptr : data.D.data();
+    if (data.on_the_fly) {
+      fr.v_local = data.v_local.data();
+      fr.dref2 = data.dref2.data();
+      fr.snap = data.snap.data();
+      fr.p_local = data.p_local.data();
+      fr.world_scale = T(data.world_scale);
+      fr.half_u = data.half_u;
+    }
+    fr.points = moved.points.data();
+    fr.k = static_cast<std::size_t>(moved.points.rows());
+    fr.seg_a = moved.segment_a.data();
+    fr.seg_b = moved.segment_b.data();
+    fr.s = static_cast<std::size_t>(moved.segment_a.rows());
+    if (data.transform != Transform::affine) {
+      const Vector3<T> c = detail::target_centre(moved);
+      for (int i = 0; i < 3; ++i) fr.centre[i] = c[i];
+    }
+    fr.out = out;
+    fr.out_vertex_stride = vstride;
+    fr.out_coord_stride = cstride;
+    const kernels::DeformBlocksFn<T> blocks = kernel();
+    detail::parallel_ranges(data.blocks, options.threads, arena.get(),
+                            [&](std::size_t b0, std::size_t b1) { blocks(fr, b0, b1); });
+  }
+};
+
+template <class T>
+Deformer<T>::Deformer(const Points<T>& rest_vertices, const Handles<T>& rest_handles, const Options& options)
+    : impl_(std::make_unique<Impl>()) {
+  detail::check_options(options);
+  impl_->options = options;
+  impl_->arena = detail::make_arena(options.threads);
+  impl_->data = detail::precompute(rest_vertices, rest_handles, options, impl_->arena.get());
+  impl_->rest = rest_handles;
+  impl_->targets = rest_handles;
+  impl_->coincident = detail::coincident_points(rest_handles.points);
+}
+
+template <class T>
+typename Deformer<T>::Impl& Deformer<T>::impl() {
+  if (!impl_) throw std::logic_error("Deformer: this session was moved from; assign a new one before use");
+  return *impl_;
+}
+
+template <class T>
+const typename Deformer<T>::Impl& Deformer<T>::impl() const {
+  if (!impl_) throw std::logic_error("Deformer: this session was moved from; assign a new one before use");
+  return *impl_;
+}
+
+template <class T>
+Deformer<T>::~Deformer() = default;
+template <class T>
+Deformer<T>::Deformer(Deformer&&) noexcept = default;
+template <class T>
+Deformer<T>& Deformer<T>::operator=(Deformer&&) noexcept = default;
+
+template <class T>
+void Deformer<T>::deform(const Handles<T>& moved_handles, Points<T>& out) const {
+  detail::check_moved(moved_handles, impl().rest);
+  detail::check_coincident(moved_handles, impl().coincident);
+  const auto n = static_cast<Eigen::Index>(impl().data.n);
+  if (out.rows() != n) out.resize(n, 3);
+  impl().run(moved_handles, out.data(), 1, static_cast<std::size_t>(n));
+}
+
+template <class T>
+void Deformer<T>::deform(const Handles<T>& moved_handles, InterleavedView<T> out) const {
+  detail::check_moved(moved_handles, impl().rest);
+  detail::check_coincident(moved_handles, impl().coincident);
+  if (out.rows() != static_cast<Eigen::Index>(impl().data.n))
+    throw std::invalid_argument("Deformer: the interleaved output has " + std::to_string(out.rows()) +
+                                " rows but the model has " + std::to_string(impl().data.n) + " vertices");
+  impl().run(moved_handles, out.data(), 3, 1);
+}
+
+template <class T>
+void Deformer<T>::set_point_target(Eigen::Index i, const Vector3<T>& target) {
+  if (i < 0 || i >= impl().targets.points.rows())
+    throw std::out_of_range("Deformer::set_point_target: index " + std::to_string(i) + " but " +
+                            std::to_string(impl().targets.points.rows()) + " point handles");
+  if (!target.allFinite() || target.cwiseAbs().maxCoeff() > detail::coordinate_limit<T>())
+    throw std::invalid_argument("Deformer::set_point_target: non-finite or too large coordinate");
+  impl().targets.points.row(i) = target.transpose();
+}
+
+template <class T>
+void Deformer<T>::set_segment_target(Eigen::Index i, const Vector3<T>& a, const Vector3<T>& b) {
+  if (i < 0 || i >= impl().targets.segment_a.rows())
+    throw std::out_of_range("Deformer::set_segment_target: index " + std::to_string(i) + " but " +
+                            std::to_string(impl().targets.segment_a.rows()) + " segment handles");
+  if (!a.allFinite() || !b.allFinite() || a.cwiseAbs().maxCoeff() > detail::coordinate_limit<T>() ||
+      b.cwiseAbs().maxCoeff() > detail::coordinate_limit<T>())
+    throw std::invalid_argument("Deformer::set_segment_target: non-finite or too large coordinate");
+  impl().targets.segment_a.row(i) = a.transpose();
+  impl().targets.segment_b.row(i) = b.transpose();
+}
+
+template <class T>
+const Handles<T>& Deformer<T>::targets() const {
+  return impl().targets;
+}
+
+template <class T>
+void Deformer<T>::deform(Points<T>& out) const {
+  deform(impl().targets, out);
+}
+
+template <class T>
+void Deformer<T>::deform(InterleavedView<T> out) const {
+  deform(impl().targets, out);
+}
+
+template <class T>
+void Deformer<T>::reset_rest_pose(const Points<T>& rest_vertices, const Handles<T>& rest_handles) {
+  // Strong guarantee: build everything first, then commit with non-throwing moves.
+  detail::DeformerData<T> data = detail::precompute(rest_vertices, rest_handles, impl().options, impl().arena.get());
+  Handles<T> rest = rest_handles, targets = rest_handles;
+  auto coincident = detail::coincident_points(rest_handles.points);
+  impl().data = std::move(data);
+  impl().rest = std::move(rest);
+  impl().targets = std::move(targets);
+  impl().coincident = std::move(coincident);
+}
+
+template <class T>
+Eigen::Index Deformer<T>::vertex_count() const {
+  return static_cast<Eigen::Index>(impl().data.n);
+}
+
+template <class T>
+const Options& Deformer<T>::options() const {
+  return impl().options;
+}
+
+template <class T>
+std::size_t Deformer<T>::memory_bytes() const {
+  // Everything the session holds on the heap: the table and per-vertex arrays, and the rest and target
+  // handles (3 coordinates each).
+  const auto handle_values = [](const Handles<T>& h) {
+    return static_cast<std::size_t>(h.points.size() + h.segment_a.size() + h.segment_b.size());
+  };
+  return impl().data.bytes() + (handle_values(impl().rest) + handle_values(impl().targets)) * sizeof(T);
+}
+
+template <class T>
+bool Deformer<T>::uses_precomputed_weights() const {
+  return !impl().data.on_the_fly;
+}
+
+template class Deformer<float>;
+template class Deformer<double>;
+
+}  // namespace mlsdeform

@@ -1,0 +1,139 @@
+#include "validation.hpp"
+
+#include <Eigen/SVD>
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <cstdio>
+#include <iterator>
+#include <stdexcept>
+
+namespace mlsdeform::detail {
+
+using Vec3d = Eigen::Vector3d;
+
+std::string num(double x) {
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%.17g", x);
+  return buf;
+}
+
+void check_options(const Options& o) {
+  if (!std::isfinite(o.weight_exponent) || o.weight_exponent < 1.0)
+    throw std::invalid_argument("Deformer: weight_exponent must be a finite real >= 1 (got " + num(o.weight_exponent) +
+                                ")");
+  if (o.transform != Transform::rigid && o.transform != Transform::similarity && o.transform != Transform::affine)
+    throw std::invalid_argument("Deformer: unknown Transform value " + std::to_string(static_cast<int>(o.transform)));
+  if (std::find(std::begin(all_rotation_methods), std::end(all_rotation_methods), o.method) ==
+      std::end(all_rotation_methods))
+    throw std::invalid_argument("Deformer: unknown RotationMethod value " + std::to_string(static_cast<int>(o.method)));
+  if (o.segment_weight != SegmentWeight::paper_constant && o.segment_weight != SegmentWeight::exact_integral)
+    throw std::invalid_argument("Deformer: unknown SegmentWeight value " +
+                                std::to_string(static_cast<int>(o.segment_weight)));
+  if (o.backend != Backend::simd && o.backend != Backend::scalar)
+    throw std::invalid_argument("Deformer: unknown Backend value " + std::to_string(static_cast<int>(o.backend)));
+  if (o.weight_storage != WeightStorage::automatic && o.weight_storage != WeightStorage::precomputed &&
+      o.weight_storage != WeightStorage::on_the_fly)
+    throw std::invalid_argument("Deformer: unknown WeightStorage value " +
+                                std::to_string(static_cast<int>(o.weight_storage)));
+  if (o.threads < 0) throw std::invalid_argument("Deformer: threads must be >= 0 (got " + std::to_string(o.threads) + ")");
+}
+
+template <class T>
+void check_points(const Points<T>& p, const char* what, const char* part, T limit) {
+  for (Eigen::Index i = 0; i < p.rows(); ++i)
+    for (Eigen::Index c = 0; c < 3; ++c) {
+      const T x = p(i, c);
+      if (!std::isfinite(x))
+        throw std::invalid_argument(std::string("Deformer: non-finite coordinate in ") + what + part + " (row " +
+                                    std::to_string(i) + ")");
+      if (std::abs(x) > limit)
+        throw std::invalid_argument(std::string("Deformer: coordinate too large in ") + what + part + " (row " +
+                                    std::to_string(i) + ": " + num(double(x)) + ", limit " + num(double(limit)) + ")");
+    }
+}
+
+template <class T>
+void check_handles(const Handles<T>& h, const char* what, T limit) {
+  if (h.segment_a.rows() != h.segment_b.rows())
+    throw std::invalid_argument(std::string("Deformer: ") + what + " have " + std::to_string(h.segment_a.rows()) +
+                                " segment start points (segment_a) but " + std::to_string(h.segment_b.rows()) +
+                                " end points (segment_b)");
+  check_points(h.points, what, " points", limit);
+  check_points(h.segment_a, what, " segment_a", limit);
+  check_points(h.segment_b, what, " segment_b", limit);
+}
+
+template <class T>
+void check_moved(const Handles<T>& moved, const Handles<T>& rest) {
+  if (moved.points.rows() != rest.points.rows())
+    throw std::invalid_argument("Deformer: " + std::to_string(rest.points.rows()) + " point handles at rest but " +
+                                std::to_string(moved.points.rows()) + " moved point handles");
+  if (moved.segment_a.rows() != rest.segment_a.rows() || moved.segment_b.rows() != rest.segment_b.rows())
+    throw std::invalid_argument("Deformer: " + std::to_string(rest.segment_a.rows()) + " segment handles at rest but " +
+                                std::to_string(moved.segment_a.rows()) + " moved segment_a and " +
+                                std::to_string(moved.segment_b.rows()) + " moved segment_b rows");
+  check_handles(moved, "moved handles", coordinate_limit<T>());
+}
+
+template <class T>
+void check_affine_rank(const std::vector<Vec3d>& P) {
+  const std::size_t J = P.size();
+  if (J < 4)
+    throw std::invalid_argument("Deformer: the affine transform needs handles spanning 3D (at least four non-coplanar "
+                                "points, segment end points included); got " + std::to_string(J));
+  Vec3d mean = Vec3d::Zero();
+  for (const Vec3d& p : P) mean += p;
+  mean /= double(J);
+  Eigen::Matrix<double, Eigen::Dynamic, 3> M(static_cast<Eigen::Index>(J), 3);
+  for (std::size_t j = 0; j < J; ++j) M.row(static_cast<Eigen::Index>(j)) = (P[j] - mean).transpose();
+  const Vec3d sv = Eigen::JacobiSVD<Eigen::Matrix<double, Eigen::Dynamic, 3>>(M).singularValues();
+  const double tol = double(std::max<std::size_t>(J, 3)) * double(std::numeric_limits<T>::epsilon()) * sv[0];
+  if (!(sv[2] > tol))
+    throw std::invalid_argument("Deformer: the affine transform needs handles spanning 3D, but the handle points are " +
+                                std::string(sv[1] > tol ? "coplanar" : "collinear") + " (singular values " +
+                                num(sv[0]) + ", " + num(sv[1]) + ", " + num(sv[2]) + ")");
+}
+
+template <class T>
+CoincidentPairs coincident_points(const Points<T>& p) {
+  std::vector<Eigen::Index> order(static_cast<std::size_t>(p.rows()));
+  for (std::size_t i = 0; i < order.size(); ++i) order[i] = static_cast<Eigen::Index>(i);
+  const auto key = [&p](Eigen::Index i) { return std::array<T, 3>{p(i, 0), p(i, 1), p(i, 2)}; };
+  std::stable_sort(order.begin(), order.end(), [&](Eigen::Index a, Eigen::Index b) { return key(a) < key(b); });
+  CoincidentPairs pairs;
+  for (std::size_t a = 0; a < order.size();) {
+    std::size_t b = a + 1;
+    while (b < order.size() && key(order[b]) == key(order[a])) ++b;
+    for (std::size_t c = a + 1; c < b; ++c)
+      pairs.emplace_back(std::min(order[a], order[c]), std::max(order[a], order[c]));
+    a = b;
+  }
+  return pairs;
+}
+
+template <class T>
+void check_coincident(const Handles<T>& moved, const CoincidentPairs& pairs) {
+  for (const auto& [i, j] : pairs)
+    if (moved.points.row(i) != moved.points.row(j))
+      throw std::invalid_argument("Deformer: point handles " + std::to_string(i) + " and " + std::to_string(j) +
+                                  " share their rest position but have different targets (" +
+                                  num(double(moved.points(i, 0))) + ", " + num(double(moved.points(i, 1))) + ", " +
+                                  num(double(moved.points(i, 2))) + ") and (" + num(double(moved.points(j, 0))) +
+                                  ", " + num(double(moved.points(j, 1))) + ", " + num(double(moved.points(j, 2))) +
+                                  "); a vertex there cannot follow both");
+}
+
+#define MLSDEFORM_VALIDATION(T)                                                                   \
+  template void check_points<T>(const Points<T>&, const char*, const char*, T);                    \
+  template void check_handles<T>(const Handles<T>&, const char*, T);                               \
+  template void check_moved<T>(const Handles<T>&, const Handles<T>&);                              \
+  template void check_affine_rank<T>(const std::vector<Vec3d>&);                                   \
+  template CoincidentPairs coincident_points<T>(const Points<T>&);                                 \
+  template void check_coincident<T>(const Handles<T>&, const CoincidentPairs&);
+MLSDEFORM_VALIDATION(float)
+MLSDEFORM_VALIDATION(double)
+#undef MLSDEFORM_VALIDATION
+
+}  // namespace mlsdeform::detail

@@ -1,0 +1,40 @@
+// The library's one TBB driver: the deformer's frames and precomputation (over blocks of kLanes vertices) and
+// the batched rotation fit (over chunks of matrices) both run through it, with one arena policy.
+#pragma once
+
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+#include <tbb/task_arena.h>
+
+#include <cstddef>
+#include <memory>
+
+namespace mlsdeform::detail {
+
+/// The arena for Options::threads / fit_rotations' `threads`: 0 = TBB's default arena (all cores, nullptr);
+/// 1 = serial, no TBB at all (nullptr); more = an arena of that many, capped at the hardware's (TBB would
+/// ignore the excess anyway, with a warning on stderr).
+std::unique_ptr<tbb::task_arena> make_arena(int threads);
+
+/// Calls f(begin, end) on sub-ranges covering [0, count): once with the whole range when threads == 1 or
+/// count <= 1, else from tbb::parallel_for (in `arena` if given, else the calling thread's arena). Each
+/// index's work must not depend on how the range is cut (every caller's results are bitwise the same for
+/// any thread count).
+template <class F>
+void parallel_ranges(std::size_t count, int threads, tbb::task_arena* arena, const F& f) {
+  if (count == 0) return;
+  if (threads == 1 || count == 1) {
+    f(std::size_t(0), count);
+    return;
+  }
+  auto run = [&] {
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, count),
+                      [&](const tbb::blocked_range<std::size_t>& r) { f(r.begin(), r.end()); });
+  };
+  if (arena)
+    arena->execute(run);
+  else
+    run();
+}
+
+}  // namespace mlsdeform::detail

@@ -1,0 +1,52 @@
+// The paper's closed-form rotation fit (Sec. 4.3-4.6, Algorithm 1 steps 3-7), scalar reference.
+//
+// Written to be read beside the paper; kernels/rotation/axis_angle.hpp computes the same stages in the same
+// order in SIMD lanes, one file per stage on each side (docs/design.md has the map). Column-vector
+// convention (see rotation.hpp): H = sum w q p^T is the paper's M.
+//
+// Stages, with the paper's routine names (Table 1):
+//   normalise          H <- 2^-e H so that max |H_ij| is in [1, 2) (fit_rotation.cpp): exact, so the result
+//                      is bitwise invariant under power-of-two scaling and no product (det^2, ||H||^4) can
+//                      overflow.
+//   invariants (6)     invariants.hpp
+//   maximum_root (13)  maximum_root.hpp: Newton's method from an upper bound of the largest root.
+//   rotation_axis (14) rotation_axis.hpp: the strongest column of adj(K - y I) and one power step (fast
+//                      path); jacobi.hpp: K's top eigenvector (careful path).
+//   sin_cos (15), (5)  sin_cos.hpp: R from the unnormalised quaternion.
+//
+// Two paths. The fast path settles almost every H (all but ~1e-3 of random point-set matrices, none of 10^6
+// Gaussian H): maximum_root, rotation_axis, sin_cos. The careful path takes the rest (a multiple or nearly
+// multiple root of (13), e.g. rank-1 H from collinear handles; a gap s2 + d s3 below cbrt(eps) s1; three
+// clustered eigenvalues of K): top_eigenvector (Jacobi), sin_cos.
+#pragma once
+
+#include "jacobi.hpp"
+#include "maximum_root.hpp"
+#include "rotation_axis.hpp"
+#include "sin_cos.hpp"
+
+#include <contract.hpp>
+
+namespace mlsdeform::detail {
+
+/// The careful path, for H the fast one cannot settle (a (nearly) multiple root of the quartic, a gap below
+/// cbrt(eps) ||H||, a cluster of three eigenvalues of K): top_eigenvector.
+template <class T>
+Matrix3<T> fit_rotation_careful(const Matrix3<T>& H, const Invariants<T>& inv) {
+  return sin_cos(top_eigenvector(davenport(H, inv)));
+}
+
+/// The whole fit (Algorithm 1, steps 3-7) on a finite, normalised H (max |H_ij| in [1, 2), or H = 0).
+template <class T>
+Matrix3<T> fit_rotation_axis_angle(const Matrix3<T>& H) {
+  const Invariants<T> inv = invariants(H);
+  bool converged;
+  const T y = maximum_root(inv, converged);
+  T dk;
+  const Eigen::Matrix<T, 4, 1> q = rotation_axis(H, inv, y, dk);
+  const T n3 = inv.norm2 * inv.norm2 * inv.norm2;
+  if (converged && dk * dk > kernels::kCarefulTau<T> * kernels::kCarefulTau<T> * n3) return sin_cos(q);
+  return fit_rotation_careful(H, inv);
+}
+
+}  // namespace mlsdeform::detail

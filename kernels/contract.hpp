@@ -1,0 +1,96 @@
+// The typed contract between core/ (baseline flags: the scalar reference, the session, the drivers) and the
+// per-ISA kernels: the lane block and the table layout, the numeric parameters both paths share, and the
+// frame a deformation kernel reads. Included by both sides, so that neither copies a constant or an index
+// formula from the other.
+//
+// Nothing here may become an out-of-line symbol shared by a baseline and an ISA object (../shared/TOOLCHAIN.md
+// pitfall 3: the linker keeps one copy, possibly AVX-512, for every caller): functions and constants are
+// `static` (internal linkage, a private copy in each object), types have no member functions.
+#pragma once
+
+#include <mlsdeform/enums.hpp>
+
+#include <cstddef>
+
+namespace mlsdeform::kernels {
+
+// ---------------------------------------------------------------------------------------------------------
+// Layout of the deformer's session data (core/src/deformer/data.hpp documents the algebra)
+// ---------------------------------------------------------------------------------------------------------
+
+/// Vertices per block (the widest SIMD register holds 16 floats); every kernel's width divides it.
+static constexpr std::size_t kLanes = 16;
+/// Alignment of every precomputed array, in bytes (one cache line; the widest vector register).
+static constexpr std::size_t kAlignment = 64;
+
+/// Values per block and pseudo-handle in the coefficient table: omega, Ax, Ay, Az (rigid, similarity) or
+/// alpha (affine).
+static constexpr std::size_t table_components(Transform transform) {
+  return transform == Transform::affine ? 1 : 4;
+}
+
+/// Offset of the 16-lane arrays of block b, pseudo-handle j (of J) in the table: component c of lane l is at
+/// offset + c * kLanes + l.
+static constexpr std::size_t table_offset(std::size_t b, std::size_t j, std::size_t J, Transform transform) {
+  return (b * J + j) * table_components(transform) * kLanes;
+}
+
+// ---------------------------------------------------------------------------------------------------------
+// Parameters of the axis/angle fit, the same in core/src/rotation/ and kernels/rotation/
+// ---------------------------------------------------------------------------------------------------------
+
+/// maximum_root (13): Newton steps allowed on the fast path; lanes still moving take the careful path.
+static constexpr int kMaxNewton = 16;
+/// The careful path's Jacobi sweeps at most (convergence is checked from the third sweep on).
+static constexpr int kMaxSweeps = 12;
+/// The careful path's trigger, |adj_kk|^2 <= tau^2 ||H||^6 with tau = cbrt(eps) / 2 (derived at
+/// detail::rotation_axis in core/src/rotation/rotation_axis.hpp); cbrt(2^-23) = 2^-7.67, cbrt(2^-52) =
+/// 2^-17.33, as literals: no std::cbrt may be emitted in an ISA object.
+template <class T>
+static constexpr T kCarefulTau = sizeof(T) == 4 ? T(0.5 * 4.92156660e-3) : T(0.5 * 6.0554544523933395e-6);
+
+// ---------------------------------------------------------------------------------------------------------
+// The frame of one deformation
+// ---------------------------------------------------------------------------------------------------------
+
+/// Where a frame's per-vertex weights come from (WeightStorage in deformer.hpp).
+enum class WeightSource { table, on_the_fly };
+
+/// One frame of the MLS deformation over the session data of core/src/deformer/data.hpp. Filled by the
+/// session (core/src/deformer/session.cpp) and read by every entry of the kernel table, the scalar reference
+/// included. Targets come straight from the caller's handles: point j at (points[j], points[k + j],
+/// points[2k + j]) (column-major k x 3), then for each segment i its ends seg_a and seg_b (column-major s x 3).
+template <class T>
+struct DeformFrame {
+  Transform transform;      ///< rigid, similarity or affine
+  RotationMethod method;    ///< the SIMD tables run axis_angle and horn_quaternion; the scalar one, all
+  WeightSource weights;
+
+  // Session data (rest pose).
+  std::size_t n;            ///< vertices (the last block may be partial)
+  std::size_t padded;       ///< kLanes * blocks
+  const T* table;           ///< WeightSource::table: the coefficient table (table_offset)
+  const T* vhat;            ///< rigid, similarity: vhat[c * padded + v]
+  const T* D;               ///< similarity: D[v]; else nullptr
+  // WeightSource::on_the_fly: weights from the rest distances, recomputed per frame.
+  const T* v_local;         ///< rest vertices, local frame, SoA [c * padded + v]
+  const T* dref2;           ///< squared nearest-handle distance [v]
+  const T* snap;            ///< handle index a vertex sits on, or -1 [v]
+  const T* p_local;         ///< point handles, local frame, SoA [c * k + j]
+  T world_scale;            ///< 2^e of the local frame
+  T half_u;                 ///< u / 2
+
+  // Targets.
+  const T* points;          ///< k x 3 column-major
+  std::size_t k;
+  const T* seg_a;           ///< s x 3 column-major
+  const T* seg_b;
+  std::size_t s;
+  T centre[3];              ///< c: H = sum_j (q_j - c) A_j^T
+
+  // Output: vertex v, coordinate c at out[c * out_coord_stride + v * out_vertex_stride].
+  T* out;
+  std::size_t out_vertex_stride, out_coord_stride;
+};
+
+}  // namespace mlsdeform::kernels

@@ -1,0 +1,100 @@
+// The batched axis/angle rotation fit (Algorithm 1 steps 3-7), one matrix per SIMD lane, twin of
+// detail::fit_rotation_axis_angle in core/src/rotation/axis_angle.hpp, stage by stage:
+// normalise -> invariants (6) -> maximum_root (13) -> rotation_axis (14) -> sin_cos (15)/(5) for every lane,
+// and for the lanes this fast path cannot settle a careful path: K's top eigenvector by Jacobi (jacobi.hpp).
+#pragma once
+
+#include "../contract.hpp"
+#include "../kernel_table.hpp"
+#include "invariants.hpp"
+#include "jacobi.hpp"
+#include "maximum_root.hpp"
+#include "rotation_axis.hpp"
+#include "sin_cos.hpp"
+
+namespace mlsdeform::kernels {
+
+/// h <- 2^-e h with max |h_ij| in [1, 2) per lane (the scalar fit_rotation's exact normalisation); returns
+/// the lanes with H = 0 (left at zero).
+template <class V>
+MLSDEFORM_KERNEL_INLINE mask_of<V> normalise(V (&h)[9]) {
+  using T = scalar_of<V>;
+  V m = abs(h[0]);
+  for (int i = 1; i < 9; ++i) m = max(m, abs(h[i]));
+  const mask_of<V> zero = m == V(T(0));
+  const V scale = pow2_inverse_exponent(select(zero, V(T(1)), m));
+  for (int i = 0; i < 9; ++i) h[i] = h[i] * scale;
+  return zero;
+}
+
+/// The identity in the lanes `zero` (H = 0), r elsewhere.
+template <class V>
+MLSDEFORM_KERNEL_INLINE void identity_where(const mask_of<V>& zero, V (&r)[9]) {
+  using T = scalar_of<V>;
+  for (int i = 0; i < 9; ++i) r[i] = select(zero, V(i % 4 == 0 ? T(1) : T(0)), r[i]);
+}
+
+/// The number of true lanes of m.
+template <class V>
+std::size_t count_lanes(const mask_of<V>& m) {
+  using T = scalar_of<V>;
+  alignas(64) T tmp[V::size];
+  select(m, V(T(1)), V(T(0))).store_aligned(tmp);
+  std::size_t c = 0;
+  for (std::size_t i = 0; i < V::size; ++i) c += tmp[i] != T(0);
+  return c;
+}
+
+/// h: 9 lanes of H (row-major entries), not yet normalised; r: the rotations. Lanes with H = 0 get the
+/// identity. Every lane takes the fast path (maximum_root, rotation_axis); the lanes it cannot settle
+/// (a multiple or unconverged root, or a gap below cbrt(eps)) take the careful path, the top eigenvector
+/// of K by Jacobi (run only when some lane needs it). Adds the careful lanes to `careful`.
+template <class V>
+MLSDEFORM_KERNEL_INLINE void fit_rotation_axis_angle(V (&h)[9], V (&r)[9], std::size_t& careful) {
+  using T = scalar_of<V>;
+  using M = mask_of<V>;
+  const M zero = normalise(h);
+  const Invariants<V> inv = invariants(h);
+  M converged;
+  const V y = maximum_root(inv, converged);
+  const Mat4<V> K = davenport(h, inv.E, inv.z0, inv.z1, inv.z2);
+  V dk;
+  Vec4<V> q = rotation_axis(K, y, dk);
+  const V n3 = inv.norm2 * inv.norm2 * inv.norm2;
+  constexpr T tau2 = kCarefulTau<T> * kCarefulTau<T>;
+  const M slow = ~zero & (~converged | ~(dk * dk > V(tau2) * n3));
+  if (any(slow)) {
+    V q1[4];
+    top_eigenvector(K.k, sqrt(V(T(4)) * inv.norm2), q1);
+    for (int i = 0; i < 4; ++i) q.v[i] = select(slow, q1[i], q.v[i]);
+    careful += count_lanes<V>(slow);
+  }
+  sin_cos(q.v[0], q.v[1], q.v[2], q.v[3], r);
+  identity_where(zero, r);
+}
+
+/// The kernel-table entry (FitRotationsFn) for a fit `Fit::fit(h, r, careful)` on vectors V: matrices
+/// [begin, end) of a 3 x 3 x n layout, batch by batch (a partial last batch through a zero-padded copy).
+template <class V, class Fit>
+void fit_range(const scalar_of<V>* H, scalar_of<V>* R, std::size_t stride, std::size_t begin, std::size_t end,
+                   BatchStats* stats) {
+  using T = scalar_of<V>;
+  std::size_t careful = 0;
+  SimdCommon<T, V::size>::for_each_batch(H, R, stride, begin, end,
+                                         [&](const T* src, T* dst, std::size_t st, std::size_t off) {
+                                           V h[9], r[9];
+                                           for (std::size_t i = 0; i < 9; ++i) h[i] = V::load_unaligned(src + i * st + off);
+                                           Fit::fit(h, r, careful);
+                                           for (std::size_t i = 0; i < 9; ++i) r[i].store_unaligned(dst + i * st + off);
+                                         });
+  if (stats) stats->near_double += careful;
+}
+
+struct AxisAngleFit {
+  template <class V>
+  MLSDEFORM_KERNEL_INLINE static void fit(V (&h)[9], V (&r)[9], std::size_t& careful) {
+    fit_rotation_axis_angle(h, r, careful);
+  }
+};
+
+}  // namespace mlsdeform::kernels
