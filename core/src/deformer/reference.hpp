@@ -47,11 +47,11 @@ void rotate_and_apply(const kernels::DeformFrame<T>& fr, const T (&h)[9], const 
                       T scale, T (&out)[3]) {
   Matrix3<T> H;
   for (int i = 0; i < 9; ++i) H(i / 3, i % 3) = h[i];
-  const Matrix3<T> R = fit_rotation<T>(H, fr.method);
-  T mu = scale;
-  if (fr.transform == Transform::similarity && D > T(0)) mu = R.cwiseProduct(H).sum() / D;
-  const Vector3<T> rv = R * Vector3<T>(vh[0], vh[1], vh[2]);
-  for (int i = 0; i < 3; ++i) out[i] = qs[i] + mu * rv[i];
+  const Matrix3<T> Rm = fit_rotation<T>(H, fr.method);
+  T r[9];
+  for (int i = 0; i < 9; ++i) r[i] = Rm(i / 3, i % 3);
+  const T mu = fr.transform == Transform::similarity ? similarity_scale(r, h, D, scale) : scale;
+  apply(qs, mu, r, vh, out);
 }
 
 /// Rigid or similarity transform of the vertices of block b, precomputed weights.

@@ -5,6 +5,8 @@
 
 #include <mlsdeform/rotation.hpp>
 
+#include <Eigen/Geometry>  // cross
+
 namespace mlsdeform::detail {
 
 template <class T>
