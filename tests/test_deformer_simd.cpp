@@ -1,7 +1,8 @@
 // The SIMD deformation (Backend::simd) against the scalar reference (Backend::scalar), on every ISA this CPU
 // runs, on vertex counts around the lane width, for the three transforms, point and segment handles, with
 // degenerate configurations (collinear handles, vertices on handles, half-turns); thread-count invariance.
-#include "scenes.hpp"  // tests/support
+#include "isa_guard.hpp"  // tests/support
+#include "scenes.hpp"      // tests/support
 
 #include <mlsdeform/mlsdeform.hpp>
 
@@ -17,6 +18,7 @@ using namespace mlsdeform;
 
 namespace {
 
+using mlsdeform::testing::IsaGuard;
 using mlsdeform::testing::Scene;
 
 // Random vertices in the unit cube; k point handles (collinear if asked) plus s segments; moved by a twist
@@ -43,7 +45,7 @@ T max_difference(const Points<T>& a, const Points<T>& b) {
 TEMPLATE_TEST_CASE("SIMD deformation agrees with the scalar reference", "[deformer][simd]", float, double) {
   using T = TestType;
   constexpr T eps = std::numeric_limits<T>::epsilon();
-  const Isa before = active_isa();
+  const IsaGuard guard;  // restores the ISA in force, also when a check throws
   for (Isa isa : supported_isas()) {
     set_isa(isa);
     const Eigen::Index W = Eigen::Index(simd_lanes(std::is_same_v<T, double>));
@@ -84,7 +86,6 @@ TEMPLATE_TEST_CASE("SIMD deformation agrees with the scalar reference", "[deform
         }
       }
   }
-  set_isa(before);
 }
 
 TEMPLATE_TEST_CASE("SIMD deformation is bitwise independent of the thread count", "[deformer][simd]", float, double) {
