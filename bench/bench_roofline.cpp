@@ -45,7 +45,6 @@
 
 namespace {
 
-using bench::PointsD;
 
 // ---------------------------------------------------------------------------------------------------------
 // Peak FMA throughput. Each function runs `iters` rounds of one FMA per accumulator and returns a sum of
@@ -260,7 +259,7 @@ void bm_fit(benchmark::State& state, mlsdeform::Isa isa, std::size_t n, int thre
 struct Prepared {
   bench::Scene scene;
   std::vector<Eigen::Index> rows;
-  bench::NaiveReference ref;
+  bench::SampledReference ref;
 };
 
 const Prepared& scene(const std::string& name) {
@@ -268,13 +267,11 @@ const Prepared& scene(const std::string& name) {
   auto& slot = cache[name];
   if (!slot) {
     slot = std::make_unique<Prepared>();
+    namespace testing = mlsdeform::testing;
     if (name == "Bar") {
-      slot->scene = bench::make_scene(name, bench::box_surface(16, 16, 88), 256, 356);
-    } else {  // box1M: 10^6 random points in a 4 x 1 x 1 box, 10 handles
-      bench::Rng rng(7 + 1000000);
-      PointsD p(1000000, 3);
-      for (Eigen::Index i = 0; i < p.rows(); ++i) p.row(i) << 4 * rng.uniform(), rng.uniform(), rng.uniform();
-      slot->scene = bench::make_scene(name, std::move(p), 10, 21);
+      slot->scene = testing::twisted_mesh_scene(name, testing::box_surface(16, 16, 88), 256, 356);
+    } else {  // box1M: 10^6 random points in a 4 x 1 x 1 box (bench_scaling's n:1000000), 10 handles
+      slot->scene = testing::twisted_mesh_scene(name, testing::random_box(1000000, 7 + 1000000), 10, 21);
     }
     slot->rows = bench::check_rows(slot->scene.vertices.rows(), 2000);
     slot->ref = bench::scene_reference<float>(slot->scene, slot->rows);
@@ -287,7 +284,7 @@ void bm_deform(benchmark::State& state, const std::string& name, mlsdeform::Weig
   bench::run_deformer<float>(state, p.scene, p.ref, p.rows,
                              bench::deformer_options(mlsdeform::Backend::simd, 0, storage));
   if (state.error_occurred()) return;
-  const double n = static_cast<double>(p.scene.vertices.rows()), k = static_cast<double>(p.scene.handles.rows());
+  const double n = static_cast<double>(p.scene.vertices.rows()), k = static_cast<double>(p.scene.rest.points.rows());
   const bool pre = storage == mlsdeform::WeightStorage::precomputed;
   const double flops = n * k * (pre ? 24.0 : 40.0) + n * (fit_count().flops + 21.0);
   const double bytes = state.counters["memory_bytes"].value + 12.0 * n;

@@ -9,7 +9,7 @@
 //   scaling/threads/<storage>/n:<n>/threads:<t>  1 and all threads, 10 handles
 // Counters: ms_per_frame, fps, memory_bytes (Deformer::memory_bytes(), the precomputation's footprint),
 // ns_per_vertex_handle. Each benchmark first checks 2,000 evenly spread vertices (all when fewer) of one
-// frame against the naive formula in double (bench/naive_mls.hpp).
+// frame against the reference in double (tests/support/mls_reference.hpp).
 #include "deform_common.hpp"
 
 #include <mlsdeform/batch.hpp>
@@ -27,17 +27,10 @@ using mlsdeform::WeightStorage;
 
 constexpr Eigen::Index kCheckedRows = 2000;
 
-PointsD random_box(Eigen::Index n, std::uint64_t seed) {
-  bench::Rng rng(seed);
-  PointsD p(n, 3);
-  for (Eigen::Index i = 0; i < n; ++i) p.row(i) << 4 * rng.uniform(), rng.uniform(), rng.uniform();
-  return p;
-}
-
 struct Prepared {
   bench::Scene scene;
   std::vector<Eigen::Index> rows;
-  bench::NaiveReference ref;
+  bench::SampledReference ref;
 };
 
 /// Scenes by key, built on first use and kept (the largest holds 10^6 vertices: 24 MB in double).
@@ -46,9 +39,10 @@ const Prepared& prepared(const std::string& key, Eigen::Index n, Eigen::Index k)
   auto& slot = cache[key];
   if (!slot) {
     slot = std::make_unique<Prepared>();
-    PointsD v = key == "spot_loop3" ? bench::read_ply_vertices(bench::mesh_dir() + "/spot_loop3.ply.gz")
-                                    : random_box(n, 7 + static_cast<std::uint64_t>(n));
-    slot->scene = bench::make_scene(key, std::move(v), k, 11 + static_cast<std::uint64_t>(k));
+    namespace testing = mlsdeform::testing;
+    PointsD v = key == "spot_loop3" ? testing::read_ply_vertices(testing::mesh_dir() + "/spot_loop3.ply.gz")
+                                    : testing::random_box(n, 7 + static_cast<std::uint64_t>(n));
+    slot->scene = testing::twisted_mesh_scene(key, std::move(v), k, 11 + static_cast<std::uint64_t>(k));
     slot->rows = bench::check_rows(slot->scene.vertices.rows(), kCheckedRows);
     slot->ref = bench::scene_reference<T>(slot->scene, slot->rows);
   }

@@ -5,8 +5,8 @@
 //   simd_all     Deformer, Backend::simd, all cores
 // Each carries the paper's figure as the counter paper_fps (Pentium 4 at 3.2 GHz, 2009, including OpenGL
 // rendering at 600 x 600), and every variant, the naive loop included, is first checked on every vertex
-// against the same formula in double (bench/naive_mls.hpp: deform_tolerance), so all variants compute the
-// same deformation; the naive loop is also compared with the Deformer directly.
+// against the same reference in double (tests/support/mls_reference.hpp: deform_tolerance), so all variants
+// compute the same deformation; the naive loop is also compared with the Deformer directly.
 //
 // Models (vertices / handles as in the paper). Where a shared mesh is the paper model's natural counterpart
 // (../shared/data/meshes/LICENSES.txt, column 'paper analogue') a random subset of its vertices of the
@@ -20,13 +20,15 @@
 //   Bar      6,146 / 256  generated 16 x 16 x 88 box surface (the paper's Fig. 3 parallelepiped)
 //   Cylinder 1,058 / 322  generated open cylinder, 46 around x 23 rings
 // Handles are random mesh vertices (fixed seed); the frame twists them by up to 90 degrees about the
-// model's long axis and bends them (bench/meshes.hpp: twist).
+// model's long axis and bends them (tests/support/scenes.hpp: twisted_mesh_scene).
 #include "deform_common.hpp"
 
 #include <mlsdeform/batch.hpp>
 #include <mlsdeform/deformer.hpp>
 
+#include <exception>
 #include <map>
+#include <stdexcept>
 #include <string>
 
 namespace {
@@ -46,21 +48,23 @@ constexpr Config kConfigs[] = {
 };
 
 PointsD model_vertices(const Config& c) {
-  const std::string dir = bench::mesh_dir() + "/";
+  namespace testing = mlsdeform::testing;
+  const std::string dir = testing::mesh_dir() + "/";
   const std::string name = c.name;
-  if (name == "Dolphin") return bench::random_subset(bench::read_obj_vertices(dir + "fish.obj"), c.vertices, 1);
-  if (name == "Homer") return bench::random_subset(bench::read_obj_vertices(dir + "human_man.obj"), c.vertices, 2);
-  if (name == "Dino") return bench::random_subset(bench::read_ply_vertices(dir + "spot_loop3.ply.gz"), c.vertices, 3);
-  if (name == "Plane") return bench::grid(33);
-  if (name == "Bar") return bench::box_surface(16, 16, 88);
-  return bench::cylinder(46, 23);
+  if (name == "Dolphin") return testing::random_subset(testing::read_obj_vertices(dir + "fish.obj"), c.vertices, 1);
+  if (name == "Homer") return testing::random_subset(testing::read_obj_vertices(dir + "human_man.obj"), c.vertices, 2);
+  if (name == "Dino")
+    return testing::random_subset(testing::read_ply_vertices(dir + "spot_loop3.ply.gz"), c.vertices, 3);
+  if (name == "Plane") return testing::grid(33);
+  if (name == "Bar") return testing::box_surface(16, 16, 88);
+  return testing::cylinder(46, 23);
 }
 
 /// A configuration's scene and reference, built on first use.
 struct Prepared {
   bench::Scene scene;
   std::vector<Eigen::Index> rows;
-  bench::NaiveReference ref;
+  bench::SampledReference ref;
 };
 
 const Prepared& prepared(const Config& c) {
@@ -72,10 +76,21 @@ const Prepared& prepared(const Config& c) {
   if (v.rows() != c.vertices)
     throw std::runtime_error(std::string(c.name) + ": " + std::to_string(v.rows()) + " vertices, expected " +
                              std::to_string(c.vertices));
-  p.scene = bench::make_scene(c.name, std::move(v), c.handles, 100 + static_cast<std::uint64_t>(c.handles));
+  p.scene = mlsdeform::testing::twisted_mesh_scene(c.name, std::move(v), c.handles,
+                                                   100 + static_cast<std::uint64_t>(c.handles));
   p.rows = bench::check_rows(c.vertices, c.vertices);
   p.ref = bench::scene_reference<T>(p.scene, p.rows);
   return cache.emplace(c.name, std::move(p)).first->second;
+}
+
+/// prepared(c), or nullptr after SkipWithError naming what is missing (the shared meshes are not in the repository).
+const Prepared* prepared_or_skip(benchmark::State& state, const Config& c) {
+  try {
+    return &prepared(c);
+  } catch (const std::exception& e) {
+    state.SkipWithError((std::string(e.what()) + " (shared meshes: ../shared/data/meshes or $MLSDEFORM_MESHES)").c_str());
+    return nullptr;
+  }
 }
 
 void add_common_counters(benchmark::State& state, const Config& c) {
@@ -85,8 +100,11 @@ void add_common_counters(benchmark::State& state, const Config& c) {
 }
 
 void bm_naive(benchmark::State& state, const Config& c) {
-  const Prepared& p = prepared(c);
-  const mlsdeform::Points<T> v = p.scene.vertices.cast<T>(), h = p.scene.handles.cast<T>(), q = p.scene.moved.cast<T>();
+  const Prepared* pp = prepared_or_skip(state, c);
+  if (!pp) return;
+  const Prepared& p = *pp;
+  const mlsdeform::Points<T> v = p.scene.vertices.cast<T>(), h = p.scene.rest.points.cast<T>(),
+                             q = p.scene.moved.points.cast<T>();
   mlsdeform::Points<T> out;
   bench::naive_mls_deform<T>(v, h, q, out);
   double worst = 0, max_dev = 0;
@@ -95,12 +113,13 @@ void bm_naive(benchmark::State& state, const Config& c) {
     return;
   }
   // And directly against the Deformer (scalar reference path): both are within deform_tolerance of the
-  // double formula, so they differ by at most twice that.
+  // double reference, so they differ by at most twice that.
   double max_dev_vs_deformer = 0;
   {
     mlsdeform::Points<T> lib;
-    mlsdeform::Deformer<T>(v, bench::point_handles<T>(p.scene.handles), bench::deformer_options(mlsdeform::Backend::scalar, 1))
-        .deform(bench::point_handles<T>(p.scene.moved), lib);
+    mlsdeform::Deformer<T>(v, bench::point_handles<T>(p.scene.rest.points),
+                           bench::deformer_options(mlsdeform::Backend::scalar, 1))
+        .deform(bench::point_handles<T>(p.scene.moved.points), lib);
     for (std::size_t s = 0; s < p.rows.size(); ++s) {
       const double d = (out.row(p.rows[s]) - lib.row(p.rows[s])).template cast<double>().norm();
       max_dev_vs_deformer = std::max(max_dev_vs_deformer, d / p.ref.diameter);
@@ -127,7 +146,9 @@ void bm_naive(benchmark::State& state, const Config& c) {
 }
 
 void bm_deformer(benchmark::State& state, const Config& c, mlsdeform::Backend backend, int threads) {
-  const Prepared& p = prepared(c);
+  const Prepared* pp = prepared_or_skip(state, c);
+  if (!pp) return;
+  const Prepared& p = *pp;
   bench::run_deformer<T>(state, p.scene, p.ref, p.rows, bench::deformer_options(backend, threads));
   add_common_counters(state, c);
 }
@@ -154,6 +175,6 @@ int main(int argc, char** argv) {
   }
   bench::add_context(std::string(mlsdeform::to_string(mlsdeform::active_isa())) + " (Deformer, Backend::simd; float)",
                      "naive, scalar, simd_1t: 1; simd_all: " + std::to_string(bench::hardware_threads()));
-  benchmark::AddCustomContext("meshes", bench::mesh_dir());
+  benchmark::AddCustomContext("meshes", mlsdeform::testing::mesh_dir());
   return bench::run_benchmarks(argc, argv);
 }

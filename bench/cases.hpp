@@ -1,8 +1,10 @@
 // The random correlation matrices of the rotation-fit benchmark: H = sum_i w_i qhat_i phat_i^T (paper eq. 6,
 // column convention) from weighted, noisy point sets moved by uniformly random rotations, a share of them
 // mirrored so that det H < 0. Generated once per process, in double; the float set is the same matrices
-// rounded to float. Deterministic for a given seed (own generator, no std:: distributions).
+// rounded to float. Deterministic for a given seed (tests/support's Rng, no std:: distributions).
 #pragma once
+
+#include "random.hpp"  // tests/support
 
 #include <mlsdeform/rotation.hpp>
 
@@ -17,37 +19,8 @@
 
 namespace bench {
 
-/// SplitMix64 (Steele, Lea, Flood 2014) with uniform and Gaussian variates.
-class Rng {
- public:
-  explicit Rng(std::uint64_t seed) : state_(seed) {}
-  std::uint64_t next() {
-    std::uint64_t z = (state_ += 0x9e3779b97f4a7c15ULL);
-    z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ULL;
-    z = (z ^ (z >> 27)) * 0x94d049bb133111ebULL;
-    return z ^ (z >> 31);
-  }
-  double uniform() { return static_cast<double>(next() >> 11) * 0x1.0p-53; }  ///< [0, 1)
-  double uniform(double lo, double hi) { return lo + (hi - lo) * uniform(); }
-  int integer(int lo, int hi) { return lo + static_cast<int>(next() % static_cast<std::uint64_t>(hi - lo + 1)); }
-  double gaussian() {  // Box-Muller
-    const double u = 1.0 - uniform(), v = uniform();
-    return std::sqrt(-2.0 * std::log(u)) * std::cos(2.0 * std::numbers::pi * v);
-  }
-  /// Uniform on SO(3): a normalised Gaussian quaternion.
-  Eigen::Matrix3d rotation() {
-    Eigen::Quaterniond q(gaussian(), gaussian(), gaussian(), gaussian());
-    q.normalize();
-    return q.toRotationMatrix();
-  }
-  Eigen::Vector3d unit_vector() {
-    Eigen::Vector3d v(gaussian(), gaussian(), gaussian());
-    return v.normalized();
-  }
-
- private:
-  std::uint64_t state_;
-};
+/// The shared generator (tests/support/random.hpp: SplitMix64), with variates in double.
+using Rng = mlsdeform::testing::Rng;
 
 /// The benchmark's seed (printed in the context; a fixed date).
 inline constexpr std::uint64_t kCaseSeed = 20261121;
@@ -67,19 +40,20 @@ inline Eigen::Matrix3d correlation(const Eigen::Matrix3Xd& p, const Eigen::Matri
 /// which makes det H < 0.
 inline Eigen::Matrix3d random_correlation(Rng& rng) {
   const int n = rng.integer(3, 12);
-  const Eigen::Vector3d spread(rng.uniform(0.05, 1.0), rng.uniform(0.05, 1.0),
-                               rng.uniform() < 0.1 ? 0.0 : rng.uniform(0.05, 1.0));
-  const Eigen::Matrix3d frame = rng.rotation();
-  const Eigen::Vector3d v(rng.gaussian(), rng.gaussian(), rng.gaussian());
+  const Eigen::Vector3d spread(rng.uniform<double>(0.05, 1.0), rng.uniform<double>(0.05, 1.0),
+                               rng.uniform<double>() < 0.1 ? 0.0 : rng.uniform<double>(0.05, 1.0));
+  const Eigen::Matrix3d frame = rng.rotation<double>();
+  const Eigen::Vector3d v(rng.gaussian<double>(), rng.gaussian<double>(), rng.gaussian<double>());
   Eigen::Matrix3Xd p(3, n), q(3, n);
   Eigen::VectorXd w(n);
-  Eigen::Matrix3d R = rng.rotation();
-  if (rng.uniform() < 0.2) R = R * Eigen::Vector3d(1, 1, -1).asDiagonal();
-  const double noise = std::pow(10.0, rng.uniform(-4.0, -0.5)) * spread.maxCoeff();
+  Eigen::Matrix3d R = rng.rotation<double>();
+  if (rng.uniform<double>() < 0.2) R = R * Eigen::Vector3d(1, 1, -1).asDiagonal();
+  const double noise = std::pow(10.0, rng.uniform<double>(-4.0, -0.5)) * spread.maxCoeff();
   for (int i = 0; i < n; ++i) {
-    p.col(i) = frame * Eigen::Vector3d(spread(0) * rng.gaussian(), spread(1) * rng.gaussian(),
-                                       spread(2) * rng.gaussian());
-    q.col(i) = R * p.col(i) + noise * Eigen::Vector3d(rng.gaussian(), rng.gaussian(), rng.gaussian());
+    p.col(i) = frame * Eigen::Vector3d(spread(0) * rng.gaussian<double>(), spread(1) * rng.gaussian<double>(),
+                                       spread(2) * rng.gaussian<double>());
+    q.col(i) = R * p.col(i) +
+               noise * Eigen::Vector3d(rng.gaussian<double>(), rng.gaussian<double>(), rng.gaussian<double>());
     w(i) = 1.0 / ((p.col(i) - v).squaredNorm() + 1e-3);
   }
   return correlation(p, q, w);
@@ -116,7 +90,7 @@ inline Eigen::Matrix3d make_case(std::uint64_t seed, std::uint64_t index) {
 inline Eigen::Matrix3d make_gaussian_case(std::uint64_t seed, std::uint64_t index) {
   Rng rng = case_rng(seed ^ 0x9e3779b97f4a7c15ULL, index);
   Eigen::Matrix3d H;
-  for (int e = 0; e < 9; ++e) H(e / 3, e % 3) = rng.gaussian();
+  for (int e = 0; e < 9; ++e) H(e / 3, e % 3) = rng.gaussian<double>();
   return H;
 }
 
@@ -125,12 +99,12 @@ inline Eigen::Matrix3d make_gaussian_case(std::uint64_t seed, std::uint64_t inde
 /// generating rotation, up to the rounding of H, and its distance from pi is delta).
 inline Eigen::Matrix3d near_half_turn_correlation(Rng& rng, double delta) {
   const int n = 8;
-  const Eigen::Vector3d v(rng.gaussian(), rng.gaussian(), rng.gaussian());
-  const Eigen::Matrix3d R = Eigen::AngleAxisd(std::numbers::pi - delta, rng.unit_vector()).toRotationMatrix();
+  const Eigen::Vector3d v(rng.gaussian<double>(), rng.gaussian<double>(), rng.gaussian<double>());
+  const Eigen::Matrix3d R = Eigen::AngleAxisd(std::numbers::pi - delta, rng.unit_vector<double>()).toRotationMatrix();
   Eigen::Matrix3Xd p(3, n), q(3, n);
   Eigen::VectorXd w(n);
   for (int i = 0; i < n; ++i) {
-    p.col(i) = Eigen::Vector3d(rng.gaussian(), rng.gaussian(), rng.gaussian());
+    p.col(i) = Eigen::Vector3d(rng.gaussian<double>(), rng.gaussian<double>(), rng.gaussian<double>());
     q.col(i) = R * p.col(i);
     w(i) = 1.0 / ((p.col(i) - v).squaredNorm() + 1e-3);
   }

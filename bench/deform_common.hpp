@@ -1,11 +1,14 @@
-// Shared by the deformation benchmarks (bench_table2, bench_scaling, bench_roofline): one deformation
-// scene (rest vertices, rest and moved point handles), the check of a deformer's output against the naive
-// formula in double (bench/naive_mls.hpp) on all vertices or a sample, and the benchmark body.
+// Shared by the deformation benchmarks (bench_table2, bench_scaling, bench_roofline): the check of a
+// deformer's output against the test-support library's reference deformer (tests/support/mls_reference.hpp:
+// sampled_reference, deform_tolerance) on all vertices or a sample, and the benchmark body. Scenes and meshes
+// come from the same library (scenes.hpp, meshes.hpp).
 #pragma once
 
 #include "common.hpp"
-#include "meshes.hpp"
+#include "meshes.hpp"         // tests/support
+#include "mls_reference.hpp"  // tests/support
 #include "naive_mls.hpp"
+#include "scenes.hpp"         // tests/support
 
 #include <mlsdeform/deformer.hpp>
 
@@ -17,44 +20,27 @@
 
 namespace bench {
 
-/// A scene in double (converted to T where used).
-struct Scene {
-  std::string name;
-  PointsD vertices, handles, moved;
-};
+// From the test-support library (tests/support): meshes, scenes, the reference deformer and its tolerance.
+using PointsD = mlsdeform::testing::PointsD;
+using Scene = mlsdeform::testing::Scene<double>;  ///< rest vertices, rest and moved point handles, a name
+using mlsdeform::testing::check_rows;
+using mlsdeform::testing::deform_tolerance;
+using mlsdeform::testing::point_handles;
+using mlsdeform::testing::SampledReference;
 
-inline Scene make_scene(std::string name, PointsD vertices, Eigen::Index handle_count, std::uint64_t seed) {
-  Scene s;
-  s.name = std::move(name);
-  s.handles = pick_handles(vertices, handle_count, seed);
-  s.moved = twist(vertices, s.handles);
-  s.vertices = std::move(vertices);
-  return s;
-}
-
-/// Rows checked: all when n <= max_rows, else max_rows spread evenly (a stride).
-inline std::vector<Eigen::Index> check_rows(Eigen::Index n, Eigen::Index max_rows) {
-  std::vector<Eigen::Index> rows;
-  if (n <= max_rows) {
-    for (Eigen::Index i = 0; i < n; ++i) rows.push_back(i);
-  } else {
-    for (Eigen::Index s = 0; s < max_rows; ++s) rows.push_back(s * n / max_rows);
-  }
-  return rows;
-}
-
-/// The naive double reference on the rows of a scene as T sees it (inputs rounded to T first, so that
-/// the check measures the computation, not the input rounding).
+/// The reference on the rows of a scene as T sees it (inputs rounded to T first, so that the check measures
+/// the computation, not the input rounding).
 template <class T>
-NaiveReference scene_reference(const Scene& s, const std::vector<Eigen::Index>& rows) {
-  return naive_reference(s.vertices.cast<T>().template cast<double>(), s.handles.cast<T>().template cast<double>(),
-                         s.moved.cast<T>().template cast<double>(), rows);
+SampledReference scene_reference(const Scene& s, const std::vector<Eigen::Index>& rows) {
+  return mlsdeform::testing::sampled_reference(s.vertices.cast<T>().template cast<double>(),
+                                               s.rest.points.cast<T>().template cast<double>(),
+                                               s.moved.points.cast<T>().template cast<double>(), rows);
 }
 
 /// Empty when every checked vertex of `out` is within deform_tolerance of the reference; else a message.
 /// `worst` gets the largest error/tolerance ratio and `max_dev` the largest deviation over the diameter.
 template <class T>
-std::string check_deformation(const mlsdeform::Points<T>& out, const NaiveReference& ref,
+std::string check_deformation(const mlsdeform::Points<T>& out, const SampledReference& ref,
                               const std::vector<Eigen::Index>& rows, double& worst, double& max_dev) {
   constexpr double eps = std::numeric_limits<T>::epsilon();
   worst = 0;
@@ -70,16 +56,9 @@ std::string check_deformation(const mlsdeform::Points<T>& out, const NaiveRefere
   }
   if (bad == 0) return {};
   char buf[256];
-  std::snprintf(buf, sizeof buf, "%zu of %zu vertices off the naive double reference; first: vertex %lld, |error| %.3g > %.3g "
+  std::snprintf(buf, sizeof buf, "%zu of %zu vertices off the double reference; first: vertex %lld, |error| %.3g > %.3g "
                 "(kappa %.3g)", bad, rows.size(), static_cast<long long>(rows[first]), first_err, first_tol, ref.kappa[first]);
   return buf;
-}
-
-template <class T>
-mlsdeform::Handles<T> point_handles(const PointsD& p) {
-  mlsdeform::Handles<T> h;
-  h.points = p.cast<T>();
-  return h;
 }
 
 /// Deformer options of a variant.
@@ -96,16 +75,17 @@ inline mlsdeform::Options deformer_options(mlsdeform::Backend backend, int threa
 /// items_per_second: one item = one frame), ms_per_frame, memory of the precomputation, whether the
 /// weights are precomputed, and the check's worst error/tolerance and largest deviation.
 template <class T>
-void run_deformer(benchmark::State& state, const Scene& scene, const NaiveReference& ref,
+void run_deformer(benchmark::State& state, const Scene& scene, const SampledReference& ref,
                   const std::vector<Eigen::Index>& rows, const mlsdeform::Options& options) {
   std::unique_ptr<mlsdeform::Deformer<T>> deformer;
   try {
-    deformer = std::make_unique<mlsdeform::Deformer<T>>(scene.vertices.cast<T>(), point_handles<T>(scene.handles), options);
+    deformer = std::make_unique<mlsdeform::Deformer<T>>(scene.vertices.cast<T>(), point_handles<T>(scene.rest.points),
+                                                        options);
   } catch (const std::exception& e) {
     state.SkipWithError((std::string("Deformer: ") + e.what()).c_str());
     return;
   }
-  const mlsdeform::Handles<T> moved = point_handles<T>(scene.moved);
+  const mlsdeform::Handles<T> moved = point_handles<T>(scene.moved.points);
   mlsdeform::Points<T> out;
   deformer->deform(moved, out);
   double worst = 0, max_dev = 0;
@@ -125,7 +105,7 @@ void run_deformer(benchmark::State& state, const Scene& scene, const NaiveRefere
   state.counters["memory_bytes"] = static_cast<double>(deformer->memory_bytes());
   state.counters["precomputed"] = deformer->uses_precomputed_weights() ? 1 : 0;
   state.counters["vertices"] = static_cast<double>(scene.vertices.rows());
-  state.counters["handles"] = static_cast<double>(scene.handles.rows());
+  state.counters["handles"] = static_cast<double>(scene.rest.points.rows());
   state.counters["worst_err_over_tol"] = worst;
   state.counters["max_dev_over_diameter"] = max_dev;
 }

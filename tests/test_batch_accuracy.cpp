@@ -7,6 +7,7 @@
 // (default 4,000; 400 under the sanitizers). The families' order within a batch is interleaved so that every
 // SIMD batch mixes families (a lane's result must not depend on its neighbours).
 #include "accuracy_bounds.hpp"
+#include "isa_guard.hpp"
 #include "rotation_cases.hpp"
 
 #include <mlsdeform/mlsdeform.hpp>
@@ -46,7 +47,7 @@ void batched_families() {
       refs[k] = reference(cases[k].H);
       for (std::size_t e = 0; e < 9; ++e) H[e * n + k] = cases[k].H(e / 3, e % 3);
     }
-  const Isa before = active_isa();
+  const IsaGuard guard;  // restores the ISA in force, also when a check throws
   for (Isa isa : supported_isas()) {
     set_isa(isa);
     for (RotationMethod m : {RotationMethod::axis_angle, RotationMethod::horn_quaternion}) {
@@ -71,7 +72,6 @@ void batched_families() {
       CHECK(regular.str().empty());
     }
   }
-  set_isa(before);
 }
 
 }  // namespace
@@ -89,7 +89,7 @@ TEST_CASE("fit_rotations: the coplanar reproducer (double, kappa 2e4) on every I
       0x1.7fa7cb8ced28bp-1, -0x1.1e089e4fced31p+0, 0x1.da973e9396783p-10, -0x1.395efcf53904fp-7,
       0x1.d2c7a5e02c79p-7;
   const Reference ref = reference(H);
-  const Isa before = active_isa();
+  const IsaGuard guard;  // restores the ISA in force, also when a check throws
   for (Isa isa : supported_isas()) {
     set_isa(isa);
     for (RotationMethod m : {RotationMethod::axis_angle, RotationMethod::horn_quaternion}) {
@@ -103,5 +103,4 @@ TEST_CASE("fit_rotations: the coplanar reproducer (double, kappa 2e4) on every I
       CHECK(v.empty());
     }
   }
-  set_isa(before);
 }

@@ -1,5 +1,7 @@
 // The batched (SIMD) rotation fits against the scalar reference and a long-double SVD, on every ISA this
 // CPU runs, on sizes around the lane width and on random and degenerate inputs.
+#include "isa_guard.hpp"  // tests/support
+
 #include <mlsdeform/mlsdeform.hpp>
 
 #include <Eigen/Geometry>
@@ -13,6 +15,7 @@
 #include <vector>
 
 using namespace mlsdeform;
+using mlsdeform::testing::IsaGuard;
 
 namespace {
 
@@ -106,7 +109,7 @@ void check_against_scalar(Isa isa, RotationMethod method, std::size_t n) {
 }  // namespace
 
 TEMPLATE_TEST_CASE("fit_rotations agrees with the scalar fit on every ISA and size", "[batch]", float, double) {
-  const Isa before = active_isa();
+  const IsaGuard guard;  // restores the ISA in force, also when a check throws
   for (Isa isa : supported_isas()) {
     set_isa(isa);
     const std::size_t W = simd_lanes(std::is_same_v<TestType, double>);
@@ -115,7 +118,6 @@ TEMPLATE_TEST_CASE("fit_rotations agrees with the scalar fit on every ISA and si
       for (std::size_t n : {std::size_t(1), W - 1, W, W + 1, 2 * W - 1, 2 * W, 2 * W + 1, 3 * W + 2, std::size_t(5000)})
         if (n > 0) check_against_scalar<TestType>(isa, method, n);
   }
-  set_isa(before);
 }
 
 TEMPLATE_TEST_CASE("fit_rotations: n = 0, bad input, threads", "[batch]", float, double) {

@@ -26,11 +26,11 @@ namespace {
 template <class T, class F>
 double check_expected(const Points<T>& out, const Scene<T>& sc, const Handles<T>& moved, const Options& o, F expected,
                       double extra = 0, long* ill_posed = nullptr) {
-  const double l = scene_size(sc.vertices, sc.handles);
+  const double l = scene_size(sc.vertices, sc.rest);
   double worst = 0;
   for (Eigen::Index i = 0; i < sc.vertices.rows(); ++i) {
     const Vec3d v = sc.vertices.row(i).transpose().template cast<double>();
-    const DirectVertex d = direct_vertex(v, sc.handles, moved, o, l);
+    const DirectVertex d = direct_vertex(v, sc.rest, moved, o, l);
     if (!d.well_posed && ill_posed) {
       ++*ill_posed;
       continue;
@@ -57,12 +57,12 @@ TEMPLATE_TEST_CASE("identity: moved handles equal to the rest handles give the r
     const Scene<T> sc = random_scene<T>(g, 300, 9, 2);
     Options o;
     o.transform = tr;
-    const Deformer<T> def(sc.vertices, sc.handles, o);
+    const Deformer<T> def(sc.vertices, sc.rest, o);
     Points<T> out;
-    def.deform(sc.handles, out);
+    def.deform(sc.rest, out);
     REQUIRE(out.rows() == sc.vertices.rows());
     // Exact answer v; the bound is the path's own (derived in test_deformer_common.hpp).
-    check_expected(out, sc, sc.handles, o, [](const Vec3d& v) { return v; });
+    check_expected(out, sc, sc.rest, o, [](const Vec3d& v) { return v; });
   }
 }
 
@@ -75,13 +75,13 @@ TEMPLATE_TEST_CASE("interpolation: vertices on point handles go exactly to their
     INFO(name(tr));
     Scene<T> sc = random_scene<T>(g, 40, 7, 1);
     // Every handle is also a vertex (rows 0..6), plus vertices at a segment end and its midpoint.
-    for (Eigen::Index i = 0; i < 7; ++i) sc.vertices.row(i) = sc.handles.points.row(i);
-    sc.vertices.row(7) = sc.handles.segment_a.row(0);
-    sc.vertices.row(8) = (sc.handles.segment_a.row(0) + sc.handles.segment_b.row(0)) / T(2);
+    for (Eigen::Index i = 0; i < 7; ++i) sc.vertices.row(i) = sc.rest.points.row(i);
+    sc.vertices.row(7) = sc.rest.segment_a.row(0);
+    sc.vertices.row(8) = (sc.rest.segment_a.row(0) + sc.rest.segment_b.row(0)) / T(2);
     Options o;
     o.transform = tr;
-    const Deformer<T> def(sc.vertices, sc.handles, o);
-    const Handles<T> moved = transformed(sc.handles, random_rotation(g), random_vector(g));
+    const Deformer<T> def(sc.vertices, sc.rest, o);
+    const Handles<T> moved = transformed(sc.rest, random_rotation(g), random_vector(g));
     Handles<T> wild = moved;
     wild.points = random_points<T>(g, 7, -3, 3);  // no transform family at all: still interpolates
     for (const Handles<T>* q : {&moved, &std::as_const(wild)}) {
@@ -114,7 +114,7 @@ TEMPLATE_TEST_CASE("interpolation: vertices within the snapping distance of a ha
   // deformer_data.hpp: closer than 64 eps(T) times the scene size (about 3.5 here) snaps. Offsets of a few
   // ulps of the coordinates are far inside that; the weights there would be ~eps^-u without the rule.
   for (Eigen::Index i = 0; i < 6; ++i) {
-    sc.vertices.row(i) = sc.handles.points.row(i);
+    sc.vertices.row(i) = sc.rest.points.row(i);
     sc.vertices(i, int(i % 3)) = std::nextafter(sc.vertices(i, int(i % 3)), T(10));
   }
   for (Transform tr : all_transforms) {
@@ -122,9 +122,9 @@ TEMPLATE_TEST_CASE("interpolation: vertices within the snapping distance of a ha
     Options o;
     o.transform = tr;
     o.weight_exponent = 4;
-    const Handles<T> moved = transformed(sc.handles, 2 * random_rotation(g), random_vector(g));
+    const Handles<T> moved = transformed(sc.rest, 2 * random_rotation(g), random_vector(g));
     Points<T> out;
-    Deformer<T>(sc.vertices, sc.handles, o).deform(moved, out);
+    Deformer<T>(sc.vertices, sc.rest, o).deform(moved, out);
     for (Eigen::Index i = 0; i < 6; ++i) CHECK(out.row(i) == moved.points.row(i));
     CHECK(out.allFinite());
   }
@@ -141,10 +141,10 @@ TEMPLATE_TEST_CASE("extreme weight exponents and vertices close to handles stay 
   // (1e-4 / 3.5)^20 = 1e-90 in float and (5e-14)^20 = 1e-266 in double. The first is far below the float
   // range: the per-vertex power-of-two scaling of A keeps those handles in H. (For u * log10(d_min / d)
   // below about -300 the weights leave the double range too and the farther handles stop counting.)
-  const double l = scene_size(sc.vertices, sc.handles);
+  const double l = scene_size(sc.vertices, sc.rest);
   for (Eigen::Index i = 0; i < 7; ++i) {
     const double d = i % 2 ? 1e-3 * l : 4 * 64 * std::numeric_limits<T>::epsilon() * l;
-    sc.vertices.row(i) = sc.handles.points.row(i) + (d * random_vector(g).normalized()).cast<T>().transpose();
+    sc.vertices.row(i) = sc.rest.points.row(i) + (d * random_vector(g).normalized()).cast<T>().transpose();
   }
   for (double u : {1.0, 1.5, 8.0, 20.0})
     for (Transform tr : all_transforms) {
@@ -152,10 +152,10 @@ TEMPLATE_TEST_CASE("extreme weight exponents and vertices close to handles stay 
       Options o;
       o.transform = tr;
       o.weight_exponent = u;
-      const Deformer<T> def(sc.vertices, sc.handles, o);
+      const Deformer<T> def(sc.vertices, sc.rest, o);
       const Mat3d R = random_rotation(g);
       const Vec3d t = random_vector(g);
-      const Handles<T> moved = transformed(sc.handles, R, t);
+      const Handles<T> moved = transformed(sc.rest, R, t);
       Points<T> out;
       def.deform(moved, out);
       REQUIRE(out.allFinite());
@@ -192,8 +192,8 @@ TEMPLATE_TEST_CASE("reproduction: rigid motions, uniform scales and affine maps 
       INFO(name(cs.tr) << " trial " << trial << " map\n" << cs.map);
       Options o;
       o.transform = cs.tr;
-      const Deformer<T> def(sc.vertices, sc.handles, o);
-      const Handles<T> moved = transformed(sc.handles, cs.map, t);
+      const Deformer<T> def(sc.vertices, sc.rest, o);
+      const Handles<T> moved = transformed(sc.rest, cs.map, t);
       Points<T> out;
       def.deform(moved, out);
       // The expected map, evaluated in double: its own rounding is a few eps(double) of |map v + t|.
@@ -212,10 +212,10 @@ TEMPLATE_TEST_CASE("translation of all handles translates every vertex", "[defor
     const Scene<T> sc = random_scene<T>(g, 200, 6, 2);
     Options o;
     o.transform = tr;
-    const Deformer<T> def(sc.vertices, sc.handles, o);
+    const Deformer<T> def(sc.vertices, sc.rest, o);
     for (double len : {1e-3, 1.0, 100.0}) {
       const Vec3d t = len * random_vector(g).normalized();
-      const Handles<T> moved = transformed(sc.handles, Mat3d::Identity(), t);
+      const Handles<T> moved = transformed(sc.rest, Mat3d::Identity(), t);
       Points<T> out;
       def.deform(moved, out);
       check_expected(out, sc, moved, o, [&](const Vec3d& v) { return Vec3d(v + t); },
@@ -243,24 +243,28 @@ TEMPLATE_TEST_CASE("scale invariance: scaling the scene scales the output and ch
       Options o;
       o.transform = tr;
       o.segment_weight = sw;
-      const Handles<T> moved = transformed(sc.handles, 1.3 * random_rotation(g), random_vector(g));
+      const Handles<T> moved = transformed(sc.rest, 1.3 * random_rotation(g), random_vector(g));
       Points<T> out;
-      Deformer<T>(sc.vertices, sc.handles, o).deform(moved, out);
+      Deformer<T>(sc.vertices, sc.rest, o).deform(moved, out);
       for (int sign : {-1, 1}) {
         const T f = std::ldexp(T(1), sign * e);
-        Scene<T> s2{sc.vertices * f, {sc.handles.points * f, sc.handles.segment_a * f, sc.handles.segment_b * f}};
+        Scene<T> s2;
+        s2.vertices = sc.vertices * f;
+        s2.rest = {sc.rest.points * f, sc.rest.segment_a * f, sc.rest.segment_b * f};
         const Handles<T> m2{moved.points * f, moved.segment_a * f, moved.segment_b * f};
         Points<T> out2;
-        Deformer<T>(s2.vertices, s2.handles, o).deform(m2, out2);
+        Deformer<T>(s2.vertices, s2.rest, o).deform(m2, out2);
         CHECK(out2 == out * f);
         if (sw == SegmentWeight::exact_integral) continue;  // the direct evaluation knows paper_constant only
         const T fd = T(sign > 0 ? decimal : 1 / decimal);
-        Scene<T> s3{sc.vertices * fd, {sc.handles.points * fd, sc.handles.segment_a * fd, sc.handles.segment_b * fd}};
+        Scene<T> s3;
+        s3.vertices = sc.vertices * fd;
+        s3.rest = {sc.rest.points * fd, sc.rest.segment_a * fd, sc.rest.segment_b * fd};
         const Handles<T> m3{moved.points * fd, moved.segment_a * fd, moved.segment_b * fd};
         Points<T> out3;
-        Deformer<T>(s3.vertices, s3.handles, o).deform(m3, out3);
+        Deformer<T>(s3.vertices, s3.rest, o).deform(m3, out3);
         REQUIRE(out3.allFinite());
-        const Comparison c = compare_with_direct(out3, s3.vertices, s3.handles, m3, o);
+        const Comparison c = compare_with_direct(out3, s3.vertices, s3.rest, m3, o);
         INFO("scale " << double(fd) << ": max deviation " << c.max_dev << ", max deviation / bound " << c.max_ratio);
         CHECK(c.failures == 0);
         CHECK(c.ill_posed == 0);
@@ -277,7 +281,7 @@ TEMPLATE_TEST_CASE("thread-count invariance: bitwise identical output for any th
   for (Transform tr : all_transforms) {
     INFO(name(tr));
     const Scene<T> sc = random_scene<T>(g, 3001, 12, 3);  // 188 blocks, the last one partial
-    const Handles<T> moved = transformed(sc.handles, random_rotation(g), random_vector(g));
+    const Handles<T> moved = transformed(sc.rest, random_rotation(g), random_vector(g));
     Points<T> reference;
     for (int threads : {1, 2, 3, 0, 8}) {
       INFO("threads " << threads);
@@ -285,7 +289,7 @@ TEMPLATE_TEST_CASE("thread-count invariance: bitwise identical output for any th
       o.transform = tr;
       o.threads = threads;
       o.segment_weight = SegmentWeight::exact_integral;
-      const Deformer<T> def(sc.vertices, sc.handles, o);
+      const Deformer<T> def(sc.vertices, sc.rest, o);
       Points<T> out;
       def.deform(moved, out);
       if (reference.size() == 0)
@@ -304,10 +308,10 @@ TEMPLATE_TEST_CASE("the stateful API and the interleaved output agree with defor
   const Scene<T> sc = random_scene<T>(g, 100, 5, 2);
   Options o;
   o.transform = Transform::similarity;
-  Deformer<T> def(sc.vertices, sc.handles, o);
+  Deformer<T> def(sc.vertices, sc.rest, o);
   CHECK(def.vertex_count() == 100);
-  CHECK(def.targets().points == sc.handles.points);
-  Handles<T> moved = sc.handles;
+  CHECK(def.targets().points == sc.rest.points);
+  Handles<T> moved = sc.rest;
   moved.points.row(3) += Vector3<T>(T(0.5), T(-0.25), T(1)).transpose();
   moved.segment_a.row(1) += Vector3<T>(T(0.1), T(0.2), T(0.3)).transpose();
   moved.segment_b.row(1) -= Vector3<T>(T(0.3), T(0.1), T(0.2)).transpose();
@@ -323,14 +327,14 @@ TEMPLATE_TEST_CASE("the stateful API and the interleaved output agree with defor
   CHECK(Points<T>(buffer) == b);
   // A new rest pose resets the targets.
   const Scene<T> sc2 = random_scene<T>(g, 50, 5, 2);
-  def.reset_rest_pose(sc2.vertices, sc2.handles);
+  def.reset_rest_pose(sc2.vertices, sc2.rest);
   CHECK(def.vertex_count() == 50);
-  CHECK(def.targets().points == sc2.handles.points);
+  CHECK(def.targets().points == sc2.rest.points);
   Points<T> c;
   def.deform(c);
-  const Deformer<T> fresh(sc2.vertices, sc2.handles, o);
+  const Deformer<T> fresh(sc2.vertices, sc2.rest, o);
   Points<T> d;
-  fresh.deform(sc2.handles, d);
+  fresh.deform(sc2.rest, d);
   CHECK(c == d);
   // Moves keep the session.
   Deformer<T> moved_def = std::move(def);
@@ -347,8 +351,8 @@ TEMPLATE_TEST_CASE("deform is const and may run concurrently on distinct outputs
     Options o;
     o.transform = Transform::similarity;
     o.threads = threads;
-    const Deformer<T> def(sc.vertices, sc.handles, o);
-    const Handles<T> moved = transformed(sc.handles, random_rotation(g), random_vector(g));
+    const Deformer<T> def(sc.vertices, sc.rest, o);
+    const Handles<T> moved = transformed(sc.rest, random_rotation(g), random_vector(g));
     Points<T> expected;
     def.deform(moved, expected);
     Points<T> outs[4];
@@ -369,7 +373,7 @@ TEMPLATE_TEST_CASE("memory_bytes reports the table and per-vertex arrays actuall
     INFO(name(tr));
     Options o;
     o.transform = tr;
-    const Deformer<T> def(sc.vertices, sc.handles, o);
+    const Deformer<T> def(sc.vertices, sc.rest, o);
     // deformer_data.hpp: 4 values (omega, A) per vertex and pseudo-handle, or 1 (alpha) for affine; p* and
     // vhat (3 each) per vertex for rigid and similarity, D (1) for similarity; plus the rest and target handles.
     std::size_t values = np * J * (tr == Transform::affine ? 1 : 4);
@@ -425,8 +429,8 @@ TEMPLATE_TEST_CASE("deform allocates nothing once out has its size (single threa
     Options o;
     o.transform = tr;
     o.threads = 1;  // TBB's own task allocation is outside the library's control
-    const Deformer<T> def(sc.vertices, sc.handles, o);
-    const Handles<T> moved = transformed(sc.handles, random_rotation(g), random_vector(g));
+    const Deformer<T> def(sc.vertices, sc.rest, o);
+    const Handles<T> moved = transformed(sc.rest, random_rotation(g), random_vector(g));
     Points<T> out(500, 3);
     // (Eigen's dynamic matrices allocate through malloc, which this counter does not see: the library code
     // in deform() uses fixed-size Eigen types only.)

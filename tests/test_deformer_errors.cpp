@@ -44,29 +44,29 @@ TEMPLATE_TEST_CASE("bad rest input is rejected with a message naming the problem
   SECTION("non-finite coordinates") {
     Points<T> v = sc.vertices;
     v(3, 1) = nan;
-    expect_ctor_error(v, sc.handles, o, "non-finite coordinate in rest vertices");
-    Handles<T> h = sc.handles;
+    expect_ctor_error(v, sc.rest, o, "non-finite coordinate in rest vertices");
+    Handles<T> h = sc.rest;
     h.points(2, 0) = inf;
     expect_ctor_error(sc.vertices, h, o, "non-finite coordinate in rest handles points");
-    h = sc.handles;
+    h = sc.rest;
     h.segment_b(1, 2) = -inf;
     expect_ctor_error(sc.vertices, h, o, "non-finite coordinate in rest handles segment_b");
   }
   SECTION("mismatched segment end points") {
-    Handles<T> h = sc.handles;
+    Handles<T> h = sc.rest;
     h.segment_b.conservativeResize(1, 3);
     expect_ctor_error(sc.vertices, h, o, "segment start points (segment_a) but 1 end points");
   }
   SECTION("weight exponent") {
     for (double u : {0.99, 0.0, -2.0, double(nan), double(inf)}) {
       o.weight_exponent = u;
-      expect_ctor_error(sc.vertices, sc.handles, o, "weight_exponent must be a finite real >= 1");
+      expect_ctor_error(sc.vertices, sc.rest, o, "weight_exponent must be a finite real >= 1");
     }
     o.weight_exponent = 1.0;  // the boundary is allowed
-    CHECK_NOTHROW(Deformer<T>(sc.vertices, sc.handles, o));
+    CHECK_NOTHROW(Deformer<T>(sc.vertices, sc.rest, o));
   }
   SECTION("zero-length segments (documented: rejected, use a point handle)") {
-    Handles<T> h = sc.handles;
+    Handles<T> h = sc.rest;
     h.segment_b.row(1) = h.segment_a.row(1);
     expect_ctor_error(sc.vertices, h, o, "segment handle 1 has zero length");
   }
@@ -100,19 +100,19 @@ TEMPLATE_TEST_CASE("bad rest input is rejected with a message naming the problem
   }
   SECTION("options out of range") {
     o.threads = -1;
-    expect_ctor_error(sc.vertices, sc.handles, o, "threads must be >= 0");
+    expect_ctor_error(sc.vertices, sc.rest, o, "threads must be >= 0");
     o.threads = 0;
     o.method = static_cast<RotationMethod>(99);
-    expect_ctor_error(sc.vertices, sc.handles, o, "unknown RotationMethod");
+    expect_ctor_error(sc.vertices, sc.rest, o, "unknown RotationMethod");
   }
   SECTION("reset_rest_pose validates too and keeps the session on error") {
-    Deformer<T> def(sc.vertices, sc.handles, o);
-    Handles<T> h = sc.handles;
+    Deformer<T> def(sc.vertices, sc.rest, o);
+    Handles<T> h = sc.rest;
     h.points(0, 0) = nan;
     CHECK_THROWS_WITH(def.reset_rest_pose(sc.vertices, h), Catch::Contains("non-finite"));
     CHECK(def.vertex_count() == sc.vertices.rows());
     Points<T> out;
-    def.deform(sc.handles, out);
+    def.deform(sc.rest, out);
     CHECK(out.allFinite());
   }
 }
@@ -125,31 +125,31 @@ TEMPLATE_TEST_CASE("bad moved handles are rejected and leave out untouched", "[d
     INFO(name(tr));
     Options o;
     o.transform = tr;
-    const Deformer<T> def(sc.vertices, sc.handles, o);
-    Handles<T> m = sc.handles;
+    const Deformer<T> def(sc.vertices, sc.rest, o);
+    Handles<T> m = sc.rest;
     m.points.conservativeResize(4, 3);
     expect_deform_error(def, m, "5 point handles at rest but 4 moved point handles");
-    m = sc.handles;
+    m = sc.rest;
     m.segment_a.conservativeResize(3, 3);
     m.segment_b.conservativeResize(3, 3);
     m.segment_a.row(2).setZero();
     m.segment_b.row(2).setOnes();
     expect_deform_error(def, m, "2 segment handles at rest but 3 moved segment_a and 3 moved segment_b");
-    m = sc.handles;
+    m = sc.rest;
     m.segment_b.conservativeResize(1, 3);
     expect_deform_error(def, m, "moved segment_b");
-    m = sc.handles;
+    m = sc.rest;
     m.points(1, 1) = std::numeric_limits<T>::quiet_NaN();
     expect_deform_error(def, m, "non-finite coordinate in moved handles points (row 1)");
-    m = sc.handles;
+    m = sc.rest;
     m.segment_a(0, 2) = std::numeric_limits<T>::infinity();
     expect_deform_error(def, m, "non-finite coordinate in moved handles segment_a (row 0)");
-    m = sc.handles;
+    m = sc.rest;
     m.points(0, 0) = std::numeric_limits<T>::max() / 2;  // would overflow H
     expect_deform_error(def, m, "coordinate too large in moved handles points");
     // A wrongly sized interleaved buffer cannot be resized: rejected, untouched.
     PointsRowMajor<T> small = PointsRowMajor<T>::Constant(49, 3, T(7));
-    CHECK_THROWS_WITH(def.deform(sc.handles, InterleavedView<T>(small.data(), 49, 3)),
+    CHECK_THROWS_WITH(def.deform(sc.rest, InterleavedView<T>(small.data(), 49, 3)),
                       Catch::Contains("interleaved output has 49 rows but the model has 50 vertices"));
     CHECK((small.array() == T(7)).all());
   }
@@ -159,13 +159,13 @@ TEMPLATE_TEST_CASE("stateful targets validate their index and coordinates", "[de
   using T = TestType;
   std::mt19937_64 g(seed());
   const Scene<T> sc = random_scene<T>(g, 20, 3, 1);
-  Deformer<T> def(sc.vertices, sc.handles, {});
+  Deformer<T> def(sc.vertices, sc.rest, {});
   CHECK_THROWS_AS(def.set_point_target(3, Vector3<T>::Zero()), std::out_of_range);
   CHECK_THROWS_AS(def.set_point_target(-1, Vector3<T>::Zero()), std::out_of_range);
   CHECK_THROWS_AS(def.set_segment_target(1, Vector3<T>::Zero(), Vector3<T>::Ones()), std::out_of_range);
   CHECK_THROWS_AS(def.set_point_target(0, Vector3<T>::Constant(std::numeric_limits<T>::quiet_NaN())),
                   std::invalid_argument);
-  CHECK(def.targets().points == sc.handles.points);  // unchanged by the failed calls
+  CHECK(def.targets().points == sc.rest.points);  // unchanged by the failed calls
 }
 
 TEMPLATE_TEST_CASE("the stateful session writes interleaved output like the column-major one", "[deformer]", float,
@@ -173,8 +173,8 @@ TEMPLATE_TEST_CASE("the stateful session writes interleaved output like the colu
   using T = TestType;
   std::mt19937_64 g(seed());
   const Scene<T> sc = random_scene<T>(g, 50, 4, 1);
-  Deformer<T> def(sc.vertices, sc.handles, {});
-  def.set_point_target(1, sc.handles.points.row(1).transpose() + Vector3<T>(T(0.25), 0, 0));
+  Deformer<T> def(sc.vertices, sc.rest, {});
+  def.set_point_target(1, sc.rest.points.row(1).transpose() + Vector3<T>(T(0.25), 0, 0));
   Points<T> expected;
   def.deform(expected);
   PointsRowMajor<T> buffer(def.vertex_count(), 3);
@@ -190,13 +190,13 @@ TEMPLATE_TEST_CASE("a moved-from session throws std::logic_error instead of cras
   using T = TestType;
   std::mt19937_64 g(seed());
   const Scene<T> sc = random_scene<T>(g, 20, 3);
-  Deformer<T> a(sc.vertices, sc.handles, {});
+  Deformer<T> a(sc.vertices, sc.rest, {});
   Deformer<T> b(std::move(a));
   Points<T> out;
   PointsRowMajor<T> buffer(20, 3);
   CHECK_THROWS_AS(a.deform(out), std::logic_error);
-  CHECK_THROWS_AS(a.deform(sc.handles, out), std::logic_error);
-  CHECK_THROWS_AS(a.deform(sc.handles, InterleavedView<T>(buffer.data(), 20, 3)), std::logic_error);
+  CHECK_THROWS_AS(a.deform(sc.rest, out), std::logic_error);
+  CHECK_THROWS_AS(a.deform(sc.rest, InterleavedView<T>(buffer.data(), 20, 3)), std::logic_error);
   CHECK_THROWS_AS(a.set_point_target(0, Vector3<T>::Zero()), std::logic_error);
   CHECK_THROWS_AS(a.targets(), std::logic_error);
   CHECK_THROWS_AS(a.vertex_count(), std::logic_error);
@@ -214,9 +214,9 @@ TEMPLATE_TEST_CASE("point handles at one rest position must keep one target", "[
   using T = TestType;
   std::mt19937_64 g(seed());
   Scene<T> sc = random_scene<T>(g, 30, 5);
-  sc.handles.points.row(3) = sc.handles.points.row(1);  // handles 1 and 3 coincide
-  Deformer<T> def(sc.vertices, sc.handles, {});
-  Handles<T> moved = transformed(sc.handles, random_rotation(g), random_vector(g));
+  sc.rest.points.row(3) = sc.rest.points.row(1);  // handles 1 and 3 coincide
+  Deformer<T> def(sc.vertices, sc.rest, {});
+  Handles<T> moved = transformed(sc.rest, random_rotation(g), random_vector(g));
   Points<T> out;
   def.deform(moved, out);  // moved together: fine
   CHECK(out.allFinite());

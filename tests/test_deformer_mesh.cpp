@@ -5,7 +5,6 @@
 #include "test_deformer_common.hpp"
 
 #include <cstdio>
-#include <filesystem>
 #include <iostream>
 
 using namespace deformer_test;
@@ -30,12 +29,10 @@ struct TwistCase {
   }
 };
 
-/// The mesh file: the bundled human from data/, the others from ../shared/data/meshes ("" when that folder is
-/// absent, as in a checkout of the repository alone).
+/// The mesh file: the bundled human from data/, the others from the shared meshes ("" when ../shared is
+/// absent, as in a checkout of the repository alone: tests/support/meshes.hpp).
 std::string mesh_path(const std::string& mesh) {
-  if (mesh == "human_man.obj") return MLSDEFORM_SOURCE_DIR "/data/human_man.obj";
-  const std::string path = std::string(MLSDEFORM_SHARED_DIR) + "/data/meshes/" + mesh;
-  return std::filesystem::exists(path) ? path : std::string();
+  return mesh == "human_man.obj" ? bundled_mesh(mesh) : shared_mesh(mesh);
 }
 
 TwistCase make_case(const std::string& mesh, Eigen::Index k) {
@@ -66,11 +63,6 @@ TwistCase make_case(const std::string& mesh, Eigen::Index k) {
   return c;
 }
 
-template <class T>
-Handles<T> cast(const Handles<double>& h) {
-  return {h.points.cast<T>(), h.segment_a.cast<T>(), h.segment_b.cast<T>()};
-}
-
 }  // namespace
 
 TEMPLATE_TEST_CASE("precomputed path agrees with the direct evaluation on real meshes with large twists",
@@ -84,7 +76,7 @@ TEMPLATE_TEST_CASE("precomputed path agrees with the direct evaluation on real m
     }
     const TwistCase tc = make_case(mesh, 16);
     const Points<T> vertices = tc.vertices.cast<T>();
-    const Handles<T> rest = cast<T>(tc.rest);
+    const Handles<T> rest = cast_handles<T>(tc.rest);
     const double size = scene_size(vertices, rest);
     for (double u : {2.0, 4.0})
       for (Transform tr : all_transforms)
@@ -96,7 +88,7 @@ TEMPLATE_TEST_CASE("precomputed path agrees with the direct evaluation on real m
           o.method = method;
           const Deformer<T> def(vertices, rest, o);
           for (double degrees : {30.0, 90.0, 180.0}) {
-            const Handles<T> moved = cast<T>(tc.twisted(degrees * M_PI / 180));
+            const Handles<T> moved = cast_handles<T>(tc.twisted(degrees * M_PI / 180));
             Points<T> out;
             def.deform(moved, out);
             const Comparison c = compare_with_direct(out, vertices, rest, moved, o);
@@ -126,12 +118,12 @@ TEMPLATE_TEST_CASE("every rotation method gives the same deformation", "[deforme
   using T = TestType;
   const TwistCase tc = make_case("human_man.obj", 16);
   const Points<T> vertices = tc.vertices.cast<T>();
-  const Handles<T> rest = cast<T>(tc.rest);
+  const Handles<T> rest = cast_handles<T>(tc.rest);
   const double size = scene_size(vertices, rest);
   const double eps = std::numeric_limits<T>::epsilon();
   for (Transform tr : {Transform::rigid, Transform::similarity}) {
     for (double degrees : {90.0, 180.0}) {
-      const Handles<T> moved = cast<T>(tc.twisted(degrees * M_PI / 180));
+      const Handles<T> moved = cast_handles<T>(tc.twisted(degrees * M_PI / 180));
       Options o;
       o.transform = tr;
       o.method = RotationMethod::svd;

@@ -1,43 +1,24 @@
 // WeightStorage::on_the_fly against the precomputed table, scalar and SIMD, and its limits.
+#include "scenes.hpp"  // tests/support
+
 #include <mlsdeform/mlsdeform.hpp>
 
-#include <Eigen/Geometry>
 #include <catch2/catch.hpp>
 
 #include <cmath>
 #include <limits>
-#include <random>
 
 using namespace mlsdeform;
 
 namespace {
 
-template <class T>
-struct Scene {
-  Points<T> vertices;
-  Handles<T> rest, moved;
-};
+using mlsdeform::testing::Scene;
 
 // Vertices in the unit cube, k handles among them (so some vertices sit exactly on handles), moved by a
-// twist of up to `angle` about z.
+// twist of up to `angle` about z (tests/support/scenes.hpp, no noise).
 template <class T>
 Scene<T> scene(Eigen::Index n, int k, double angle, std::uint64_t seed) {
-  std::mt19937_64 rng(seed);
-  std::uniform_real_distribution<double> u(-1, 1);
-  Scene<T> s;
-  s.vertices.resize(n, 3);
-  for (Eigen::Index i = 0; i < n; ++i)
-    for (int c = 0; c < 3; ++c) s.vertices(i, c) = T(u(rng));
-  s.rest.points.resize(k, 3);
-  s.moved.points.resize(k, 3);
-  for (int i = 0; i < k; ++i) {
-    const Eigen::Vector3d p(u(rng), u(rng), u(rng));
-    const Eigen::Vector3d q = Eigen::AngleAxisd(angle * (p.z() + 1) / 2, Eigen::Vector3d::UnitZ()) * p;
-    s.rest.points.row(i) = p.cast<T>().transpose();
-    s.moved.points.row(i) = q.cast<T>().transpose();
-    s.vertices.row(i) = s.rest.points.row(i);
-  }
-  return s;
+  return mlsdeform::testing::twisted_cube_scene<T>(n, k, 0, false, angle, 0.0, seed);
 }
 
 }  // namespace

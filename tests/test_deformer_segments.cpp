@@ -130,11 +130,11 @@ TEMPLATE_TEST_CASE("paper_constant segments agree with the paper's W_i and midpo
       Options o;
       o.transform = tr;
       o.segment_weight = SegmentWeight::paper_constant;
-      const Handles<T> moved = transformed(sc.handles, random_rotation(g) * (Mat3d::Identity() + 0.3 * Mat3d(
+      const Handles<T> moved = transformed(sc.rest, random_rotation(g) * (Mat3d::Identity() + 0.3 * Mat3d(
                                                            random_vector(g).asDiagonal())), random_vector(g));
       Points<T> out;
-      Deformer<T>(sc.vertices, sc.handles, o).deform(moved, out);
-      const Comparison c = compare_with_direct(out, sc.vertices, sc.handles, moved, o);
+      Deformer<T>(sc.vertices, sc.rest, o).deform(moved, out);
+      const Comparison c = compare_with_direct(out, sc.vertices, sc.rest, moved, o);
       INFO("max deviation " << c.max_dev << ", max deviation / bound " << c.max_ratio << ", ill-posed " << c.ill_posed);
       CHECK(c.failures == 0);
       CHECK(c.ill_posed == 0);

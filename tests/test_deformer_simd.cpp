@@ -1,6 +1,9 @@
 // The SIMD deformation (Backend::simd) against the scalar reference (Backend::scalar), on every ISA this CPU
 // runs, on vertex counts around the lane width, for the three transforms, point and segment handles, with
 // degenerate configurations (collinear handles, vertices on handles, half-turns); thread-count invariance.
+#include "isa_guard.hpp"  // tests/support
+#include "scenes.hpp"      // tests/support
+
 #include <mlsdeform/mlsdeform.hpp>
 
 #include <Eigen/Geometry>
@@ -10,53 +13,20 @@
 #include <cmath>
 #include <cstdio>
 #include <limits>
-#include <random>
 
 using namespace mlsdeform;
 
 namespace {
 
-template <class T>
-struct Scene {
-  Points<T> vertices;
-  Handles<T> rest, moved;
-};
+using mlsdeform::testing::IsaGuard;
+using mlsdeform::testing::Scene;
 
 // Random vertices in the unit cube; k point handles (collinear if asked) plus s segments; moved by a twist
-// of up to `angle` about z that grows with height, plus noise. Some vertices sit exactly on point handles.
+// of up to `angle` about z that grows with height, plus noise (tests/support/scenes.hpp). Some vertices sit
+// exactly on point handles.
 template <class T>
 Scene<T> make_scene(Eigen::Index n, int k, int s, bool collinear, double angle, std::uint64_t seed) {
-  std::mt19937_64 rng(seed);
-  std::uniform_real_distribution<double> u(-1, 1);
-  Scene<T> sc;
-  sc.vertices.resize(n, 3);
-  for (Eigen::Index i = 0; i < n; ++i)
-    for (int c = 0; c < 3; ++c) sc.vertices(i, c) = T(u(rng));
-  auto twist = [&](Eigen::Vector3d p) {
-    const double t = angle * (p.z() + 1) / 2;
-    return Eigen::Vector3d(Eigen::AngleAxisd(t, Eigen::Vector3d::UnitZ()) * p + 0.05 * Eigen::Vector3d(u(rng), u(rng), u(rng)));
-  };
-  sc.rest.points.resize(k, 3);
-  sc.moved.points.resize(k, 3);
-  for (int i = 0; i < k; ++i) {
-    Eigen::Vector3d p(u(rng), u(rng), u(rng));
-    if (collinear) p = Eigen::Vector3d(0.1, -0.2, 1.0) * p.z();
-    sc.rest.points.row(i) = p.template cast<T>().transpose();
-    sc.moved.points.row(i) = twist(p).template cast<T>().transpose();
-    if (i < n) sc.vertices.row(i) = sc.rest.points.row(i);  // a vertex exactly on each handle
-  }
-  for (auto* h : {&sc.rest, &sc.moved}) {
-    h->segment_a.resize(s, 3);
-    h->segment_b.resize(s, 3);
-  }
-  for (int i = 0; i < s; ++i) {
-    const Eigen::Vector3d a(u(rng), u(rng), u(rng)), b = a + 0.5 * Eigen::Vector3d(u(rng), u(rng), u(rng));
-    sc.rest.segment_a.row(i) = a.template cast<T>().transpose();
-    sc.rest.segment_b.row(i) = b.template cast<T>().transpose();
-    sc.moved.segment_a.row(i) = twist(a).template cast<T>().transpose();
-    sc.moved.segment_b.row(i) = twist(b).template cast<T>().transpose();
-  }
-  return sc;
+  return mlsdeform::testing::twisted_cube_scene<T>(n, k, s, collinear, angle, 0.05, seed);
 }
 
 // Largest |simd - scalar| over the vertices, relative to the scene size (2). Per vertex the two paths form
@@ -75,7 +45,7 @@ T max_difference(const Points<T>& a, const Points<T>& b) {
 TEMPLATE_TEST_CASE("SIMD deformation agrees with the scalar reference", "[deformer][simd]", float, double) {
   using T = TestType;
   constexpr T eps = std::numeric_limits<T>::epsilon();
-  const Isa before = active_isa();
+  const IsaGuard guard;  // restores the ISA in force, also when a check throws
   for (Isa isa : supported_isas()) {
     set_isa(isa);
     const Eigen::Index W = Eigen::Index(simd_lanes(std::is_same_v<T, double>));
@@ -116,7 +86,6 @@ TEMPLATE_TEST_CASE("SIMD deformation agrees with the scalar reference", "[deform
         }
       }
   }
-  set_isa(before);
 }
 
 TEMPLATE_TEST_CASE("SIMD deformation is bitwise independent of the thread count", "[deformer][simd]", float, double) {

@@ -170,7 +170,8 @@ def main():
               "are only as good as the machine is quiet: see the load average above.\n")
     md.append("Every benchmark checks its results before timing and skips with an error on a mismatch: rotation "
               "fits against a long-double SVD reference (`bench/reference.hpp`, tolerances derived there), "
-              "deformations against the same formula in double (`bench/naive_mls.hpp`, `deform_tolerance`). "
+              "deformations against the tests' direct MLS evaluation in double (`tests/support/mls_reference.hpp`, "
+              "`deform_tolerance`). "
               "Skipped benchmarks are listed at the end with their messages.\n")
 
     # ----------------------------------------------------------------------------------------------------

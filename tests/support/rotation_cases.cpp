@@ -65,61 +65,6 @@ Errors measure(const Matrix3<T>& R, const Matrix3<T>& H, const Reference& ref) {
 template Errors measure<float>(const Matrix3<float>&, const Matrix3<float>&, const Reference&);
 template Errors measure<double>(const Matrix3<double>&, const Matrix3<double>&, const Reference&);
 
-// ---------------------------------------------------------------------------------------------------------
-// Random numbers
-// ---------------------------------------------------------------------------------------------------------
-
-namespace {
-std::uint64_t splitmix64(std::uint64_t& state) {
-  std::uint64_t z = (state += 0x9E3779B97F4A7C15ull);
-  z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ull;
-  z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
-  return z ^ (z >> 31);
-}
-}  // namespace
-
-std::uint64_t Rng::next() { return splitmix64(state_); }
-
-long double Rng::uniform() { return std::ldexp(static_cast<long double>(next()), -64); }
-
-long double Rng::uniform(long double lo, long double hi) { return lo + (hi - lo) * uniform(); }
-
-int Rng::integer(int lo, int hi) {
-  const auto span = static_cast<std::uint64_t>(hi - lo) + 1;
-  return lo + static_cast<int>(next() % span);
-}
-
-long double Rng::gaussian() {
-  // Box-Muller in double: the variates are data, not reference values, so double's log/cos suffice (and
-  // are several times faster than long double's).
-  const double u1 = 1.0 - std::ldexp(static_cast<double>(next() >> 11), -53);  // (0, 1]
-  const double u2 = std::ldexp(static_cast<double>(next() >> 11), -53);
-  return std::sqrt(-2.0 * std::log(u1)) * std::cos(2.0 * std::numbers::pi * u2);
-}
-
-Vector3L Rng::unit_vector() {
-  for (;;) {
-    const Vector3L v(gaussian(), gaussian(), gaussian());
-    const long double n = v.norm();
-    if (n > 1e-3L) return v / n;
-  }
-}
-
-Matrix3L Rng::rotation() {
-  for (;;) {
-    Eigen::Matrix<long double, 4, 1> q(gaussian(), gaussian(), gaussian(), gaussian());
-    const long double n = q.norm();
-    if (!(n > 1e-3L)) continue;
-    q /= n;
-    const long double w = q(0), x = q(1), y = q(2), z = q(3);
-    Matrix3L R;
-    R << 1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y),  //
-        2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x),    //
-        2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y);
-    return R;
-  }
-}
-
 Matrix3L axis_angle_rotation(const Vector3L& axis, long double angle) {
   Matrix3L K;
   K << 0, -axis(2), axis(1), axis(2), 0, -axis(0), -axis(1), axis(0), 0;

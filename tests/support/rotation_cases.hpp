@@ -16,6 +16,8 @@
 // reference judges exactly the H the method sees. A failing case is reproduced with make_case(f, seed, i).
 #pragma once
 
+#include "random.hpp"  // Rng
+
 #include <mlsdeform/rotation.hpp>
 
 #include <Eigen/Core>
@@ -28,9 +30,6 @@
 #include <type_traits>
 
 namespace mlsdeform::testing {
-
-using Matrix3L = Eigen::Matrix<long double, 3, 3>;
-using Vector3L = Eigen::Matrix<long double, 3, 1>;
 
 // ---------------------------------------------------------------------------------------------------------
 // Reference and error measures
@@ -73,26 +72,6 @@ Errors measure(const Matrix3<T>& R, const Matrix3<T>& H, const Reference& ref);
 /// The angle (rad) between two (nearly) orthonormal matrices: 2 asin(min(1, ||A - B||_F / sqrt(8))),
 /// exact for rotations and well conditioned for small angles (unlike acos((trace(A^T B) - 1) / 2)).
 long double rotation_angle(const Matrix3L& A, const Matrix3L& B);
-
-// ---------------------------------------------------------------------------------------------------------
-// Random numbers (self-contained, so that a seed means the same cases with any standard library)
-// ---------------------------------------------------------------------------------------------------------
-
-/// SplitMix64 (Steele, Lea, Flood 2014), with long-double uniform and Gaussian variates.
-class Rng {
- public:
-  explicit Rng(std::uint64_t seed) : state_(seed) {}
-  std::uint64_t next();
-  long double uniform();                              ///< in [0, 1), 64 random bits
-  long double uniform(long double lo, long double hi);  ///< in [lo, hi)
-  int integer(int lo, int hi);                        ///< in [lo, hi], inclusive
-  long double gaussian();                             ///< standard normal (Box-Muller)
-  Vector3L unit_vector();                             ///< uniform on the sphere
-  Matrix3L rotation();                                ///< uniform on SO(3) (a normalised Gaussian quaternion)
-
- private:
-  std::uint64_t state_;
-};
 
 /// The rotation by `angle` about the unit vector `axis` (Rodrigues), in long double.
 Matrix3L axis_angle_rotation(const Vector3L& axis, long double angle);

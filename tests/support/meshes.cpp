@@ -1,46 +1,38 @@
-// Vertex sets for the deformation benchmarks: the shared meshes (../shared/data/meshes, see LICENSES.txt there
-// for sources and attribution), read here with two small readers (OBJ 'v' lines; binary little-endian PLY
-// through zlib), and the generated shapes of the paper's Table 2 (Plane, Bar, Cylinder). Only positions
-// matter to MLS deformation (it never looks at the faces), so faces are skipped.
-#pragma once
+// See meshes.hpp.
+#include "meshes.hpp"
 
-#include <mlsdeform/types.hpp>
+#include "random.hpp"
 
 #include <zlib.h>
 
-#include <Eigen/Core>
-
 #include <algorithm>
 #include <cmath>
-#include <cstdint>
 #include <cstdio>
+#include <cstdlib>
 #include <cstring>
+#include <filesystem>
 #include <fstream>
-#include <numeric>
 #include <numbers>
+#include <numeric>
 #include <sstream>
 #include <stdexcept>
-#include <string>
 #include <vector>
 
-#include "cases.hpp"  // Rng
+namespace mlsdeform::testing {
 
-namespace bench {
+std::string bundled_mesh(const std::string& file) { return std::string(MLSDEFORM_SOURCE_DIR) + "/data/" + file; }
 
-using PointsD = mlsdeform::Points<double>;
-
-/// The shared mesh folder: $MLSDEFORM_MESHES, else ../shared/data/meshes beside the source tree.
-inline std::string mesh_dir() {
+std::string mesh_dir() {
   if (const char* env = std::getenv("MLSDEFORM_MESHES"); env && *env) return env;
-#ifdef MLSDEFORM_SOURCE_DIR
   return std::string(MLSDEFORM_SOURCE_DIR) + "/../shared/data/meshes";
-#else
-  return "../shared/data/meshes";
-#endif
 }
 
-/// The 'v x y z' lines of a Wavefront OBJ file.
-inline PointsD read_obj_vertices(const std::string& path) {
+std::string shared_mesh(const std::string& file) {
+  const std::string path = mesh_dir() + "/" + file;
+  return std::filesystem::exists(path) ? path : std::string();
+}
+
+PointsD read_obj_vertices(const std::string& path) {
   std::ifstream in(path);
   if (!in) throw std::runtime_error("cannot open " + path);
   std::vector<double> xyz;
@@ -57,9 +49,7 @@ inline PointsD read_obj_vertices(const std::string& path) {
   return p;
 }
 
-/// The vertices of a binary little-endian PLY file, optionally gzip-compressed (zlib reads both). Supports
-/// a vertex element whose properties are scalars (float, double, uchar, int ...) with x, y, z among them.
-inline PointsD read_ply_vertices(const std::string& path) {
+PointsD read_ply_vertices(const std::string& path) {
   gzFile f = gzopen(path.c_str(), "rb");
   if (!f) throw std::runtime_error("cannot open " + path);
   auto fail = [&](const std::string& why) {
@@ -142,10 +132,7 @@ inline PointsD read_ply_vertices(const std::string& path) {
   return p;
 }
 
-/// `count` distinct rows of `p` chosen uniformly at random (a fixed seed; partial Fisher-Yates), in their
-/// original order. Used to bring a shared mesh to the paper's vertex count: MLS cost depends on the
-/// number of vertices, not on the connectivity.
-inline PointsD random_subset(const PointsD& p, Eigen::Index count, std::uint64_t seed) {
+PointsD random_subset(const PointsD& p, Eigen::Index count, std::uint64_t seed) {
   if (count >= p.rows()) return p;
   std::vector<Eigen::Index> idx(static_cast<std::size_t>(p.rows()));
   std::iota(idx.begin(), idx.end(), Eigen::Index(0));
@@ -160,17 +147,14 @@ inline PointsD random_subset(const PointsD& p, Eigen::Index count, std::uint64_t
   return out;
 }
 
-/// The paper's Plane: an n x n grid in the xy plane, unit spacing (33 x 33 = 1,089 vertices).
-inline PointsD grid(int n) {
+PointsD grid(int n) {
   PointsD p(n * n, 3);
   for (int i = 0; i < n; ++i)
     for (int j = 0; j < n; ++j) p.row(i * n + j) << j, i, 0.0;
   return p;
 }
 
-/// An open cylinder along z: `rings` rings of `around` vertices, radius 1, ring spacing 2 pi / around
-/// (square quads). The paper's Cylinder has 1,058 = 46 x 23 vertices.
-inline PointsD cylinder(int around, int rings) {
+PointsD cylinder(int around, int rings) {
   PointsD p(around * rings, 3);
   const double h = 2 * std::numbers::pi / around;
   for (int r = 0; r < rings; ++r)
@@ -181,9 +165,7 @@ inline PointsD cylinder(int around, int rings) {
   return p;
 }
 
-/// The surface vertices of an a x b x c box of unit cells (a parallelepiped, the paper's Fig. 3 Bar):
-/// (a+1)(b+1)(c+1) - (a-1)(b-1)(c-1) vertices; 16 x 16 x 88 gives the paper's 6,146.
-inline PointsD box_surface(int a, int b, int c) {
+PointsD box_surface(int a, int b, int c) {
   std::vector<Eigen::Vector3d> v;
   for (int i = 0; i <= a; ++i)
     for (int j = 0; j <= b; ++j)
@@ -194,29 +176,12 @@ inline PointsD box_surface(int a, int b, int c) {
   return p;
 }
 
-/// `count` distinct vertices as handles (random, fixed seed): what a user clicking on the mesh produces.
-inline PointsD pick_handles(const PointsD& vertices, Eigen::Index count, std::uint64_t seed) {
-  return random_subset(vertices, count, seed);
+PointsD random_box(Eigen::Index n, std::uint64_t seed) {
+  Rng rng(seed);
+  PointsD p(n, 3);
+  for (Eigen::Index i = 0; i < n; ++i)
+    p.row(i) << 4 * rng.uniform<double>(), rng.uniform<double>(), rng.uniform<double>();
+  return p;
 }
 
-/// The moved handles of a benchmark frame: a twist about the model's longest axis of up to 90 degrees
-/// end to end (the paper's Fig. 3) plus a bend of a tenth of the length, so that every vertex gets a
-/// different, large rotation.
-inline PointsD twist(const PointsD& rest_vertices, const PointsD& handles) {
-  const Eigen::Vector3d lo = rest_vertices.colwise().minCoeff(), hi = rest_vertices.colwise().maxCoeff();
-  int axis;
-  const double length = (hi - lo).maxCoeff(&axis);
-  const Eigen::Vector3d centre = (lo + hi) / 2;
-  const int u = (axis + 1) % 3, w = (axis + 2) % 3;
-  PointsD q = handles;
-  for (Eigen::Index i = 0; i < handles.rows(); ++i) {
-    const double t = length > 0 ? (handles(i, axis) - lo(axis)) / length : 0.0;  // 0 .. 1 along the axis
-    const double angle = std::numbers::pi / 2 * t;
-    const double x = handles(i, u) - centre(u), y = handles(i, w) - centre(w);
-    q(i, u) = centre(u) + std::cos(angle) * x - std::sin(angle) * y + 0.1 * length * t * t;
-    q(i, w) = centre(w) + std::sin(angle) * x + std::cos(angle) * y;
-  }
-  return q;
-}
-
-}  // namespace bench
+}  // namespace mlsdeform::testing
