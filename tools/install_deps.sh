@@ -7,7 +7,8 @@ packages=(cmake g++ make pkg-config
   nlohmann-json3-dev libcli11-dev zlib1g-dev                               # the command-line tool
   python3 python3-matplotlib                                              # figures and benchmark plots
   python3-dev python3-numpy python3-pytest pybind11-dev python3-pybind11  # the Python package (python/)
-  clang libclang-rt-14-dev)                                               # the libFuzzer targets
+  clang libclang-rt-14-dev                                                # the libFuzzer targets
+  clang-format)                                                           # the format check (tests/format.cmake)
 # `install_deps.sh blender` adds Debian's Blender 3.4 for the add-on's headless test (tools/blender/).
 [ "${1:-}" = blender ] && packages+=(blender)
 missing=()
