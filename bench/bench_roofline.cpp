@@ -45,7 +45,6 @@
 
 namespace {
 
-
 // ---------------------------------------------------------------------------------------------------------
 // Peak FMA throughput. Each function runs `iters` rounds of one FMA per accumulator and returns a sum of
 // the accumulators (so nothing is optimised away). acc -> acc * a + b converges to b / (1 - a): no overflow,
@@ -122,8 +121,8 @@ void bm_fma(benchmark::State& state, double (*loop)(std::int64_t), int accumulat
   const double flops = 2.0 * lanes * accumulators * static_cast<double>(kIters);
   // With ->Threads(N), Google Benchmark sums this counter over the N threads and also multiplies by the
   // iterations of all N threads: kAvgThreads removes the double count, leaving the sum of the threads' rates.
-  state.counters["GFLOPs"] = benchmark::Counter(
-      flops * 1e-9, benchmark::Counter::kIsIterationInvariantRate | benchmark::Counter::kAvgThreads);
+  state.counters["GFLOPs"] =
+      benchmark::Counter(flops * 1e-9, benchmark::Counter::kIsIterationInvariantRate | benchmark::Counter::kAvgThreads);
 }
 
 // ---------------------------------------------------------------------------------------------------------
@@ -143,9 +142,9 @@ void bm_triad(benchmark::State& state, int threads) {
   const double s = 3.0;
   auto parallel = [&](auto body) {
     arena.execute([&] {
-      tbb::parallel_for(tbb::blocked_range<std::size_t>(0, kTriadN, kTriadN / static_cast<std::size_t>(threads)),
-                        [&](const tbb::blocked_range<std::size_t>& r) { body(r.begin(), r.end()); },
-                        tbb::static_partitioner());
+      tbb::parallel_for(
+          tbb::blocked_range<std::size_t>(0, kTriadN, kTriadN / static_cast<std::size_t>(threads)),
+          [&](const tbb::blocked_range<std::size_t>& r) { body(r.begin(), r.end()); }, tbb::static_partitioner());
     });
   };
   parallel([&](std::size_t lo, std::size_t hi) {  // first touch by the using thread
@@ -312,15 +311,18 @@ int main(int argc, char** argv) {
   for (const Loop& l : loops)
     if (l.ok) {
       const std::string name = std::string("peak/fma/") + l.name;
+      benchmark::RegisterBenchmark(name.c_str(), [l](benchmark::State& s) {
+        bm_fma(s, l.fn, l.acc, l.lanes);
+      })->Threads(1);
       benchmark::RegisterBenchmark(name.c_str(), [l](benchmark::State& s) { bm_fma(s, l.fn, l.acc, l.lanes); })
-          ->Threads(1);
-      benchmark::RegisterBenchmark(name.c_str(), [l](benchmark::State& s) { bm_fma(s, l.fn, l.acc, l.lanes); })
-          ->Threads(all)->UseRealTime();
+          ->Threads(all)
+          ->UseRealTime();
     }
   for (int t : {1, all}) {
-    auto* b = benchmark::RegisterBenchmark(("peak/triad/threads:" + std::to_string(t)).c_str(),
-                                           [t](benchmark::State& s) { bm_triad(s, t); })
-                  ->Unit(benchmark::kMillisecond);
+    auto* b =
+        benchmark::RegisterBenchmark(("peak/triad/threads:" + std::to_string(t)).c_str(), [t](benchmark::State& s) {
+          bm_triad(s, t);
+        })->Unit(benchmark::kMillisecond);
     if (t != 1) b->UseRealTime();
   }
   const mlsdeform::Isa best = mlsdeform::supported_isas().back();
@@ -333,16 +335,18 @@ int main(int argc, char** argv) {
     })->Unit(benchmark::kMillisecond);
   }
   const std::string best_base = "kernel/fit/float/axis_angle/" + std::string(mlsdeform::to_string(best));
-  benchmark::RegisterBenchmark((best_base + "/hot/threads:" + std::to_string(all)).c_str(),
-                               [best](benchmark::State& s) { bm_fit(s, best, kFitCases * 16, 0); })
-      ->UseRealTime();
+  benchmark::RegisterBenchmark((best_base + "/hot/threads:" + std::to_string(all)).c_str(), [best](
+                                                                                                benchmark::State& s) {
+    bm_fit(s, best, kFitCases * 16, 0);
+  })->UseRealTime();
   for (const char* name : {"Bar", "box1M"})
     for (mlsdeform::WeightStorage st : {mlsdeform::WeightStorage::precomputed, mlsdeform::WeightStorage::on_the_fly})
       benchmark::RegisterBenchmark((std::string("kernel/deform/") + name + "/" +
                                     (st == mlsdeform::WeightStorage::precomputed ? "precomputed" : "on_the_fly"))
                                        .c_str(),
                                    [name, st](benchmark::State& s) { bm_deform(s, name, st); })
-          ->Unit(benchmark::kMillisecond)->UseRealTime();
+          ->Unit(benchmark::kMillisecond)
+          ->UseRealTime();
   bench::add_context(std::string(mlsdeform::to_string(mlsdeform::active_isa())) + " (library default)",
                      "1 unless the name ends threads:N; kernel/deform: all");
   const FitCount& fc = fit_count();

@@ -42,9 +42,9 @@
 
 namespace {
 
+using bench::Matrix3L;
 using mlsdeform::Matrix3;
 using mlsdeform::RotationMethod;
-using bench::Matrix3L;
 
 std::size_t g_case_count = 1'000'000;
 
@@ -67,38 +67,42 @@ struct Data {
 
   template <class T>
   const std::vector<Matrix3<T>>& H() const {
-    if constexpr (std::is_same_v<T, float>) return H_float;
-    else return H_double;
+    if constexpr (std::is_same_v<T, float>)
+      return H_float;
+    else
+      return H_double;
   }
   template <class T>
   const std::vector<bench::Reference>& ref() const {
-    if constexpr (std::is_same_v<T, float>) return ref_float;
-    else return ref_double;
+    if constexpr (std::is_same_v<T, float>)
+      return ref_float;
+    else
+      return ref_double;
   }
 };
 
 Data build(Set set) {
-    Data d;
-    const std::size_t n = g_case_count;
-    d.H_double.resize(n);
-    d.H_float.resize(n);
-    d.ref_double.resize(n);
-    d.ref_float.resize(n);
-    std::atomic<std::size_t> negative{0};
-    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, 1024), [&](const tbb::blocked_range<std::size_t>& r) {
-      std::size_t neg = 0;
-      for (std::size_t i = r.begin(); i < r.end(); ++i) {
-        d.H_double[i] = set == Set::points ? bench::make_case(bench::kCaseSeed, i)
-                                           : bench::make_gaussian_case(bench::kCaseSeed, i);
-        d.H_float[i] = d.H_double[i].cast<float>();
-        d.ref_double[i] = bench::reference(d.H_double[i]);
-        d.ref_float[i] = bench::reference(d.H_float[i]);
-        if (d.H_double[i].determinant() < 0) ++neg;
-      }
-      negative += neg;
-    });
-    d.det_negative = negative;
-    return d;
+  Data d;
+  const std::size_t n = g_case_count;
+  d.H_double.resize(n);
+  d.H_float.resize(n);
+  d.ref_double.resize(n);
+  d.ref_float.resize(n);
+  std::atomic<std::size_t> negative{0};
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, 1024), [&](const tbb::blocked_range<std::size_t>& r) {
+    std::size_t neg = 0;
+    for (std::size_t i = r.begin(); i < r.end(); ++i) {
+      d.H_double[i] =
+          set == Set::points ? bench::make_case(bench::kCaseSeed, i) : bench::make_gaussian_case(bench::kCaseSeed, i);
+      d.H_float[i] = d.H_double[i].cast<float>();
+      d.ref_double[i] = bench::reference(d.H_double[i]);
+      d.ref_float[i] = bench::reference(d.H_float[i]);
+      if (d.H_double[i].determinant() < 0) ++neg;
+    }
+    negative += neg;
+  });
+  d.det_negative = negative;
+  return d;
 }
 
 const Data& data(Set set) {
@@ -140,8 +144,9 @@ std::string validate(Set set, const Fit& fit, const bench::Judge& how, std::vect
       },
       [](double a, double b) { return std::max(a, b); });
   if (bad == 0) return {};
-  return std::to_string(bad) + " of " + std::to_string(H.size()) + " fits off the long-double SVD reference; first: case " +
-         std::to_string(first_bad) + " (seed " + std::to_string(bench::kCaseSeed) + "): " + first_verdict.describe();
+  return std::to_string(bad) + " of " + std::to_string(H.size()) +
+         " fits off the long-double SVD reference; first: case " + std::to_string(first_bad) + " (seed " +
+         std::to_string(bench::kCaseSeed) + "): " + first_verdict.describe();
 }
 
 /// The common body: validate, then time whole passes over the set.
@@ -175,15 +180,16 @@ void register_scalar(Set set) {
   for (RotationMethod m : mlsdeform::all_rotation_methods) {
     // On the Gaussian set: the paper's method and the SVD (Kabsch with Eigen::JacobiSVD) only.
     if (set == Set::gaussian && m != RotationMethod::axis_angle && m != RotationMethod::svd) continue;
-    const std::string name = prefix(set, false) + type_name<T>() + "/" + std::string(mlsdeform::to_string(m)) + "/scalar";
+    const std::string name =
+        prefix(set, false) + type_name<T>() + "/" + std::string(mlsdeform::to_string(m)) + "/scalar";
     benchmark::RegisterBenchmark(name.c_str(), [set, m](benchmark::State& s) {
-      run_fit<T>(s, set, bench::Judge::method(m), [m](const Matrix3<T>& H) { return mlsdeform::fit_rotation<T>(H, m); });
+      run_fit<T>(s, set, bench::Judge::method(m),
+                 [m](const Matrix3<T>& H) { return mlsdeform::fit_rotation<T>(H, m); });
     })->Unit(benchmark::kMillisecond);
   }
   const std::string name = prefix(set, false) + type_name<T>() + "/qcp/scalar";
   benchmark::RegisterBenchmark(name.c_str(), [set](benchmark::State& s) {
-    run_fit<T>(s, set, bench::Judge::qcp(),
-               [](const Matrix3<T>& H) { return bench::fit_rotation_qcp<T>(H); });
+    run_fit<T>(s, set, bench::Judge::qcp(), [](const Matrix3<T>& H) { return bench::fit_rotation_qcp<T>(H); });
     // Mean Newton steps, for the record (counted outside the timed loop).
     const auto& Hs = data(set).template H<T>();
     double steps = 0;
@@ -268,8 +274,9 @@ std::string validate_soa(Set set, const std::vector<T>& R, RotationMethod method
       },
       [](double a, double b) { return std::max(a, b); });
   if (bad == 0) return {};
-  return std::to_string(bad) + " of " + std::to_string(n) + " batched fits off the long-double SVD reference; first: case " +
-         std::to_string(first_bad) + ": " + first_verdict.describe();
+  return std::to_string(bad) + " of " + std::to_string(n) +
+         " batched fits off the long-double SVD reference; first: case " + std::to_string(first_bad) + ": " +
+         first_verdict.describe();
 }
 
 /// Restores the library's default ISA choice when a batched benchmark ends.
@@ -316,17 +323,20 @@ void register_batched(Set set) {
       for (bool hot : {false, true}) {
         const std::string name = prefix(set, hot) + type_name<T>() + "/" + std::string(mlsdeform::to_string(m)) +
                                  "/batch:" + std::string(mlsdeform::to_string(isa));
-        benchmark::RegisterBenchmark(name.c_str(), [=](benchmark::State& s) { run_batched<T>(s, set, isa, m, hot, 1); })
-            ->Unit(benchmark::kMillisecond);
+        benchmark::RegisterBenchmark(name.c_str(), [=](benchmark::State& s) {
+          run_batched<T>(s, set, isa, m, hot, 1);
+        })->Unit(benchmark::kMillisecond);
       }
   // Both cores, best ISA, the paper's method (UseRealTime: TBB workers do the work).
   const mlsdeform::Isa best = isas.back();
   for (bool hot : {false, true}) {
-    const std::string name = prefix(set, hot) + type_name<T>() + "/axis_angle/batch:" +
-                             std::string(mlsdeform::to_string(best)) + "/threads:" + std::to_string(bench::hardware_threads());
-    benchmark::RegisterBenchmark(name.c_str(), [=](benchmark::State& s) {
-      run_batched<T>(s, set, best, RotationMethod::axis_angle, hot, 0);
-    })->Unit(benchmark::kMillisecond)->UseRealTime();
+    const std::string name = prefix(set, hot) + type_name<T>() +
+                             "/axis_angle/batch:" + std::string(mlsdeform::to_string(best)) +
+                             "/threads:" + std::to_string(bench::hardware_threads());
+    benchmark::RegisterBenchmark(
+        name.c_str(), [=](benchmark::State& s) { run_batched<T>(s, set, best, RotationMethod::axis_angle, hot, 0); })
+        ->Unit(benchmark::kMillisecond)
+        ->UseRealTime();
   }
 }
 
@@ -344,10 +354,11 @@ void sweep_type(std::ofstream& csv) {
   };
   std::vector<Method> methods;
   for (RotationMethod m : mlsdeform::all_rotation_methods)
-    methods.push_back({std::string(mlsdeform::to_string(m)),
-                       [m](const Matrix3<T>& H) { return mlsdeform::fit_rotation<T>(H, m); }});
+    methods.push_back(
+        {std::string(mlsdeform::to_string(m)), [m](const Matrix3<T>& H) { return mlsdeform::fit_rotation<T>(H, m); }});
   methods.push_back({"qcp", [](const Matrix3<T>& H) { return bench::fit_rotation_qcp<T>(H); }});
-  methods.push_back({"paper_eq14_literal", [](const Matrix3<T>& H) { return bench::fit_rotation_paper_literal<T>(H); }});
+  methods.push_back(
+      {"paper_eq14_literal", [](const Matrix3<T>& H) { return bench::fit_rotation_paper_literal<T>(H); }});
   constexpr int kPerDecade = 4, kCasesPerDelta = 400;
   for (int e = -8 * kPerDecade; e <= 0; ++e) {
     const double delta = std::pow(10.0, double(e) / kPerDecade);
@@ -366,8 +377,8 @@ void sweep_type(std::ofstream& csv) {
                                : std::numbers::pi;
       }
       std::sort(err.begin(), err.end());
-      csv << type_name<T>() << ',' << m.name << ',' << delta << ',' << kCasesPerDelta << ','
-          << err[kCasesPerDelta / 2] << ',' << err.back() << '\n';
+      csv << type_name<T>() << ',' << m.name << ',' << delta << ',' << kCasesPerDelta << ',' << err[kCasesPerDelta / 2]
+          << ',' << err.back() << '\n';
     }
   }
 }
@@ -397,10 +408,11 @@ int main(int argc, char** argv) {
   const Data& d = data(Set::points);
   std::string isas;
   for (mlsdeform::Isa isa : mlsdeform::supported_isas()) isas += std::string(mlsdeform::to_string(isa)) + " ";
-  bench::add_context("fit/*/scalar: fit_rotation (baseline x86-64 flags); fit/*/batch:<isa>: fit_rotations "
-                     "forced to <isa>; library default: " + std::string(mlsdeform::to_string(mlsdeform::active_isa())) +
-                         " (supported: " + isas + ")",
-                     "1 (except names ending threads:N)");
+  bench::add_context(
+      "fit/*/scalar: fit_rotation (baseline x86-64 flags); fit/*/batch:<isa>: fit_rotations "
+      "forced to <isa>; library default: " +
+          std::string(mlsdeform::to_string(mlsdeform::active_isa())) + " (supported: " + isas + ")",
+      "1 (except names ending threads:N)");
   benchmark::AddCustomContext("cases", std::to_string(d.H_double.size()));
   benchmark::AddCustomContext("cases_det_negative", std::to_string(d.det_negative));
   benchmark::AddCustomContext("case_seed", std::to_string(bench::kCaseSeed));

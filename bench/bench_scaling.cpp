@@ -64,8 +64,9 @@ void bm(benchmark::State& state, const std::string& key, Eigen::Index n, Eigen::
 void add(const std::string& name, const std::string& key, Eigen::Index n, Eigen::Index k, WeightStorage storage,
          int threads) {
   // One thread: the thread's CPU time (robust to other processes on a shared machine); more: wall-clock.
-  auto* b = benchmark::RegisterBenchmark(name.c_str(), [=](benchmark::State& s) { bm(s, key, n, k, storage, threads); })
-                ->Unit(benchmark::kMillisecond);
+  auto* b = benchmark::RegisterBenchmark(name.c_str(), [=](benchmark::State& s) {
+              bm(s, key, n, k, storage, threads);
+            })->Unit(benchmark::kMillisecond);
   if (threads != 1) b->UseRealTime();
 }
 

@@ -43,8 +43,8 @@ struct Config {
 };
 
 constexpr Config kConfigs[] = {
-    {"Dolphin", 2811, 4, 40},  {"Homer", 5103, 6, 22},  {"Plane", 1089, 132, 19.5},
-    {"Dino", 14050, 5, 6.5},   {"Bar", 6146, 256, 2},   {"Cylinder", 1058, 322, 9.5},
+    {"Dolphin", 2811, 4, 40}, {"Homer", 5103, 6, 22}, {"Plane", 1089, 132, 19.5},
+    {"Dino", 14050, 5, 6.5},  {"Bar", 6146, 256, 2},  {"Cylinder", 1058, 322, 9.5},
 };
 
 PointsD model_vertices(const Config& c) {
@@ -88,7 +88,8 @@ const Prepared* prepared_or_skip(benchmark::State& state, const Config& c) {
   try {
     return &prepared(c);
   } catch (const std::exception& e) {
-    state.SkipWithError((std::string(e.what()) + " (shared meshes: ../shared/data/meshes or $MLSDEFORM_MESHES)").c_str());
+    state.SkipWithError(
+        (std::string(e.what()) + " (shared meshes: ../shared/data/meshes or $MLSDEFORM_MESHES)").c_str());
     return nullptr;
   }
 }
@@ -124,8 +125,9 @@ void bm_naive(benchmark::State& state, const Config& c) {
       const double d = (out.row(p.rows[s]) - lib.row(p.rows[s])).template cast<double>().norm();
       max_dev_vs_deformer = std::max(max_dev_vs_deformer, d / p.ref.diameter);
       if (!(d <= 2 * bench::deform_tolerance(p.ref, s, std::numeric_limits<T>::epsilon()))) {
-        state.SkipWithError(("naive loop and Deformer differ at vertex " + std::to_string(p.rows[s]) + " by " +
-                             std::to_string(d)).c_str());
+        state.SkipWithError(
+            ("naive loop and Deformer differ at vertex " + std::to_string(p.rows[s]) + " by " + std::to_string(d))
+                .c_str());
         return;
       }
     }
@@ -161,17 +163,19 @@ int main(int argc, char** argv) {
   // wall-clock time (UseRealTime), since TBB's workers do the work.
   for (const Config& c : kConfigs) {
     const std::string base = std::string("table2/") + c.name + "/";
-    benchmark::RegisterBenchmark((base + "naive").c_str(), [&c](benchmark::State& s) { bm_naive(s, c); })
-        ->Unit(benchmark::kMillisecond);
+    benchmark::RegisterBenchmark((base + "naive").c_str(), [&c](benchmark::State& s) {
+      bm_naive(s, c);
+    })->Unit(benchmark::kMillisecond);
     benchmark::RegisterBenchmark((base + "scalar").c_str(), [&c](benchmark::State& s) {
       bm_deformer(s, c, mlsdeform::Backend::scalar, 1);
     })->Unit(benchmark::kMillisecond);
     benchmark::RegisterBenchmark((base + "simd_1t").c_str(), [&c](benchmark::State& s) {
       bm_deformer(s, c, mlsdeform::Backend::simd, 1);
     })->Unit(benchmark::kMillisecond);
-    benchmark::RegisterBenchmark((base + "simd_all").c_str(), [&c](benchmark::State& s) {
-      bm_deformer(s, c, mlsdeform::Backend::simd, 0);
-    })->Unit(benchmark::kMillisecond)->UseRealTime();
+    benchmark::RegisterBenchmark((base + "simd_all").c_str(),
+                                 [&c](benchmark::State& s) { bm_deformer(s, c, mlsdeform::Backend::simd, 0); })
+        ->Unit(benchmark::kMillisecond)
+        ->UseRealTime();
   }
   bench::add_context(std::string(mlsdeform::to_string(mlsdeform::active_isa())) + " (Deformer, Backend::simd; float)",
                      "naive, scalar, simd_1t: 1; simd_all: " + std::to_string(bench::hardware_threads()));

@@ -52,8 +52,8 @@ inline Eigen::Matrix3d random_correlation(Rng& rng) {
   for (int i = 0; i < n; ++i) {
     p.col(i) = frame * Eigen::Vector3d(spread(0) * rng.gaussian<double>(), spread(1) * rng.gaussian<double>(),
                                        spread(2) * rng.gaussian<double>());
-    q.col(i) = R * p.col(i) +
-               noise * Eigen::Vector3d(rng.gaussian<double>(), rng.gaussian<double>(), rng.gaussian<double>());
+    q.col(i) =
+        R * p.col(i) + noise * Eigen::Vector3d(rng.gaussian<double>(), rng.gaussian<double>(), rng.gaussian<double>());
     w(i) = 1.0 / ((p.col(i) - v).squaredNorm() + 1e-3);
   }
   return correlation(p, q, w);
@@ -67,8 +67,10 @@ struct CaseSet {
 
   template <class T>
   const std::vector<mlsdeform::Matrix3<T>>& get() const {
-    if constexpr (sizeof(T) == sizeof(float)) return H_float;
-    else return H_double;
+    if constexpr (sizeof(T) == sizeof(float))
+      return H_float;
+    else
+      return H_double;
   }
 };
 

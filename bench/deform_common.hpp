@@ -8,7 +8,7 @@
 #include "meshes.hpp"         // tests/support
 #include "mls_reference.hpp"  // tests/support
 #include "naive_mls.hpp"
-#include "scenes.hpp"         // tests/support
+#include "scenes.hpp"  // tests/support
 
 #include <mlsdeform/deformer.hpp>
 
@@ -56,8 +56,10 @@ std::string check_deformation(const mlsdeform::Points<T>& out, const SampledRefe
   }
   if (bad == 0) return {};
   char buf[256];
-  std::snprintf(buf, sizeof buf, "%zu of %zu vertices off the double reference; first: vertex %lld, |error| %.3g > %.3g "
-                "(kappa %.3g)", bad, rows.size(), static_cast<long long>(rows[first]), first_err, first_tol, ref.kappa[first]);
+  std::snprintf(buf, sizeof buf,
+                "%zu of %zu vertices off the double reference; first: vertex %lld, |error| %.3g > %.3g "
+                "(kappa %.3g)",
+                bad, rows.size(), static_cast<long long>(rows[first]), first_err, first_tol, ref.kappa[first]);
   return buf;
 }
 
@@ -100,8 +102,8 @@ void run_deformer(benchmark::State& state, const Scene& scene, const SampledRefe
   }
   state.SetItemsProcessed(static_cast<int64_t>(state.iterations()));
   state.counters["fps"] = benchmark::Counter(1, benchmark::Counter::kIsIterationInvariantRate);
-  state.counters["ms_per_frame"] = benchmark::Counter(1e-3, benchmark::Counter::kIsIterationInvariantRate |
-                                                                benchmark::Counter::kInvert);
+  state.counters["ms_per_frame"] =
+      benchmark::Counter(1e-3, benchmark::Counter::kIsIterationInvariantRate | benchmark::Counter::kInvert);
   state.counters["memory_bytes"] = static_cast<double>(deformer->memory_bytes());
   state.counters["precomputed"] = deformer->uses_precomputed_weights() ? 1 : 0;
   state.counters["vertices"] = static_cast<double>(scene.vertices.rows());

@@ -56,39 +56,39 @@ concept CountedPair = (is_counted<A>::value && (is_counted<B>::value || std::is_
                       (is_counted<B>::value && std::is_arithmetic_v<A>);
 
 template <class A, class B>
-  requires CountedPair<A, B>
-counted_of<A, B> operator+(A a, B b) {
+requires CountedPair<A, B> counted_of<A, B>
+operator+(A a, B b) {
   using C = counted_of<A, B>;
   ++flop_tally.add;
   return C(C(a).v + C(b).v);
 }
 template <class A, class B>
-  requires CountedPair<A, B>
-counted_of<A, B> operator-(A a, B b) {
+requires CountedPair<A, B> counted_of<A, B>
+operator-(A a, B b) {
   using C = counted_of<A, B>;
   ++flop_tally.add;
   return C(C(a).v - C(b).v);
 }
 template <class A, class B>
-  requires CountedPair<A, B>
-counted_of<A, B> operator*(A a, B b) {
+requires CountedPair<A, B> counted_of<A, B>
+operator*(A a, B b) {
   using C = counted_of<A, B>;
   ++flop_tally.mul;
   return C(C(a).v * C(b).v);
 }
 template <class A, class B>
-  requires CountedPair<A, B>
-counted_of<A, B> operator/(A a, B b) {
+requires CountedPair<A, B> counted_of<A, B>
+operator/(A a, B b) {
   using C = counted_of<A, B>;
   ++flop_tally.div;
   return C(C(a).v / C(b).v);
 }
-#define BENCH_COUNTED_COMPARE(op)                            \
-  template <class A, class B>                                \
-    requires CountedPair<A, B>                               \
-  bool operator op(A a, B b) {                               \
-    using C = counted_of<A, B>;                              \
-    return C(a).v op C(b).v;                                 \
+#define BENCH_COUNTED_COMPARE(op) \
+  template <class A, class B>     \
+  requires CountedPair<A, B>      \
+  bool operator op(A a, B b) {    \
+    using C = counted_of<A, B>;   \
+    return C(a).v op C(b).v;      \
   }
 BENCH_COUNTED_COMPARE(<)
 BENCH_COUNTED_COMPARE(>)
@@ -149,7 +149,15 @@ struct NumTraits<bench::Counted<T>> : GenericNumTraits<bench::Counted<T>> {
   using NonInteger = bench::Counted<T>;
   using Nested = bench::Counted<T>;
   using Literal = bench::Counted<T>;
-  enum { IsComplex = 0, IsInteger = 0, IsSigned = 1, RequireInitialization = 0, ReadCost = 1, AddCost = 1, MulCost = 1 };
+  enum {
+    IsComplex = 0,
+    IsInteger = 0,
+    IsSigned = 1,
+    RequireInitialization = 0,
+    ReadCost = 1,
+    AddCost = 1,
+    MulCost = 1
+  };
   static inline Real epsilon() { return NumTraits<T>::epsilon(); }
   static inline Real dummy_precision() { return NumTraits<T>::dummy_precision(); }
   static inline Real highest() { return NumTraits<T>::highest(); }

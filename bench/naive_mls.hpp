@@ -58,7 +58,8 @@ void naive_mls_deform(const mlsdeform::Points<T>& vertices, const mlsdeform::Poi
     // Correlation matrix (eq. 6, column convention: H = sum w qhat phat^T).
     Mat3 H = Mat3::Zero();
     for (Eigen::Index j = 0; j < k; ++j)
-      H += w[static_cast<std::size_t>(j)] * (q.row(j).transpose() - q_star) * (p.row(j).transpose() - p_star).transpose();
+      H += w[static_cast<std::size_t>(j)] * (q.row(j).transpose() - q_star) *
+           (p.row(j).transpose() - p_star).transpose();
     // R = U diag(1, 1, det(U V^T)) V^T (Arun et al. 1987, Umeyama 1991).
     Eigen::JacobiSVD<Mat3> svd(H, Eigen::ComputeFullU | Eigen::ComputeFullV);
     Mat3 D = Mat3::Identity();

@@ -48,11 +48,11 @@ namespace testing = mlsdeform::testing;
 /// The long-double reference of one H (tests/support's), stored compactly in double.
 struct Reference {
   Eigen::Matrix3d rotation = Eigen::Matrix3d::Identity();  ///< R* = U diag(1, 1, d) V^T
-  double optimum = 0;                                       ///< y* = s1 + s2 + d s3
-  double s1 = 0, s2 = 0, s3 = 0;                            ///< singular values, descending
-  double d = 1;                                             ///< sign det(U V^T)
-  double kappa = 0;                                         ///< s1 / (s2 + d s3); +inf when not unique
-  double norm = 0;                                          ///< ||H||_F
+  double optimum = 0;                                      ///< y* = s1 + s2 + d s3
+  double s1 = 0, s2 = 0, s3 = 0;                           ///< singular values, descending
+  double d = 1;                                            ///< sign det(U V^T)
+  double kappa = 0;                                        ///< s1 / (s2 + d s3); +inf when not unique
+  double norm = 0;                                         ///< ||H||_F
   double gap() const { return s2 + d * s3; }
 
   testing::Reference expand() const {

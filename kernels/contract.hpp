@@ -25,9 +25,7 @@ static constexpr std::size_t kAlignment = 64;
 
 /// Values per block and pseudo-handle in the coefficient table: omega, Ax, Ay, Az (rigid, similarity) or
 /// alpha (affine).
-static constexpr std::size_t table_components(Transform transform) {
-  return transform == Transform::affine ? 1 : 4;
-}
+static constexpr std::size_t table_components(Transform transform) { return transform == Transform::affine ? 1 : 4; }
 
 /// Offset of the 16-lane arrays of block b, pseudo-handle j (of J) in the table: component c of lane l is at
 /// offset + c * kLanes + l.
@@ -62,31 +60,31 @@ enum class WeightSource { table, on_the_fly };
 /// points[2k + j]) (column-major k x 3), then for each segment i its ends seg_a and seg_b (column-major s x 3).
 template <class T>
 struct DeformFrame {
-  Transform transform;      ///< rigid, similarity or affine
-  RotationMethod method;    ///< the SIMD tables run axis_angle and horn_quaternion; the scalar one, all
+  Transform transform;    ///< rigid, similarity or affine
+  RotationMethod method;  ///< the SIMD tables run axis_angle and horn_quaternion; the scalar one, all
   WeightSource weights;
 
   // Session data (rest pose).
-  std::size_t n;            ///< vertices (the last block may be partial)
-  std::size_t padded;       ///< kLanes * blocks
-  const T* table;           ///< WeightSource::table: the coefficient table (table_offset)
-  const T* vhat;            ///< rigid, similarity: vhat[c * padded + v]
-  const T* D;               ///< similarity: D[v]; else nullptr
+  std::size_t n;       ///< vertices (the last block may be partial)
+  std::size_t padded;  ///< kLanes * blocks
+  const T* table;      ///< WeightSource::table: the coefficient table (table_offset)
+  const T* vhat;       ///< rigid, similarity: vhat[c * padded + v]
+  const T* D;          ///< similarity: D[v]; else nullptr
   // WeightSource::on_the_fly: weights from the rest distances, recomputed per frame.
-  const T* v_local;         ///< rest vertices, local frame, SoA [c * padded + v]
-  const T* dref2;           ///< squared nearest-handle distance [v]
-  const T* snap;            ///< handle index a vertex sits on, or -1 [v]
-  const T* p_local;         ///< point handles, local frame, SoA [c * k + j]
-  T world_scale;            ///< 2^e of the local frame
-  T half_u;                 ///< u / 2
+  const T* v_local;  ///< rest vertices, local frame, SoA [c * padded + v]
+  const T* dref2;    ///< squared nearest-handle distance [v]
+  const T* snap;     ///< handle index a vertex sits on, or -1 [v]
+  const T* p_local;  ///< point handles, local frame, SoA [c * k + j]
+  T world_scale;     ///< 2^e of the local frame
+  T half_u;          ///< u / 2
 
   // Targets.
-  const T* points;          ///< k x 3 column-major
+  const T* points;  ///< k x 3 column-major
   std::size_t k;
-  const T* seg_a;           ///< s x 3 column-major
+  const T* seg_a;  ///< s x 3 column-major
   const T* seg_b;
   std::size_t s;
-  T centre[3];              ///< c: H = sum_j (q_j - c) A_j^T
+  T centre[3];  ///< c: H = sum_j (q_j - c) A_j^T
 
   // Output: vertex v, coordinate c at out[c * out_coord_stride + v * out_vertex_stride].
   T* out;
@@ -107,40 +105,59 @@ enum class Stage {
   top_eigenvector,     ///< in h[9]                                   -> q[4] (careful path)
   sin_cos,             ///< in q[4]                                   -> r[9]
   weighted_centroid,   ///< in omega_j (J values); shared q_j (3 J)    -> q*[3]
-  correlation_matrix,  ///< in A_j (3 J values, A_j's x, y, z at 3 j, 3 j + 1, 3 j + 2); shared d_j = q_j - c (3 J) -> h[9]
+  correlation_matrix,  ///< in A_j (3 J values, A_j's x, y, z at 3 j, 3 j + 1, 3 j + 2); shared d_j = q_j - c (3 J) ->
+                       ///< h[9]
   similarity_scale,    ///< in r[9], h[9], D, otherwise              -> mu
   apply,               ///< in q*[3], mu, r[9], vhat[3]              -> v'[3]
 };
-static constexpr Stage all_stages[] = {Stage::invariants,        Stage::maximum_root,       Stage::rotation_axis,
-                                       Stage::top_eigenvector,   Stage::sin_cos,            Stage::weighted_centroid,
+static constexpr Stage all_stages[] = {Stage::invariants,         Stage::maximum_root,     Stage::rotation_axis,
+                                       Stage::top_eigenvector,    Stage::sin_cos,          Stage::weighted_centroid,
                                        Stage::correlation_matrix, Stage::similarity_scale, Stage::apply};
 
 /// Per-lane inputs and outputs of a stage (J pseudo-handles).
 static constexpr std::size_t stage_inputs(Stage s, std::size_t J) {
   switch (s) {
-    case Stage::invariants: return 9;
-    case Stage::maximum_root: return 7;
-    case Stage::rotation_axis: return 10;
-    case Stage::top_eigenvector: return 9;
-    case Stage::sin_cos: return 4;
-    case Stage::weighted_centroid: return J;
-    case Stage::correlation_matrix: return 3 * J;
-    case Stage::similarity_scale: return 20;
-    case Stage::apply: return 16;
+    case Stage::invariants:
+      return 9;
+    case Stage::maximum_root:
+      return 7;
+    case Stage::rotation_axis:
+      return 10;
+    case Stage::top_eigenvector:
+      return 9;
+    case Stage::sin_cos:
+      return 4;
+    case Stage::weighted_centroid:
+      return J;
+    case Stage::correlation_matrix:
+      return 3 * J;
+    case Stage::similarity_scale:
+      return 20;
+    case Stage::apply:
+      return 16;
   }
   return 0;
 }
 static constexpr std::size_t stage_outputs(Stage s) {
   switch (s) {
-    case Stage::invariants: return 7;
-    case Stage::maximum_root: return 2;
-    case Stage::rotation_axis: return 5;
-    case Stage::top_eigenvector: return 4;
-    case Stage::sin_cos: return 9;
-    case Stage::weighted_centroid: return 3;
-    case Stage::correlation_matrix: return 9;
-    case Stage::similarity_scale: return 1;
-    case Stage::apply: return 3;
+    case Stage::invariants:
+      return 7;
+    case Stage::maximum_root:
+      return 2;
+    case Stage::rotation_axis:
+      return 5;
+    case Stage::top_eigenvector:
+      return 4;
+    case Stage::sin_cos:
+      return 9;
+    case Stage::weighted_centroid:
+      return 3;
+    case Stage::correlation_matrix:
+      return 9;
+    case Stage::similarity_scale:
+      return 1;
+    case Stage::apply:
+      return 3;
   }
   return 0;
 }

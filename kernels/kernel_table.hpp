@@ -29,14 +29,14 @@ template <class T>
 using StageFn = void (*)(Stage stage, const T* in, const T* shared, std::size_t J, T* out, std::size_t n);
 
 struct KernelTable {
-  const char* name;          ///< "scalar", "sse4_2", "avx2", "avx512"
-  std::size_t lanes_float;   ///< SIMD lanes for float and double (1 for the scalar reference)
+  const char* name;         ///< "scalar", "sse4_2", "avx2", "avx512"
+  std::size_t lanes_float;  ///< SIMD lanes for float and double (1 for the scalar reference)
   std::size_t lanes_double;
   FitRotationsFn<float> fit_axis_angle_f;
   FitRotationsFn<double> fit_axis_angle_d;
-  FitRotationsFn<float> fit_horn_f;    ///< Horn 1987 quaternion (SIMD: by cyclic Jacobi on the 4x4 matrix)
+  FitRotationsFn<float> fit_horn_f;  ///< Horn 1987 quaternion (SIMD: by cyclic Jacobi on the 4x4 matrix)
   FitRotationsFn<double> fit_horn_d;
-  DeformBlocksFn<float> deform_f;      ///< SIMD: the methods axis_angle and horn_quaternion; scalar: all
+  DeformBlocksFn<float> deform_f;  ///< SIMD: the methods axis_angle and horn_quaternion; scalar: all
   DeformBlocksFn<double> deform_d;
   StageFn<float> stage_f;
   StageFn<double> stage_d;

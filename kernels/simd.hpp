@@ -46,16 +46,16 @@ struct PairMask {
   PairMask(B l, B h) : lo(l), hi(h) {}
 };
 
-#define MLSDEFORM_PAIR_BINARY(R, OP, X)                                                                       \
-  template <class B>                                                                                          \
-  MLSDEFORM_KERNEL_INLINE auto operator OP(const X<B>& a, const X<B>& b) {                                    \
-    return R{a.lo OP b.lo, a.hi OP b.hi};                                                                     \
+#define MLSDEFORM_PAIR_BINARY(R, OP, X)                                    \
+  template <class B>                                                       \
+  MLSDEFORM_KERNEL_INLINE auto operator OP(const X<B>& a, const X<B>& b) { \
+    return R{a.lo OP b.lo, a.hi OP b.hi};                                  \
   }
-#define MLSDEFORM_PAIR_COMPARE(OP)                                                                            \
-  template <class B>                                                                                          \
-  MLSDEFORM_KERNEL_INLINE auto operator OP(const Pair<B>& a, const Pair<B>& b) {                              \
-    using BM = decltype(a.lo OP b.lo);                                                                        \
-    return PairMask<BM>{a.lo OP b.lo, a.hi OP b.hi};                                                          \
+#define MLSDEFORM_PAIR_COMPARE(OP)                                               \
+  template <class B>                                                             \
+  MLSDEFORM_KERNEL_INLINE auto operator OP(const Pair<B>& a, const Pair<B>& b) { \
+    using BM = decltype(a.lo OP b.lo);                                           \
+    return PairMask<BM>{a.lo OP b.lo, a.hi OP b.hi};                             \
   }
 MLSDEFORM_PAIR_BINARY(Pair<B>, +, Pair)
 MLSDEFORM_PAIR_BINARY(Pair<B>, -, Pair)
@@ -72,24 +72,40 @@ MLSDEFORM_PAIR_BINARY(PairMask<B>, ^, PairMask)
 #undef MLSDEFORM_PAIR_BINARY
 #undef MLSDEFORM_PAIR_COMPARE
 template <class B>
-MLSDEFORM_KERNEL_INLINE Pair<B> operator-(const Pair<B>& a) { return {-a.lo, -a.hi}; }
+MLSDEFORM_KERNEL_INLINE Pair<B> operator-(const Pair<B>& a) {
+  return {-a.lo, -a.hi};
+}
 template <class B>
-MLSDEFORM_KERNEL_INLINE PairMask<B> operator~(const PairMask<B>& a) { return {~a.lo, ~a.hi}; }
+MLSDEFORM_KERNEL_INLINE PairMask<B> operator~(const PairMask<B>& a) {
+  return {~a.lo, ~a.hi};
+}
 template <class B>
-MLSDEFORM_KERNEL_INLINE PairMask<B> operator!(const PairMask<B>& a) { return {!a.lo, !a.hi}; }
+MLSDEFORM_KERNEL_INLINE PairMask<B> operator!(const PairMask<B>& a) {
+  return {!a.lo, !a.hi};
+}
 
 // The element-wise functions the kernels call (unqualified, so that a batch finds xsimd's by argument-
 // dependent lookup and a Pair these).
 template <class B>
-MLSDEFORM_KERNEL_INLINE Pair<B> abs(const Pair<B>& a) { return {xsimd::abs(a.lo), xsimd::abs(a.hi)}; }
+MLSDEFORM_KERNEL_INLINE Pair<B> abs(const Pair<B>& a) {
+  return {xsimd::abs(a.lo), xsimd::abs(a.hi)};
+}
 template <class B>
-MLSDEFORM_KERNEL_INLINE Pair<B> sqrt(const Pair<B>& a) { return {xsimd::sqrt(a.lo), xsimd::sqrt(a.hi)}; }
+MLSDEFORM_KERNEL_INLINE Pair<B> sqrt(const Pair<B>& a) {
+  return {xsimd::sqrt(a.lo), xsimd::sqrt(a.hi)};
+}
 template <class B>
-MLSDEFORM_KERNEL_INLINE Pair<B> acos(const Pair<B>& a) { return {xsimd::acos(a.lo), xsimd::acos(a.hi)}; }
+MLSDEFORM_KERNEL_INLINE Pair<B> acos(const Pair<B>& a) {
+  return {xsimd::acos(a.lo), xsimd::acos(a.hi)};
+}
 template <class B>
-MLSDEFORM_KERNEL_INLINE Pair<B> exp2(const Pair<B>& a) { return {xsimd::exp2(a.lo), xsimd::exp2(a.hi)}; }
+MLSDEFORM_KERNEL_INLINE Pair<B> exp2(const Pair<B>& a) {
+  return {xsimd::exp2(a.lo), xsimd::exp2(a.hi)};
+}
 template <class B>
-MLSDEFORM_KERNEL_INLINE Pair<B> log2(const Pair<B>& a) { return {xsimd::log2(a.lo), xsimd::log2(a.hi)}; }
+MLSDEFORM_KERNEL_INLINE Pair<B> log2(const Pair<B>& a) {
+  return {xsimd::log2(a.lo), xsimd::log2(a.hi)};
+}
 template <class B>
 MLSDEFORM_KERNEL_INLINE Pair<B> max(const Pair<B>& a, const Pair<B>& b) {
   return {xsimd::max(a.lo, b.lo), xsimd::max(a.hi, b.hi)};
@@ -116,15 +132,19 @@ template <class T>
 MLSDEFORM_KERNEL_INLINE xsimd::batch<T, xsimd::avx512f> mul_add(const xsimd::batch<T, xsimd::avx512f>& x,
                                                                 const xsimd::batch<T, xsimd::avx512f>& y,
                                                                 const xsimd::batch<T, xsimd::avx512f>& z) {
-  if constexpr (sizeof(T) == 4) return _mm512_fmadd_ps(x, y, z);
-  else return _mm512_fmadd_pd(x, y, z);
+  if constexpr (sizeof(T) == 4)
+    return _mm512_fmadd_ps(x, y, z);
+  else
+    return _mm512_fmadd_pd(x, y, z);
 }
 template <class T>
 MLSDEFORM_KERNEL_INLINE xsimd::batch<T, xsimd::avx512f> mul_sub(const xsimd::batch<T, xsimd::avx512f>& x,
                                                                 const xsimd::batch<T, xsimd::avx512f>& y,
                                                                 const xsimd::batch<T, xsimd::avx512f>& z) {
-  if constexpr (sizeof(T) == 4) return _mm512_fmsub_ps(x, y, z);
-  else return _mm512_fmsub_pd(x, y, z);
+  if constexpr (sizeof(T) == 4)
+    return _mm512_fmsub_ps(x, y, z);
+  else
+    return _mm512_fmsub_pd(x, y, z);
 }
 #endif
 template <class B>
@@ -140,9 +160,13 @@ MLSDEFORM_KERNEL_INLINE Pair<B> select(const PairMask<BM>& m, const Pair<B>& a, 
   return {xsimd::select(m.lo, a.lo, b.lo), xsimd::select(m.hi, a.hi, b.hi)};
 }
 template <class BM>
-MLSDEFORM_KERNEL_INLINE bool any(const PairMask<BM>& m) { return xsimd::any(m.lo | m.hi); }
+MLSDEFORM_KERNEL_INLINE bool any(const PairMask<BM>& m) {
+  return xsimd::any(m.lo | m.hi);
+}
 template <class BM>
-MLSDEFORM_KERNEL_INLINE bool none(const PairMask<BM>& m) { return xsimd::none(m.lo | m.hi); }
+MLSDEFORM_KERNEL_INLINE bool none(const PairMask<BM>& m) {
+  return xsimd::none(m.lo | m.hi);
+}
 
 /// The element type and the mask type of a vector type V (an xsimd batch or a Pair): the stage functions of
 /// kernels/rotation/ and kernels/deformer/ are templates on V, like their scalar twins on T.
@@ -189,7 +213,7 @@ struct Simd : SimdCommon<T, xsimd::batch<T, A>::size> {
   MLSDEFORM_KERNEL_INLINE static V pow2_inverse_exponent(V m) {
     using I = xsimd::as_integer_t<T>;
     using VI = xsimd::batch<I, A>;
-    constexpr int mant = std::numeric_limits<T>::digits - 1;  // 23 or 52
+    constexpr int mant = std::numeric_limits<T>::digits - 1;                // 23 or 52
     constexpr I bias2 = I((std::numeric_limits<T>::max_exponent - 1) * 2);  // 254 or 2046
     const VI exp_mask = VI(I(((I(1) << (sizeof(T) * 8 - 1 - mant)) - 1)) << mant);
     VI e = xsimd::bitwise_cast<VI>(m) & exp_mask;

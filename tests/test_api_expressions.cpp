@@ -25,8 +25,8 @@ TEMPLATE_TEST_CASE("fit_rotation accepts Eigen expressions", "[rotation][api]", 
   CHECK_THROWS_AS(fit_rotation(big.block(0, 0, 2, 3)), std::invalid_argument);
 }
 
-TEMPLATE_TEST_CASE("fit_rigid and fit_similarity deduce the precision from their arguments", "[point_fit][api]",
-                   float, double) {
+TEMPLATE_TEST_CASE("fit_rigid and fit_similarity deduce the precision from their arguments", "[point_fit][api]", float,
+                   double) {
   using T = TestType;
   Points<T> P(4, 3);
   P << 0, 0, 0, 1, 0, 0, 0, 1, 0, 0, 0, 1;

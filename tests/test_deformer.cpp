@@ -12,8 +12,8 @@
 #include <cstdlib>
 #include <new>
 #include <thread>
-#include <vector>
 #include <utility>
+#include <vector>
 
 using namespace deformer_test;
 
@@ -89,14 +89,14 @@ TEMPLATE_TEST_CASE("interpolation: vertices on point handles go exactly to their
       def.deform(*q, out);
       for (Eigen::Index i = 0; i < 7; ++i) {
         INFO("handle " << i);
-        CHECK(out.row(i) == q->points.row(i));  // exact, not approximate (deformer_data.hpp: snapped vertices)
+        CHECK(out.row(i) == q->points.row(i));  // exact, not approximate (deformer/data.hpp: snapped vertices)
       }
       // On a segment moved rigidly: its end's target at t = 0, (c + d) / 2 at the midpoint. With the default
-      // paper_constant weights the vertex takes the map's limit there (deformer_data.hpp), the fit to that
+      // paper_constant weights the vertex takes the map's limit there (deformer/data.hpp), the fit to that
       // segment alone: q* + mu R vhat with a rank-1 H, whose fit maps the segment's direction to 16 eps;
       // |vhat| <= |c - d| / 2, and q* + mu R vhat rounds twice (8 eps each) on values below |c| + |d| + 1.
-      const double tol = 32 * std::numeric_limits<T>::epsilon() *
-                         (q->segment_a.row(0).norm() + q->segment_b.row(0).norm() + 1);
+      const double tol =
+          32 * std::numeric_limits<T>::epsilon() * (q->segment_a.row(0).norm() + q->segment_b.row(0).norm() + 1);
       CHECK((out.row(7) - q->segment_a.row(0)).template cast<double>().norm() <= tol);
       const Vec3d mid = 0.5 * (q->segment_a.row(0) + q->segment_b.row(0)).transpose().template cast<double>();
       CHECK((out.row(8).transpose().template cast<double>() - mid).norm() <= tol);
@@ -111,7 +111,7 @@ TEMPLATE_TEST_CASE("interpolation: vertices within the snapping distance of a ha
   std::mt19937_64 g(seed());
   INFO("seed " << seed());
   Scene<T> sc = random_scene<T>(g, 20, 6, 0);
-  // deformer_data.hpp: closer than 64 eps(T) times the scene size (about 3.5 here) snaps. Offsets of a few
+  // deformer/data.hpp: closer than 64 eps(T) times the scene size (about 3.5 here) snaps. Offsets of a few
   // ulps of the coordinates are far inside that; the weights there would be ~eps^-u without the rule.
   for (Eigen::Index i = 0; i < 6; ++i) {
     sc.vertices.row(i) = sc.rest.points.row(i);
@@ -130,13 +130,13 @@ TEMPLATE_TEST_CASE("interpolation: vertices within the snapping distance of a ha
   }
 }
 
-TEMPLATE_TEST_CASE("extreme weight exponents and vertices close to handles stay finite and exact", "[deformer]",
-                   float, double) {
+TEMPLATE_TEST_CASE("extreme weight exponents and vertices close to handles stay finite and exact", "[deformer]", float,
+                   double) {
   using T = TestType;
   std::mt19937_64 g(seed());
   INFO("seed " << seed());
   Scene<T> sc = random_scene<T>(g, 200, 7, 2);
-  // Vertices 1e-3 of the scene from a handle, and 4 times the snapping distance (deformer_data.hpp:
+  // Vertices 1e-3 of the scene from a handle, and 4 times the snapping distance (deformer/data.hpp:
   // 64 eps(T) times the scene size; about 1e-4 in float, 2e-13 in double): weight ratios down to
   // (1e-4 / 3.5)^20 = 1e-90 in float and (5e-14)^20 = 1e-266 in double. The first is far below the float
   // range: the per-vertex power-of-two scaling of A keeps those handles in H. (For u * log10(d_min / d)
@@ -162,11 +162,13 @@ TEMPLATE_TEST_CASE("extreme weight exponents and vertices close to handles stay 
       // Every transform reproduces a rigid motion (test_deformer_common.hpp bound). With u = 20 the nearest
       // two or three handles take all the weight at some vertices, and the affine fit is singular there.
       long ill_posed = 0;
-      check_expected(out, sc, moved, o, [&](const Vec3d& v) { return Vec3d(R * v + t); },
-                     8 * std::numeric_limits<double>::epsilon() * (2 + t.norm()), &ill_posed);
+      check_expected(
+          out, sc, moved, o, [&](const Vec3d& v) { return Vec3d(R * v + t); },
+          8 * std::numeric_limits<double>::epsilon() * (2 + t.norm()), &ill_posed);
       if (tr != Transform::affine || u < 20) CHECK(ill_posed == 0);
-      if (ill_posed) std::printf("[extreme] %s %s u = %g: %ld vertices with a singular affine fit skipped\n",
-                                 type_name<T>(), name(tr), u, ill_posed);
+      if (ill_posed)
+        std::printf("[extreme] %s %s u = %g: %ld vertices with a singular affine fit skipped\n", type_name<T>(),
+                    name(tr), u, ill_posed);
     }
 }
 
@@ -187,8 +189,9 @@ TEMPLATE_TEST_CASE("reproduction: rigid motions, uniform scales and affine maps 
       Transform tr;
       Mat3d map;
     };
-    for (const Case& cs : {Case{Transform::rigid, R}, Case{Transform::similarity, R}, Case{Transform::similarity, s * R},
-                           Case{Transform::affine, R}, Case{Transform::affine, s * R}, Case{Transform::affine, M}}) {
+    for (const Case& cs :
+         {Case{Transform::rigid, R}, Case{Transform::similarity, R}, Case{Transform::similarity, s * R},
+          Case{Transform::affine, R}, Case{Transform::affine, s * R}, Case{Transform::affine, M}}) {
       INFO(name(cs.tr) << " trial " << trial << " map\n" << cs.map);
       Options o;
       o.transform = cs.tr;
@@ -198,7 +201,8 @@ TEMPLATE_TEST_CASE("reproduction: rigid motions, uniform scales and affine maps 
       def.deform(moved, out);
       // The expected map, evaluated in double: its own rounding is a few eps(double) of |map v + t|.
       const double extra = 8 * std::numeric_limits<double>::epsilon() * (cs.map.norm() * 2 + t.norm());
-      check_expected(out, sc, moved, o, [&](const Vec3d& v) { return Vec3d(cs.map * v + t); }, extra);
+      check_expected(
+          out, sc, moved, o, [&](const Vec3d& v) { return Vec3d(cs.map * v + t); }, extra);
     }
   }
 }
@@ -218,8 +222,9 @@ TEMPLATE_TEST_CASE("translation of all handles translates every vertex", "[defor
       const Handles<T> moved = transformed(sc.rest, Mat3d::Identity(), t);
       Points<T> out;
       def.deform(moved, out);
-      check_expected(out, sc, moved, o, [&](const Vec3d& v) { return Vec3d(v + t); },
-                     8 * std::numeric_limits<double>::epsilon() * (t.norm() + 2));
+      check_expected(
+          out, sc, moved, o, [&](const Vec3d& v) { return Vec3d(v + t); },
+          8 * std::numeric_limits<double>::epsilon() * (t.norm() + 2));
     }
   }
 }
@@ -374,7 +379,7 @@ TEMPLATE_TEST_CASE("memory_bytes reports the table and per-vertex arrays actuall
     Options o;
     o.transform = tr;
     const Deformer<T> def(sc.vertices, sc.rest, o);
-    // deformer_data.hpp: 4 values (omega, A) per vertex and pseudo-handle, or 1 (alpha) for affine; p* and
+    // deformer/data.hpp: 4 values (omega, A) per vertex and pseudo-handle, or 1 (alpha) for affine; p* and
     // vhat (3 each) per vertex for rigid and similarity, D (1) for similarity; plus the rest and target handles.
     std::size_t values = np * J * (tr == Transform::affine ? 1 : 4);
     if (tr != Transform::affine) values += 6 * np;
@@ -383,9 +388,10 @@ TEMPLATE_TEST_CASE("memory_bytes reports the table and per-vertex arrays actuall
     CHECK(def.uses_precomputed_weights());
     const std::size_t per_pair = (tr == Transform::affine ? 1 : 4) * sizeof(T);
     const std::size_t per_vertex = (tr == Transform::affine ? 0 : tr == Transform::similarity ? 7 : 6) * sizeof(T);
-    std::printf("[memory] %-6s %-10s n = %ld, J = %zu (10 points + 3 segments): memory_bytes() = %zu = %zu B per vertex "
-                "and pseudo-handle x %zu x %zu (padded) + %zu B per vertex x %zu + %zu B of handles\n",
-                type_name<T>(), name(tr), long(n), J, def.memory_bytes(), per_pair, J, np, per_vertex, np, handles_bytes);
+    std::printf(
+        "[memory] %-6s %-10s n = %ld, J = %zu (10 points + 3 segments): memory_bytes() = %zu = %zu B per vertex "
+        "and pseudo-handle x %zu x %zu (padded) + %zu B per vertex x %zu + %zu B of handles\n",
+        type_name<T>(), name(tr), long(n), J, def.memory_bytes(), per_pair, J, np, per_vertex, np, handles_bytes);
     CHECK(def.memory_bytes() == per_pair * J * np + per_vertex * np + handles_bytes);
   }
 }

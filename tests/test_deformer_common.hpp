@@ -48,8 +48,8 @@ inline unsigned seed() {
 // The shared helpers, from the test-support library (tests/support).
 using testing::bundled_mesh;
 using testing::cast_handles;
-using testing::Comparison;
 using testing::compare_with_direct;
+using testing::Comparison;
 using testing::direct_vertex;
 using testing::DirectVertex;
 using testing::random_points;

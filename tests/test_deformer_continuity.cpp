@@ -23,7 +23,7 @@ using namespace deformer_test;
 namespace {
 
 struct Walk {
-  Vec3d x, e;        ///< the point on the handle, the direction of approach
+  Vec3d x, e;  ///< the point on the handle, the direction of approach
   const char* what;
 };
 

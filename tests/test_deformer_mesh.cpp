@@ -140,7 +140,8 @@ TEMPLATE_TEST_CASE("every rotation method gives the same deformation", "[deforme
         double worst = 0, worst_ratio = 0;
         long skipped = 0, failures = 0;
         for (Eigen::Index i = 0; i < vertices.rows(); ++i) {
-          const DirectVertex d = direct_vertex(vertices.row(i).transpose().template cast<double>(), rest, moved, o, size);
+          const DirectVertex d =
+              direct_vertex(vertices.row(i).transpose().template cast<double>(), rest, moved, o, size);
           const double dev = (out.row(i) - ref.row(i)).template cast<double>().norm();
           if (d.snapped) {
             if (dev != 0) ++failures;
@@ -152,7 +153,8 @@ TEMPLATE_TEST_CASE("every rotation method gives the same deformation", "[deforme
           }
           const double dR = 2 * 32 * eps * d.norm_H / d.gap;
           const double dmu = tr == Transform::similarity ? (d.norm_H * dR * dR + 16 * eps * d.norm_H) / d.D : 0;
-          const double bound = d.mu * dR * d.vhat_norm + dmu * d.vhat_norm + 16 * eps * (d.q_star_norm + d.mu * d.vhat_norm);
+          const double bound =
+              d.mu * dR * d.vhat_norm + dmu * d.vhat_norm + 16 * eps * (d.q_star_norm + d.mu * d.vhat_norm);
           worst = std::max(worst, dev);
           worst_ratio = std::max(worst_ratio, dev / bound);
           if (dev > bound) ++failures;

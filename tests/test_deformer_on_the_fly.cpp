@@ -55,7 +55,8 @@ TEMPLATE_TEST_CASE("on-the-fly weights agree with the precomputed table", "[defo
       }
 }
 
-TEST_CASE("on-the-fly weights: unsupported settings are refused, automatic follows the budget", "[deformer][on_the_fly]") {
+TEST_CASE("on-the-fly weights: unsupported settings are refused, automatic follows the budget",
+          "[deformer][on_the_fly]") {
   const Scene<float> s = scene<float>(2000, 8, 1.0, 3);
   Options o;
   o.weight_storage = WeightStorage::on_the_fly;

@@ -130,8 +130,9 @@ TEMPLATE_TEST_CASE("paper_constant segments agree with the paper's W_i and midpo
       Options o;
       o.transform = tr;
       o.segment_weight = SegmentWeight::paper_constant;
-      const Handles<T> moved = transformed(sc.rest, random_rotation(g) * (Mat3d::Identity() + 0.3 * Mat3d(
-                                                           random_vector(g).asDiagonal())), random_vector(g));
+      const Handles<T> moved =
+          transformed(sc.rest, random_rotation(g) * (Mat3d::Identity() + 0.3 * Mat3d(random_vector(g).asDiagonal())),
+                      random_vector(g));
       Points<T> out;
       Deformer<T>(sc.vertices, sc.rest, o).deform(moved, out);
       const Comparison c = compare_with_direct(out, sc.vertices, sc.rest, moved, o);
@@ -180,7 +181,9 @@ SegmentScene segment_scene(std::mt19937_64& g) {
     const Vec3d x = random_vector(g, -2.5, 2.5);
     bool ok = true;
     for (int i = 0; i < 3; ++i)
-      ok = ok && detail::segment_geometry(x, s.rest.segment_a.row(i).transpose(), s.rest.segment_b.row(i).transpose()).d >= 1.0;
+      ok = ok &&
+           detail::segment_geometry(x, s.rest.segment_a.row(i).transpose(), s.rest.segment_b.row(i).transpose()).d >=
+               1.0;
     if (ok) v.push_back(x);
   }
   s.vertices.resize(kArmVertices, 3);
@@ -278,10 +281,11 @@ TEMPLATE_TEST_CASE("exact_integral segments agree with the segments densely samp
         max_rounding = std::max(max_rounding, rounding);
       }
       CHECK(max_r1 <= 1.25 * max_r0 / 16 + max_rounding);
-      std::cout << "[segment sampling] " << type_name<T>() << " " << name(tr) << " u=" << u << ": max |e(N)| for N = "
-                << N << ", " << 2 * N << ", " << 4 * N << ": " << max_e0 << ", " << e1.rowwise().norm().maxCoeff()
-                << ", " << e2.rowwise().norm().maxCoeff() << "; max Richardson residual " << max_r0 << " -> " << max_r1
-                << " (ratio " << max_r0 / max_r1 << ", 16 expected)\n";
+      std::cout << "[segment sampling] " << type_name<T>() << " " << name(tr) << " u=" << u
+                << ": max |e(N)| for N = " << N << ", " << 2 * N << ", " << 4 * N << ": " << max_e0 << ", "
+                << e1.rowwise().norm().maxCoeff() << ", " << e2.rowwise().norm().maxCoeff()
+                << "; max Richardson residual " << max_r0 << " -> " << max_r1 << " (ratio " << max_r0 / max_r1
+                << ", 16 expected)\n";
       if constexpr (sizeof(T) == 4) {
         // In float: the segment deformer and the sampled one (4N) are each within their rounding bound of
         // their double counterparts, which differ by e(4N).
@@ -306,7 +310,7 @@ TEMPLATE_TEST_CASE("exact_integral differs from paper_constant; segments interpo
   Points<T> vertices = s.vertices.cast<T>();
   // A vertex on the interior of segment 0 (t = 1/4) maps to (3/4) c + (1/4) d with exact_integral weights,
   // and with paper_constant ones for similarity and affine; rigid paper_constant takes the rigid fit to the
-  // segment alone there (deformer_data.hpp), which interpolates only if the move keeps the segment's length.
+  // segment alone there (deformer/data.hpp), which interpolates only if the move keeps the segment's length.
   vertices.row(0) = T(0.75) * rest.segment_a.row(0) + T(0.25) * rest.segment_b.row(0);
   for (Transform tr : all_transforms) {
     Points<T> a, b;
@@ -316,7 +320,8 @@ TEMPLATE_TEST_CASE("exact_integral differs from paper_constant; segments interpo
     Deformer<T>(vertices, rest, o).deform(moved, a);
     o.segment_weight = SegmentWeight::exact_integral;
     Deformer<T>(vertices, rest, o).deform(moved, b);
-    const Vector3<T> target = T(0.75) * moved.segment_a.row(0).transpose() + T(0.25) * moved.segment_b.row(0).transpose();
+    const Vector3<T> target =
+        T(0.75) * moved.segment_a.row(0).transpose() + T(0.25) * moved.segment_b.row(0).transpose();
     // t is the closest-point parameter of the rounded vertex: a few eps of the coordinates (|x| <= 3); the
     // paper_constant limit adds the rank-1 fit (16 eps |vhat|, |vhat| <= 3) and the rounding of q* + mu R vhat.
     const T tol = 16 * std::numeric_limits<T>::epsilon() * 3;
@@ -331,13 +336,15 @@ TEST_CASE("paper_constant vs exact_integral: the numbers quoted in docs/api.md",
   // and the centroid parameter of its weight (where p* and q* put it).
   const detail::SegmentGeometry g = detail::segment_geometry(Vec3d(0.1, 0.1, 0), Vec3d::Zero(), Vec3d::UnitX());
   const double dm2 = 1 / (g.d * g.d);
-  const detail::SegmentMoments pc = detail::segment_moments_constant(g, g.d, 2), ex = detail::segment_moments_exact(g, g.d, 2);
+  const detail::SegmentMoments pc = detail::segment_moments_constant(g, g.d, 2),
+                               ex = detail::segment_moments_exact(g, g.d, 2);
   const double w_pc = pc.I0 + 2 * pc.I1 + pc.I2, w_ex = ex.I0 + 2 * ex.I1 + ex.I2;
   // Closed form: int_0^1 dt / (h^2 + (t - 0.1)^2) = (atan(9) + atan(1)) / h with h = 0.1.
   CHECK(std::abs(w_ex * dm2 - (std::atan(9.0) + std::atan(1.0)) / 0.1) <= 1e-13 * w_ex * dm2);
-  std::printf("[segment example] vertex (0.1, 0.1, 0), segment (0,0,0)-(1,0,0), u = 2: weight %.4g (paper) vs %.4g "
-              "(exact), centroid at t = %.4g (paper) vs %.4g (exact)\n",
-              w_pc * dm2, w_ex * dm2, (pc.I1 + pc.I2) / w_pc, (ex.I1 + ex.I2) / w_ex);
+  std::printf(
+      "[segment example] vertex (0.1, 0.1, 0), segment (0,0,0)-(1,0,0), u = 2: weight %.4g (paper) vs %.4g "
+      "(exact), centroid at t = %.4g (paper) vs %.4g (exact)\n",
+      w_pc * dm2, w_ex * dm2, (pc.I1 + pc.I2) / w_pc, (ex.I1 + ex.I2) / w_ex);
 
   // A two-bone arm: vertices on a cylinder of radius 0.15 around x in [0, 2], bones [0, 1] and [1, 2] and a
   // "hand" bone (2, 0, 0) -> (2, 0.3, 0) as segments (the hand makes the handles span a plane, so that every
@@ -376,10 +383,11 @@ TEST_CASE("paper_constant vs exact_integral: the numbers quoted in docs/api.md",
     }
   }
   const double diff = (out[0] - out[1]).rowwise().norm().maxCoeff();
-  std::printf("[segment example] two-bone arm with a hand (length 2, radius 0.15), forearm bent 90 degrees, rigid, "
-              "u = 2: "
-              "max |paper - exact| = %.3g; largest deviation from the ideal: upper arm %.3g (paper) vs %.3g (exact), "
-              "far forearm %.3g (paper) vs %.3g (exact)\n",
-              diff, upper[0], upper[1], fore[0], fore[1]);
+  std::printf(
+      "[segment example] two-bone arm with a hand (length 2, radius 0.15), forearm bent 90 degrees, rigid, "
+      "u = 2: "
+      "max |paper - exact| = %.3g; largest deviation from the ideal: upper arm %.3g (paper) vs %.3g (exact), "
+      "far forearm %.3g (paper) vs %.3g (exact)\n",
+      diff, upper[0], upper[1], fore[0], fore[1]);
   CHECK(diff > 0);
 }

@@ -2,7 +2,7 @@
 // runs, on vertex counts around the lane width, for the three transforms, point and segment handles, with
 // degenerate configurations (collinear handles, vertices on handles, half-turns); thread-count invariance.
 #include "isa_guard.hpp"  // tests/support
-#include "scenes.hpp"      // tests/support
+#include "scenes.hpp"     // tests/support
 
 #include <mlsdeform/mlsdeform.hpp>
 
@@ -50,7 +50,8 @@ TEMPLATE_TEST_CASE("SIMD deformation agrees with the scalar reference", "[deform
     set_isa(isa);
     const Eigen::Index W = Eigen::Index(simd_lanes(std::is_same_v<T, double>));
     for (Transform tr : {Transform::rigid, Transform::similarity, Transform::affine})
-      for (Eigen::Index n : {Eigen::Index(1), W - 1, W, W + 1, 3 * W + 2, Eigen::Index(16), Eigen::Index(17), Eigen::Index(2000)}) {
+      for (Eigen::Index n :
+           {Eigen::Index(1), W - 1, W, W + 1, 3 * W + 2, Eigen::Index(16), Eigen::Index(17), Eigen::Index(2000)}) {
         if (n <= 0) continue;
         for (int config = 0; config < 3; ++config) {
           // 0: 6 spread points + 2 segments; 1: 2 points only (rank-1 H everywhere); 2: 12 points, half-turn twist
@@ -80,8 +81,7 @@ TEMPLATE_TEST_CASE("SIMD deformation agrees with the scalar reference", "[deform
           // Two handles (config 1): H has rank 1 everywhere, the optimum is a whole circle of rotations,
           // and both paths take the one closest to the identity from a plane known to O(sqrt(eps)), so
           // they agree to 64 sqrt(eps) (|vhat| <= 2 sqrt(3) times a few sqrt(eps)).
-          const T tol = tr == Transform::affine ? T(64) * eps
-                                                : (config == 1 ? T(64) * std::sqrt(eps) : T(256) * eps);
+          const T tol = tr == Transform::affine ? T(64) * eps : (config == 1 ? T(64) * std::sqrt(eps) : T(256) * eps);
           CHECK(max_difference(out_simd, out_scalar) <= tol);
         }
       }

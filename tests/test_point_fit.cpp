@@ -75,8 +75,10 @@ Problem<T> make_problem(Rng& rng, int n, bool with_scale, bool reflect = false, 
   const VecL wl = pr.w.template cast<long double>();
   const long double sw = wl.sum();
   const Vector3L p_star = pl.transpose() * wl / sw, q_star = ql.transpose() * wl / sw;
-  const long double sigma_p = std::sqrt(((pl.rowwise() - p_star.transpose()).rowwise().squaredNorm().transpose() * wl)(0) / sw);
-  const long double sigma_q = std::sqrt(((ql.rowwise() - q_star.transpose()).rowwise().squaredNorm().transpose() * wl)(0) / sw);
+  const long double sigma_p =
+      std::sqrt(((pl.rowwise() - p_star.transpose()).rowwise().squaredNorm().transpose() * wl)(0) / sw);
+  const long double sigma_q =
+      std::sqrt(((ql.rowwise() - q_star.transpose()).rowwise().squaredNorm().transpose() * wl)(0) / sw);
   const long double P = pl.rowwise().norm().maxCoeff(), Q = ql.rowwise().norm().maxCoeff();
   const long double rho = P / sigma_p + Q / sigma_q;
   const long double beta = (c_b + 2 * n + 8) * eps * rho;
@@ -204,8 +206,8 @@ TEMPLATE_TEST_CASE("point fits: huge weights whose sum overflows", "[point_fit]"
   }
 }
 
-TEMPLATE_TEST_CASE("point fits: coordinates from 1e-15 to 1e15 (float), 1e-100 to 1e100 (double)", "[point_fit]",
-                   float, double) {
+TEMPLATE_TEST_CASE("point fits: coordinates from 1e-15 to 1e15 (float), 1e-100 to 1e100 (double)", "[point_fit]", float,
+                   double) {
   using T = TestType;
   // Millimetres and kilometres: the correlation matrix scales as the square of the unit, which stays in T's
   // range over these units; every bound scales with the unit or not at all (see the top of the file).
@@ -259,7 +261,8 @@ TEMPLATE_TEST_CASE("point fits reject bad input with a message", "[point_fit]", 
                       Catch::Contains("no points"));
     CHECK_THROWS_WITH(fit(p, Points<T>::Random(4, 3), w, RotationMethod::axis_angle),
                       Catch::Contains("5 points but q has 4"));
-    CHECK_THROWS_WITH(fit(p, q, Vec<T>::Ones(3), RotationMethod::axis_angle), Catch::Contains("5 points but 3 weights"));
+    CHECK_THROWS_WITH(fit(p, q, Vec<T>::Ones(3), RotationMethod::axis_angle),
+                      Catch::Contains("5 points but 3 weights"));
     Points<T> bad = p;
     bad(2, 1) = nan;
     CHECK_THROWS_WITH(fit(bad, q, w, RotationMethod::svd), Catch::Contains("non-finite"));

@@ -1,4 +1,5 @@
-// The public rotation API: names, errors on bad input, and the special matrices (zero, rank-deficient, reflections, extreme scales).
+// The public rotation API: names, errors on bad input, and the special matrices (zero, rank-deficient, reflections,
+// extreme scales).
 #include <mlsdeform/mlsdeform.hpp>
 
 #include <catch2/catch.hpp>

@@ -36,16 +36,15 @@ std::vector<Rank1> rank1_cases(bool single, std::size_t random_count) {
   const double scales_d[] = {1.0, 0x1p-900, 0x1p900};
   const Eigen::Vector3d ex = Eigen::Vector3d::UnitX(), ey = Eigen::Vector3d::UnitY();
   for (double s : single ? scales_f : scales_d) {
-    cases.push_back({ex, ex, s});                                           // identity is optimal
-    cases.push_back({ex, -ex, s});                                          // half-turns only
-    cases.push_back({ex, ey, s});                                           // quarter turn
-    cases.push_back({ex, Eigen::Vector3d(1, 1e-4, 0).normalized(), s});     // nearly the identity
-    cases.push_back({ex, Eigen::Vector3d(-1, 1e-4, 0).normalized(), s});    // nearly a half-turn
+    cases.push_back({ex, ex, s});                                         // identity is optimal
+    cases.push_back({ex, -ex, s});                                        // half-turns only
+    cases.push_back({ex, ey, s});                                         // quarter turn
+    cases.push_back({ex, Eigen::Vector3d(1, 1e-4, 0).normalized(), s});   // nearly the identity
+    cases.push_back({ex, Eigen::Vector3d(-1, 1e-4, 0).normalized(), s});  // nearly a half-turn
     const Eigen::Vector3d p = unit();
     cases.push_back({p, -p, s});
   }
-  for (std::size_t i = 0; i < random_count; ++i)
-    cases.push_back({unit(), unit(), std::ldexp(1.0, int(i % 41) - 20)});
+  for (std::size_t i = 0; i < random_count; ++i) cases.push_back({unit(), unit(), std::ldexp(1.0, int(i % 41) - 20)});
   return cases;
 }
 

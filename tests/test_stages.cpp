@@ -43,8 +43,10 @@ LD gamma(int k) {
 
 template <class T>
 kernels::StageFn<T> stage_fn(const kernels::KernelTable& t) {
-  if constexpr (std::is_same_v<T, float>) return t.stage_f;
-  else return t.stage_d;
+  if constexpr (std::is_same_v<T, float>)
+    return t.stage_f;
+  else
+    return t.stage_d;
 }
 
 /// Runs `stage` through a table: in is SoA [k * n + i], the result likewise.
@@ -122,8 +124,9 @@ void check_rotation_stages(const kernels::KernelTable& simd, const kernels::Kern
     LD c2 = 0;
     for (const auto& cc : cols) c2 += H.col(cc[0]).cross(H.col(cc[1])).squaredNorm();
     const LD ref[7] = {H.trace(), z(0), z(1), z(2), H.squaredNorm(), H.determinant(), c2};
-    const LD tol[7] = {gamma<T>(2) * A.trace(), gamma<T>(1) * zabs(0), gamma<T>(1) * zabs(1), gamma<T>(1) * zabs(2),
-                       gamma<T>(9) * A.squaredNorm(), gamma<T>(5) * det_abs, gamma<T>(12) * c2_abs};
+    const LD tol[7] = {gamma<T>(2) * A.trace(), gamma<T>(1) * zabs(0),         gamma<T>(1) * zabs(1),
+                       gamma<T>(1) * zabs(2),   gamma<T>(9) * A.squaredNorm(), gamma<T>(5) * det_abs,
+                       gamma<T>(12) * c2_abs};
     for (std::size_t k = 0; k < 7; ++k) {
       INFO("invariants, lane " << i << " of " << n << ", output " << k);
       CHECK(std::abs(LD(inv_simd[k * n + i]) - ref[k]) <= tol[k]);
@@ -241,7 +244,8 @@ void check_deformer_stages(const kernels::KernelTable& simd, const kernels::Kern
   for (std::size_t i = 0; i < n; ++i) {
     for (std::size_t c = 0; c < 3; ++c) {
       LD s = 0, sa = 0;
-      for (std::size_t j = 0; j < J; ++j) s += LD(omega[j * n + i]) * q[3 * j + c], sa += std::abs(LD(omega[j * n + i]) * q[3 * j + c]);
+      for (std::size_t j = 0; j < J; ++j)
+        s += LD(omega[j * n + i]) * q[3 * j + c], sa += std::abs(LD(omega[j * n + i]) * q[3 * j + c]);
       CHECK(std::abs(qs_scalar[c * n + i] - s) <= gamma<T>(2 * J) * sa);
     }
     for (std::size_t e = 0; e < 9; ++e) {
@@ -256,8 +260,8 @@ void check_deformer_stages(const kernels::KernelTable& simd, const kernels::Kern
   // similarity_scale (Sec. 6.1) and apply (steps 8-10): bitwise equal; lane 0 has D = 0 (the `otherwise`).
   std::vector<T> sin = fill(20 * n);
   for (std::size_t i = 0; i < n; ++i) sin[18 * n + i] = i == 0 ? T(0) : T(0.5) + std::abs(sin[18 * n + i]);
-  check_bitwise(run<T>(simd, Stage::similarity_scale, sin, {}, 0, n), run<T>(scalar, Stage::similarity_scale, sin, {}, 0, n),
-                "similarity_scale", n);
+  check_bitwise(run<T>(simd, Stage::similarity_scale, sin, {}, 0, n),
+                run<T>(scalar, Stage::similarity_scale, sin, {}, 0, n), "similarity_scale", n);
   const std::vector<T> ain = fill(16 * n);
   check_bitwise(run<T>(simd, Stage::apply, ain, {}, 0, n), run<T>(scalar, Stage::apply, ain, {}, 0, n), "apply", n);
 }

@@ -73,7 +73,7 @@ struct Cell {
   double worst_normalised_angle = 0;  // max over unique cases of angle / (eps * kappa)
   std::uint64_t non_finite = 0, thrown = 0, beyond = 0;
   std::uint64_t beyond_uniform = 0;  // beyond the bounds with the common constant c_b_uniform
-  std::string worst_case;  // the case with the largest angle / (eps kappa), for reproduction
+  std::string worst_case;            // the case with the largest angle / (eps kappa), for reproduction
 };
 
 struct FamilyResult {
@@ -223,8 +223,8 @@ ReportOptions parse(int argc, char** argv) {
 const FamilyInfo& info(Family f) { return all_families()[static_cast<std::size_t>(f)]; }
 
 template <class T>
-void write_precision(std::ostream& md, const char* name, const ReportOptions& o, const std::vector<FamilyResult>& results,
-                     std::uint64_t per_family) {
+void write_precision(std::ostream& md, const char* name, const ReportOptions& o,
+                     const std::vector<FamilyResult>& results, std::uint64_t per_family) {
   md << "\n## " << name << " (eps = " << sci(static_cast<double>(eps<T>), 3) << ")\n";
   // Overview: the worst angle in units of eps * kappa and the cases beyond the bounds, per family and method.
   md << "\nWorst angle error in units of eps * kappa (over cases with a unique optimum), and in brackets the "
@@ -248,8 +248,8 @@ void write_precision(std::ostream& md, const char* name, const ReportOptions& o,
   for (std::size_t fi = 0; fi < o.families.size(); ++fi) {
     const FamilyResult& r = results[fi];
     const FamilyInfo& f = info(o.families[fi]);
-    md << "\n### " << name << ": " << f.name << "\n\n" << f.description << ". " << r.cases << " cases, " << r.unique
-       << " with a unique optimum";
+    md << "\n### " << name << ": " << f.name << "\n\n"
+       << f.description << ". " << r.cases << " cases, " << r.unique << " with a unique optimum";
     if (r.unique) md << " (kappa median " << sci(r.kappa_median, 3) << ", max " << sci(r.kappa_max, 3) << ")";
     md << ".\n\n| method | angle median | angle p99.9 | angle max | max angle / (eps kappa) | loss median | "
           "loss p99.9 | loss max | NaN | beyond bounds | beyond uniform bounds |\n"
@@ -263,7 +263,8 @@ void write_precision(std::ostream& md, const char* name, const ReportOptions& o,
       else
         md << "- | - | - | - | ";
       md << sci(c.loss.median) << " | " << sci(c.loss.p999) << " | " << sci(c.loss.max) << " | " << c.non_finite
-         << (c.thrown ? " (+" + std::to_string(c.thrown) + " threw)" : std::string()) << " | " << c.beyond << " | " << c.beyond_uniform << " |\n";
+         << (c.thrown ? " (+" + std::to_string(c.thrown) + " threw)" : std::string()) << " | " << c.beyond << " | "
+         << c.beyond_uniform << " |\n";
     }
     bool any = false;
     for (int m = 0; m < kMethods; ++m)

@@ -189,12 +189,14 @@ int main(int argc, char** argv) try {
   }
   // What the twist did to the far end: the angle of its cross-section's corner ring.
   const int far = bar.at(bar.a, 0, 0), near = bar.at(0, 0, 0);
-  const double turned = std::atan2(current(far, 2), current(far, 1)) - std::atan2(bar.vertices(far, 2), bar.vertices(far, 1));
+  const double turned =
+      std::atan2(current(far, 2), current(far, 1)) - std::atan2(bar.vertices(far, 2), bar.vertices(far, 1));
   const double near_moved = (current.row(near) - bar.vertices.row(near)).norm();
   double remainder = std::remainder(turned * 180 / M_PI - degrees, 360.0);
-  std::printf("           deform: %.1f ms per torsion (%d); far end turned by %g degrees (mod 360: %+.2g off), "
-              "near end moved %.2g\n",
-              total_ms / steps, steps, degrees, remainder, near_moved);
+  std::printf(
+      "           deform: %.1f ms per torsion (%d); far end turned by %g degrees (mod 360: %+.2g off), "
+      "near end moved %.2g\n",
+      total_ms / steps, steps, degrees, remainder, near_moved);
   if (!write_obj(path, current, bar.triangles)) {
     std::fprintf(stderr, "twist_bar: cannot write %s\n", path.c_str());
     return 1;

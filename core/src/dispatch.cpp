@@ -14,11 +14,14 @@ constexpr std::string_view kIsaNames[] = {"scalar", "sse4_2", "avx2", "avx512"};
 bool cpu_runs(Isa isa) {
   // GCC's __builtin_cpu_supports also checks that the OS saves the wider registers (XCR0).
   switch (isa) {
-    case Isa::scalar: return true;
-    case Isa::sse4_2: return __builtin_cpu_supports("sse4.2");
-    case Isa::avx2: return __builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma");
-    case Isa::avx512: return __builtin_cpu_supports("avx512f") && __builtin_cpu_supports("avx2") &&
-                             __builtin_cpu_supports("fma");
+    case Isa::scalar:
+      return true;
+    case Isa::sse4_2:
+      return __builtin_cpu_supports("sse4.2");
+    case Isa::avx2:
+      return __builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma");
+    case Isa::avx512:
+      return __builtin_cpu_supports("avx512f") && __builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma");
   }
   return false;
 }
@@ -26,8 +29,7 @@ bool cpu_runs(Isa isa) {
 Isa isa_from_string(std::string_view name) {
   for (int i = 0; i < 4; ++i)
     if (kIsaNames[i] == name) return static_cast<Isa>(i);
-  throw std::invalid_argument("MLSDEFORM_ISA='" + std::string(name) +
-                              "' is not one of scalar, sse4_2, avx2, avx512");
+  throw std::invalid_argument("MLSDEFORM_ISA='" + std::string(name) + "' is not one of scalar, sse4_2, avx2, avx512");
 }
 
 Isa initial_isa() {
@@ -61,7 +63,8 @@ std::vector<Isa> supported_isas() {
 Isa active_isa() { return static_cast<Isa>(current().load(std::memory_order_relaxed)); }
 
 void set_isa(Isa isa) {
-  if (!cpu_runs(isa)) throw std::invalid_argument("set_isa(" + std::string(to_string(isa)) + "): this CPU cannot run it");
+  if (!cpu_runs(isa))
+    throw std::invalid_argument("set_isa(" + std::string(to_string(isa)) + "): this CPU cannot run it");
   current().store(static_cast<int>(isa), std::memory_order_relaxed);
 }
 
@@ -74,10 +77,14 @@ namespace detail {
 
 const kernels::KernelTable& active_kernels() {
   switch (active_isa()) {
-    case Isa::scalar: return kernels::kernel_table_scalar();
-    case Isa::sse4_2: return kernels::kernel_table_sse4_2();
-    case Isa::avx2: return kernels::kernel_table_avx2();
-    case Isa::avx512: return kernels::kernel_table_avx512();
+    case Isa::scalar:
+      return kernels::kernel_table_scalar();
+    case Isa::sse4_2:
+      return kernels::kernel_table_sse4_2();
+    case Isa::avx2:
+      return kernels::kernel_table_avx2();
+    case Isa::avx512:
+      return kernels::kernel_table_avx512();
   }
   return kernels::kernel_table_scalar();
 }

@@ -26,9 +26,9 @@ void fit_rotations_reference(const T* H, T* R, std::size_t stride, std::size_t b
 }
 
 template void fit_rotations_reference<float>(const float*, float*, std::size_t, std::size_t, std::size_t,
-                                              RotationMethod);
+                                             RotationMethod);
 template void fit_rotations_reference<double>(const double*, double*, std::size_t, std::size_t, std::size_t,
-                                               RotationMethod);
+                                              RotationMethod);
 
 namespace {
 

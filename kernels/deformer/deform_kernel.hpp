@@ -126,7 +126,8 @@ struct DeformKernel : Simd<T, A> {
       for_each_target(fr, [&](std::size_t j, T qx, T qy, T qz) {
         const T* co = fr.table + table_offset(b, j, J, fr.transform) + g;
         const V omega = V::load_aligned(co);
-        const V a[3] = {V::load_aligned(co + kLanes), V::load_aligned(co + 2 * kLanes), V::load_aligned(co + 3 * kLanes)};
+        const V a[3] = {V::load_aligned(co + kLanes), V::load_aligned(co + 2 * kLanes),
+                        V::load_aligned(co + 3 * kLanes)};
         weighted_centroid(qs, omega, {V(qx), V(qy), V(qz)});
         correlation_matrix(h, {V(qx - fr.centre[0]), V(qy - fr.centre[1]), V(qz - fr.centre[2])}, a);
       });

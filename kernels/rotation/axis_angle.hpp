@@ -77,13 +77,14 @@ MLSDEFORM_KERNEL_INLINE void fit_rotation_axis_angle(V (&h)[9], V (&r)[9], std::
 /// [begin, end) of a 3 x 3 x n layout, batch by batch (a partial last batch through a zero-padded copy).
 template <class V, class Fit>
 void fit_range(const scalar_of<V>* H, scalar_of<V>* R, std::size_t stride, std::size_t begin, std::size_t end,
-                   BatchStats* stats) {
+               BatchStats* stats) {
   using T = scalar_of<V>;
   std::size_t careful = 0;
   SimdCommon<T, V::size>::for_each_batch(H, R, stride, begin, end,
                                          [&](const T* src, T* dst, std::size_t st, std::size_t off) {
                                            V h[9], r[9];
-                                           for (std::size_t i = 0; i < 9; ++i) h[i] = V::load_unaligned(src + i * st + off);
+                                           for (std::size_t i = 0; i < 9; ++i)
+                                             h[i] = V::load_unaligned(src + i * st + off);
                                            Fit::fit(h, r, careful);
                                            for (std::size_t i = 0; i < 9; ++i) r[i].store_unaligned(dst + i * st + off);
                                          });

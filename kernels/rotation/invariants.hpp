@@ -10,11 +10,11 @@ namespace mlsdeform::kernels {
 
 template <class V>
 struct Invariants {
-  V E;            // trace H
-  V z0, z1, z2;   // (H21 - H12, H02 - H20, H10 - H01) = -V of eq. (6)
-  V norm2;        // ||H||_F^2
-  V det;          // det H
-  V c2;           // sum_{i<j} |H_i x H_j|^2 over columns
+  V E;           // trace H
+  V z0, z1, z2;  // (H21 - H12, H02 - H20, H10 - H01) = -V of eq. (6)
+  V norm2;       // ||H||_F^2
+  V det;         // det H
+  V c2;          // sum_{i<j} |H_i x H_j|^2 over columns
 };
 
 /// h[3 r + c] = H(r, c), normalised.

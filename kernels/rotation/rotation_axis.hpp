@@ -63,7 +63,8 @@ MLSDEFORM_KERNEL_INLINE Vec4<V> rotation_axis(const Mat4<V>& K, V y, V& dk) {
   for (int i = 0; i < 4; ++i) col.v[i] = select(k0, adj[i][0], select(k1, adj[i][1], select(k2, adj[i][2], adj[i][3])));
   Vec4<V> q;
   for (int i = 0; i < 4; ++i)
-    q.v[i] = mul_add(adj[i][0], col.v[0], mul_add(adj[i][1], col.v[1], mul_add(adj[i][2], col.v[2], adj[i][3] * col.v[3])));
+    q.v[i] =
+        mul_add(adj[i][0], col.v[0], mul_add(adj[i][1], col.v[1], mul_add(adj[i][2], col.v[2], adj[i][3] * col.v[3])));
   return q;
 }
 

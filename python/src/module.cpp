@@ -17,8 +17,8 @@
 #include <optional>
 #include <stdexcept>
 #include <string>
-#include <utility>
 #include <type_traits>
+#include <utility>
 #include <vector>
 
 namespace py = pybind11;
@@ -83,15 +83,17 @@ E parse_enum(const std::string& value, const char* name, std::initializer_list<s
 }
 
 Transform parse_transform(const std::string& s) {
-  return parse_enum<Transform>(s, "transform", {{"rigid", Transform::rigid}, {"similarity", Transform::similarity},
-                                                {"affine", Transform::affine}});
+  return parse_enum<Transform>(
+      s, "transform",
+      {{"rigid", Transform::rigid}, {"similarity", Transform::similarity}, {"affine", Transform::affine}});
 }
 
 RotationMethod parse_method(const std::string& s) {
   for (RotationMethod m : all_rotation_methods)
     if (to_string(m) == s) return m;
   std::string known;
-  for (RotationMethod m : all_rotation_methods) known += (known.empty() ? "'" : ", '") + std::string(to_string(m)) + "'";
+  for (RotationMethod m : all_rotation_methods)
+    known += (known.empty() ? "'" : ", '") + std::string(to_string(m)) + "'";
   throw py::value_error("method: unknown value '" + s + "' (expected one of " + known + ")");
 }
 
@@ -128,8 +130,10 @@ class PyDeformer {
 
   template <class T>
   Deformer<T>& get() const {
-    if constexpr (std::is_same_v<T, float>) return *single_;
-    else return *double_;
+    if constexpr (std::is_same_v<T, float>)
+      return *single_;
+    else
+      return *double_;
   }
   template <class F>
   decltype(auto) visit(F&& f) const {
@@ -158,15 +162,19 @@ class PyDeformer {
     bool single = false;
     if (!dtype.is_none()) {
       const py::dtype dt = py::dtype::from_args(dtype);
-      if (dt.is(py::dtype::of<float>()) || dt.equal(py::dtype::of<float>())) single = true;
-      else if (!dt.equal(py::dtype::of<double>())) throw py::type_error("dtype: expected float32 or float64");
+      if (dt.is(py::dtype::of<float>()) || dt.equal(py::dtype::of<float>()))
+        single = true;
+      else if (!dt.equal(py::dtype::of<double>()))
+        throw py::type_error("dtype: expected float32 or float64");
     } else if (py::isinstance<py::array>(vertices)) {
       single = py::reinterpret_borrow<py::array>(vertices).dtype().equal(py::dtype::of<float>());
     }
     if (points.is_none() && segments.is_none())
       throw py::value_error("Deformer: no handles (give points=..., segments=(A, B), or both)");
-    if (single) make<float>(vertices, points, segments, o);
-    else make<double>(vertices, points, segments, o);
+    if (single)
+      make<float>(vertices, points, segments, o);
+    else
+      make<double>(vertices, points, segments, o);
   }
 
   bool single() const { return single_ != nullptr; }
@@ -248,8 +256,10 @@ class PyDeformer {
       py::gil_scoped_release release;
       d.emplace(v, h, o);
     }
-    if constexpr (std::is_same_v<T, float>) single_ = std::make_unique<Deformer<float>>(std::move(*d));
-    else double_ = std::make_unique<Deformer<double>>(std::move(*d));
+    if constexpr (std::is_same_v<T, float>)
+      single_ = std::make_unique<Deformer<float>>(std::move(*d));
+    else
+      double_ = std::make_unique<Deformer<double>>(std::move(*d));
   }
 
   /// The moved handles: the given arrays, the session's current targets for the kinds not given.
@@ -306,8 +316,6 @@ class PyDeformer {
     for (int r = 0; r < reps; ++r) d.deform(h, InterleavedView<T>(data, d.vertex_count(), 3));
     return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count() / reps;
   }
-
-
 };
 
 /// (m, 3, 3) -> (m, 3, 3) through the library's 3 x 3 x m structure-of-arrays batch (scratch transposes).
@@ -521,8 +529,10 @@ written.)");
       "_time_cpp_fit_rotations",
       [](const py::object& H, int threads) {
         double seconds = 0;
-        if (wants_single(H)) fit_rotations_t<float>(Array<float>::ensure(H), RotationMethod::axis_angle, threads, &seconds);
-        else fit_rotations_t<double>(Array<double>::ensure(H), RotationMethod::axis_angle, threads, &seconds);
+        if (wants_single(H))
+          fit_rotations_t<float>(Array<float>::ensure(H), RotationMethod::axis_angle, threads, &seconds);
+        else
+          fit_rotations_t<double>(Array<double>::ensure(H), RotationMethod::axis_angle, threads, &seconds);
         return seconds;
       },
       py::arg("H"), py::arg("threads") = 1);
@@ -555,8 +565,9 @@ written.)");
 
 The transform x -> s R x + t minimising sum_i w_i |s R P_i + t - Q_i|^2 (paper eqs. 1-4; Sec. 6.1 for the
 scale): "rigid" returns (R, t), "similarity" (R, t, s). w: n non-negative weights (None: all ones).)");
-  m.def("active_isa", [] { return std::string(to_string(active_isa())); },
-        "The instruction set the kernels use: 'scalar', 'sse4_2', 'avx2' or 'avx512'.");
+  m.def(
+      "active_isa", [] { return std::string(to_string(active_isa())); },
+      "The instruction set the kernels use: 'scalar', 'sse4_2', 'avx2' or 'avx512'.");
   m.def(
       "supported_isas",
       [] {

@@ -63,7 +63,8 @@ struct Result {
 };
 
 /// Runs `program args...` with stdout and stderr captured (through files: no pipe deadlock).
-inline Result run(const std::string& program, const std::vector<std::string>& args, const std::vector<std::string>& env = {}) {
+inline Result run(const std::string& program, const std::vector<std::string>& args,
+                  const std::vector<std::string>& env = {}) {
   ScratchDir io;
   const std::string out = io / "stdout", err = io / "stderr";
   std::vector<std::string> all{program};

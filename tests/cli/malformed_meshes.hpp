@@ -24,8 +24,8 @@ inline mlsdeform::cli::Mesh cube_mesh() {
   mlsdeform::cli::Mesh cube;
   cube.vertices.resize(8, 3);
   cube.vertices << 0, 0, 0, 1, 0, 0, 1, 1, 0, 0, 1, 0, 0, 0, 1, 1, 0, 1, 1, 1, 1, 0, 1, 1;
-  for (auto f : {std::array<std::uint32_t, 4>{0, 1, 5, 4}, {1, 2, 6, 5}, {2, 3, 7, 6}, {3, 0, 4, 7}, {0, 3, 2, 1},
-                 {4, 5, 6, 7}})
+  for (auto f :
+       {std::array<std::uint32_t, 4>{0, 1, 5, 4}, {1, 2, 6, 5}, {2, 3, 7, 6}, {3, 0, 4, 7}, {0, 3, 2, 1}, {4, 5, 6, 7}})
     cube.add_face({f[0], f[1], f[2], f[3]});
   return cube;
 }
@@ -44,15 +44,18 @@ inline std::vector<MalformedMesh> malformed_meshes() {
   const std::string ply_faces = off_faces;
   std::vector<MalformedMesh> cases = {
       // Finding 1: malformed faces that were accepted and rewritten.
-      {"neg.off", off_head + "4 0 -1 5 4\n" + off_faces, "line 11: face 0 refers to vertex -1, but there are only 8 vertices"},
+      {"neg.off", off_head + "4 0 -1 5 4\n" + off_faces,
+       "line 11: face 0 refers to vertex -1, but there are only 8 vertices"},
       {"short.off", off_head + off_faces + "4 3 0 4\n", "line 16: face 5 promises 4 vertices but has 3 numbers"},
       {"x.off", off_head + "4 0 1 x 4\n" + off_faces, "line 11: face 0: not an index: 'x'"},
-      {"trailing.off", off_head + off_faces + "4 0 1 5 4\n4 0 1 2 3\n", "line 17: malformed OFF: data after the last face"},
+      {"trailing.off", off_head + off_faces + "4 0 1 5 4\n4 0 1 2 3\n",
+       "line 17: malformed OFF: data after the last face"},
       {"eq.ply", ply_head + "4 = 1 5 4\n" + ply_faces, "line 18: not a number: '=' in face 0"},
       {"trailing.ply", ply_head + "4 0 1 5 4\n" + ply_faces + "3 0 1 2\n", "data after the last element (line 24)"},
       {"nine.ply",
        "ply\nformat ascii 1.0\nelement vertex 9\nproperty float x\nproperty float y\nproperty float z\n"
-       "element face 6\nproperty list uchar int vertex_indices\nend_header\n" + ply_vertices + "4 0 1 5 4\n" + ply_faces,
+       "element face 6\nproperty list uchar int vertex_indices\nend_header\n" +
+           ply_vertices + "4 0 1 5 4\n" + ply_faces,
        "line 18: too many values for vertex 8"},
       // Finding 2: lenient numbers.
       {"dots.obj", cube_v + "v 1 1.5.5 1\nf 1 2 3\n", "line 9: not a number: '1.5.5'"},

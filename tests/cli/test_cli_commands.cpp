@@ -73,8 +73,8 @@ TEST_CASE("usage: --help, --version, no arguments, bad options", "[cli][commands
   CHECK(r.out.find("figures") != std::string::npos);
   r = cli_test::run(program, {"deform", "--help"});
   CHECK(r.exit_code == 0);
-  for (const char* opt : {"--mesh", "--handles", "--out", "--transform", "--exponent", "--method", "--precision", "--threads",
-                          "--force", "horn_quaternion", "similarity"})
+  for (const char* opt : {"--mesh", "--handles", "--out", "--transform", "--exponent", "--method", "--precision",
+                          "--threads", "--force", "horn_quaternion", "similarity"})
     CHECK(r.out.find(opt) != std::string::npos);
   r = cli_test::run(program, {"--version"});
   CHECK(r.exit_code == 0);
@@ -139,7 +139,8 @@ TEST_CASE("deform: each format in, each format out", "[cli][commands]") {
     CHECK(read_mesh(o).vertex_count() == 8);
     previous = o;
   }
-  const auto r = cli_test::run(program, {"deform", "-m", previous, "-H", h, "-o", f.out + "/ascii.ply", "--ply-ascii", "-q"});
+  const auto r =
+      cli_test::run(program, {"deform", "-m", previous, "-H", h, "-o", f.out + "/ascii.ply", "--ply-ascii", "-q"});
   REQUIRE(r.exit_code == 0);
   CHECK(cli_test::read_text(f.out + "/ascii.ply").rfind("ply\nformat ascii 1.0\n", 0) == 0);
 }
@@ -153,7 +154,8 @@ TEST_CASE("deform: frames write one numbered file each, with a line per frame", 
       {"points": [null, null, null, null, {"offset": [0.2, 0, 0]}, {"offset": [0.2, 0, 0]}]},
       {"points": [null, null, null, null, [1.3, 1, 1], [0.3, 1, 1]]}
     ]})");
-  const auto r = cli_test::run(program, {"deform", "-m", f.in + "/cube.obj", "-H", f.in + "/anim.json", "-o", f.out + "/anim.ply.gz"});
+  const auto r = cli_test::run(
+      program, {"deform", "-m", f.in + "/cube.obj", "-H", f.in + "/anim.json", "-o", f.out + "/anim.ply.gz"});
   INFO(r.out << r.err);
   REQUIRE(r.exit_code == 0);
   CHECK(f.outputs() == std::vector<std::string>{"anim_0000.ply.gz", "anim_0001.ply.gz", "anim_0002.ply.gz"});
@@ -190,7 +192,8 @@ TEST_CASE("deform: existing outputs need --force", "[cli][commands][errors]") {
   CHECK(read_mesh(o).vertex_count() == 8);
   CHECK(f.outputs() == std::vector<std::string>{"a.obj"});
   // An animation stops before writing anything if any of its frame files exists.
-  write_text(f.in + "/anim.json", R"({"points": [{"vertex": 0}, {"vertex": 6, "offset": [0, 1, 0]}], "frames": [{}, {}]})");
+  write_text(f.in + "/anim.json",
+             R"({"points": [{"vertex": 0}, {"vertex": 6, "offset": [0, 1, 0]}], "frames": [{}, {}]})");
   write_text(f.out + "/b_0001.obj", "precious\n");
   r = cli_test::run(program, {"deform", "-m", m, "-H", f.in + "/anim.json", "-o", f.out + "/b.obj"});
   CHECK(r.exit_code == 2);
@@ -215,11 +218,13 @@ TEST_CASE("deform: bad input files", "[cli][commands][errors]") {
   }
   SECTION("malformed meshes") {
     write_text(f.in + "/bad.ply", "ply\nformat ascii 1.0\nelement vertex 8\nproperty float x\n");
-    require_bad_input(f, args(f.in + "/bad.ply", h), f.in + "/bad.ply: malformed PLY: the header has no end_header line");
+    require_bad_input(f, args(f.in + "/bad.ply", h),
+                      f.in + "/bad.ply: malformed PLY: the header has no end_header line");
     write_text(f.in + "/nan.obj", "v 0 0 0\nv 1 0 0\nv 1 NaN 0\nf 1 2 3\n");
     require_bad_input(f, args(f.in + "/nan.obj", h), f.in + "/nan.obj: line 3: vertex 2 has a non-finite coordinate");
     write_text(f.in + "/face.off", "OFF\n3 1 0\n0 0 0\n1 0 0\n0 1 0\n3 0 1 3\n");
-    require_bad_input(f, args(f.in + "/face.off", h), f.in + "/face.off: line 6: face 0 refers to vertex 3, but there are only 3 vertices (0 to 2)");
+    require_bad_input(f, args(f.in + "/face.off", h),
+                      f.in + "/face.off: line 6: face 0 refers to vertex 3, but there are only 3 vertices (0 to 2)");
     write_text(f.in + "/gz.ply.gz", "not gzip");
     require_bad_input(f, args(f.in + "/gz.ply.gz", h), f.in + "/gz.ply.gz: corrupt gzip data (incorrect header check)");
   }
@@ -240,16 +245,19 @@ TEST_CASE("deform: bad input files", "[cli][commands][errors]") {
     // The cube and 20 MiB of comment lines, which compress to a few tens of KiB: refused at 16 MiB while
     // decompressing.
     std::string big = cube_obj;
-    while (big.size() < (std::size_t(20) << 20)) big += "# a comment line of sixty-four bytes, to make a big file.........\n";
+    while (big.size() < (std::size_t(20) << 20))
+      big += "# a comment line of sixty-four bytes, to make a big file.........\n";
     write_text(f.in + "/big.obj.gz", gzip(big));
     auto a = args(f.in + "/big.obj.gz", h);
     a.insert(a.end(), {"--max-input-mib", "16"});
-    require_bad_input(f, a, f.in + "/big.obj.gz: decompresses to more than the input limit of 16 MiB (--max-input-mib raises it)");
+    require_bad_input(
+        f, a, f.in + "/big.obj.gz: decompresses to more than the input limit of 16 MiB (--max-input-mib raises it)");
     write_text(f.in + "/big.obj", big);
     a = args(f.in + "/big.obj", h);
     a.insert(a.end(), {"--max-input-mib", "16"});
-    require_bad_input(f, a, f.in + "/big.obj: file too large: " + std::to_string(big.size()) +
-                                " bytes, more than the input limit of 16 MiB (--max-input-mib raises it)");
+    require_bad_input(f, a,
+                      f.in + "/big.obj: file too large: " + std::to_string(big.size()) +
+                          " bytes, more than the input limit of 16 MiB (--max-input-mib raises it)");
     a.back() = "32";  // now read
     const auto r = cli_test::run(program, a);
     INFO(r.err);
@@ -259,18 +267,23 @@ TEST_CASE("deform: bad input files", "[cli][commands][errors]") {
     const std::string j = f.in + "/h.json";
     write_text(j, "{\"points\": [{\"vertex\": 0,}]}");
     require_bad_input(f, args(m, j),
-                      j + ": line 1, column 26: invalid JSON: syntax error while parsing object key - unexpected '}'; expected string literal");
+                      j + ": line 1, column 26: invalid JSON: syntax error while parsing object key - unexpected '}'; "
+                          "expected string literal");
     write_text(j, "{\"points\": [{\"vertex\": 8}]}");
-    require_bad_input(f, args(m, j), j + ": /points/0/vertex: vertex index 8 out of range (the mesh has 8 vertices, 0 to 7)");
+    require_bad_input(f, args(m, j),
+                      j + ": /points/0/vertex: vertex index 8 out of range (the mesh has 8 vertices, 0 to 7)");
     write_text(j, "{\"points\": [{\"rest\": [0, NaN, 0]}]}");
-    require_bad_input(f, args(m, j), j + ": line 1, column 26: invalid JSON: syntax error while parsing value - invalid literal; last read: '0, N'");
+    require_bad_input(
+        f, args(m, j),
+        j + ": line 1, column 26: invalid JSON: syntax error while parsing value - invalid literal; last read: '0, N'");
     write_text(j, "{\"points\": [{\"rest\": [0, \"NaN\", 0]}]}");
     require_bad_input(f, args(m, j), j + ": /points/0/rest/1: expected a number, found string");
     write_text(j, "{\"points\": [{\"vertex\": 0}], \"frames\": [{\"points\": [[0, 0, 0], [1, 1, 1]]}]}");
     require_bad_input(f, args(m, j), j + ": /frames/0/points: 2 entries, expected 1 (one per point handle)");
     write_text(j, "{\"points\": [], \"segments\": []}");
     require_bad_input(f, args(m, j), j + ": /: no handles (give at least one entry in \"points\" or \"segments\")");
-    write_text(j, "{\"points\": [{\"vertex\": 0}, {\"vertex\": 1}, {\"vertex\": 2}, {\"vertex\": 3, \"offset\": [0, 0, 1]}]}");
+    write_text(
+        j, "{\"points\": [{\"vertex\": 0}, {\"vertex\": 1}, {\"vertex\": 2}, {\"vertex\": 3, \"offset\": [0, 0, 1]}]}");
     const auto r = cli_test::run(program, {"deform", "-m", m, "-H", j, "-o", o, "--transform", "affine"});
     CHECK(r.exit_code == 2);  // affine needs handles that span 3D; these four are coplanar
     CHECK(r.err.rfind("mlsdeform: error: " + j + ": ", 0) == 0);
@@ -278,8 +291,9 @@ TEST_CASE("deform: bad input files", "[cli][commands][errors]") {
     CHECK(f.outputs().empty());
   }
   SECTION("unwritable outputs") {
-    require_bad_input(f, args(m, h, f.out + "/no/such/dir/a.obj"),
-                      f.out + "/no/such/dir/a.obj: cannot write: directory '" + f.out + "/no/such/dir': No such file or directory");
+    require_bad_input(
+        f, args(m, h, f.out + "/no/such/dir/a.obj"),
+        f.out + "/no/such/dir/a.obj: cannot write: directory '" + f.out + "/no/such/dir': No such file or directory");
     require_bad_input(f, args(m, h, m + "/a.obj"), m + "/a.obj: cannot write: '" + m + "' is not a directory");
     std::filesystem::create_directory(f.in + "/dir.obj");
     require_bad_input(f, args(m, h, f.in + "/dir.obj"), f.in + "/dir.obj: cannot write: is a directory");
@@ -309,7 +323,8 @@ TEST_CASE("demo runs with no arguments and writes what it says", "[cli][commands
   const auto r = cli_test::run(program, {"demo", "--frames", "2", "--out-dir", out, "--no-images"});
   INFO(r.out << r.err);
   REQUIRE(r.exit_code == 0);
-  for (const char* name : {"human", "bar_twist", "cylinder", "bend_segments"}) CHECK(r.out.find(name) != std::string::npos);
+  for (const char* name : {"human", "bar_twist", "cylinder", "bend_segments"})
+    CHECK(r.out.find(name) != std::string::npos);
   CHECK(r.out.find("scalar f/s") != std::string::npos);
   CHECK(r.out.find("simd f/s") != std::string::npos);
   for (const char* file : {"human_bent.obj", "bar_twisted.ply", "cylinder_rotated.off", "bar_bent_segments.ply.gz"}) {
@@ -376,7 +391,8 @@ TEST_CASE("deform: an interrupted animation removes the frames it wrote", "[cli]
   Fixture f;
   // 20,000 frames of the cube: a run of many seconds, interrupted once its first frames are on disk.
   std::string json = R"({"points": [{"vertex": 0}, {"vertex": 6, "target": [1, 1, 1]}, {"vertex": 3}], "frames": [)";
-  for (int i = 0; i < 20000; ++i) json += (i ? ", " : "") + std::string(R"({"points": [null, {"offset": [0, 0, 0.5]}, null]})");
+  for (int i = 0; i < 20000; ++i)
+    json += (i ? ", " : "") + std::string(R"({"points": [null, {"offset": [0, 0, 0.5]}, null]})");
   json += "]}";
   write_text(f.in + "/long.json", json);
   for (int sig : {SIGINT, SIGTERM}) {

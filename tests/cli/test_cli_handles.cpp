@@ -79,48 +79,66 @@ TEST_CASE("frames: one entry per handle, null keeps the handle's own target", "[
 
 TEST_CASE("bad handles files: one line with the file, the JSON path and the problem", "[cli][handles][errors]") {
   // Not JSON.
-  require_error("{\"points\": [", "h.json: line 1, column 13: invalid JSON: syntax error while parsing value - unexpected end of input; expected '[', '{', or a literal");
+  require_error("{\"points\": [",
+                "h.json: line 1, column 13: invalid JSON: syntax error while parsing value - unexpected end of input; "
+                "expected '[', '{', or a literal");
   require_error("{\"points\": [\n  {\"vertex\": 1,}\n]}",
-                "h.json: line 2, column 16: invalid JSON: syntax error while parsing object key - unexpected '}'; expected string literal");
-  require_error("", "h.json: line 1, column 1: invalid JSON: syntax error while parsing value - unexpected end of input; expected '[', '{', or a literal");
+                "h.json: line 2, column 16: invalid JSON: syntax error while parsing object key - unexpected '}'; "
+                "expected string literal");
+  require_error("",
+                "h.json: line 1, column 1: invalid JSON: syntax error while parsing value - unexpected end of input; "
+                "expected '[', '{', or a literal");
   require_error("{\"points\": [{\"rest\": [NaN, 0, 0]}]}",
-                "h.json: line 1, column 23: invalid JSON: syntax error while parsing value - invalid literal; last read: '\"rest\": [N'");
+                "h.json: line 1, column 23: invalid JSON: syntax error while parsing value - invalid literal; last "
+                "read: '\"rest\": [N'");
   // Structure.
   require_error("[]", "h.json: /: expected an object with \"points\" and/or \"segments\", found array");
   require_error("{}", "h.json: /: no handles (give at least one entry in \"points\" or \"segments\")");
   require_error("{\"points\": []}", "h.json: /: no handles (give at least one entry in \"points\" or \"segments\")");
-  require_error("{\"point\": []}", "h.json: /point: unknown key (expected \"points\", \"segments\", \"frames\", \"comment\")");
+  require_error("{\"point\": []}",
+                "h.json: /point: unknown key (expected \"points\", \"segments\", \"frames\", \"comment\")");
   require_error("{\"points\": {}}", "h.json: /points: expected an array of point handles, found object");
-  require_error("{\"points\": [{\"vertex\": 0, \"tagret\": [0, 0, 0]}]}",
-                "h.json: /points/0/tagret: unknown key (expected \"vertex\", \"rest\", \"target\", \"offset\", \"name\")");
+  require_error(
+      "{\"points\": [{\"vertex\": 0, \"tagret\": [0, 0, 0]}]}",
+      "h.json: /points/0/tagret: unknown key (expected \"vertex\", \"rest\", \"target\", \"offset\", \"name\")");
   require_error("{\"points\": [{\"target\": [0, 0, 0]}]}", "h.json: /points/0: missing \"vertex\" or \"rest\"");
-  require_error("{\"points\": [{\"vertex\": 0, \"rest\": [0, 0, 0]}]}", "h.json: /points/0: give \"vertex\" or \"rest\", not both");
+  require_error("{\"points\": [{\"vertex\": 0, \"rest\": [0, 0, 0]}]}",
+                "h.json: /points/0: give \"vertex\" or \"rest\", not both");
   require_error("{\"points\": [{\"vertex\": 0, \"target\": [0, 0, 0], \"offset\": [0, 0, 0]}]}",
                 "h.json: /points/0: give \"target\" or \"offset\", not both");
   // Numbers and vectors.
-  require_error("{\"points\": [{\"vertex\": 0, \"target\": [0, 0]}]}", "h.json: /points/0/target: expected a position [x, y, z], found an array of 2");
-  require_error("{\"points\": [{\"vertex\": 0, \"target\": [0, \"1\", 0]}]}", "h.json: /points/0/target/1: expected a number, found string");
+  require_error("{\"points\": [{\"vertex\": 0, \"target\": [0, 0]}]}",
+                "h.json: /points/0/target: expected a position [x, y, z], found an array of 2");
+  require_error("{\"points\": [{\"vertex\": 0, \"target\": [0, \"1\", 0]}]}",
+                "h.json: /points/0/target/1: expected a number, found string");
   require_error("{\"points\": [{\"rest\": [0, 1e999, 0]}]}", "h.json: invalid JSON: number overflow parsing '1e999'");
-  require_error("{\"points\": [{\"rest\": [0, 1e300, 0]}]}", "h.json: /points/0/rest: coordinates too large for --precision float");
+  require_error("{\"points\": [{\"rest\": [0, 1e300, 0]}]}",
+                "h.json: /points/0/rest: coordinates too large for --precision float");
   require_error("{\"points\": [{\"vertex\": -1}]}", "h.json: /points/0/vertex: vertex index -1 is negative");
-  require_error("{\"points\": [{\"vertex\": 1.5}]}", "h.json: /points/0/vertex: expected a vertex index (an integer from 0), found 1.5");
+  require_error("{\"points\": [{\"vertex\": 1.5}]}",
+                "h.json: /points/0/vertex: expected a vertex index (an integer from 0), found 1.5");
   // Against the mesh.
-  require_error("{\"points\": [{\"vertex\": 4}]}", "h.json: /points/0/vertex: vertex index 4 out of range (the mesh has 4 vertices, 0 to 3)");
+  require_error("{\"points\": [{\"vertex\": 4}]}",
+                "h.json: /points/0/vertex: vertex index 4 out of range (the mesh has 4 vertices, 0 to 3)");
   require_error("{\"segments\": [{\"vertices\": [0, 9]}]}",
                 "h.json: /segments/0/vertices/1: vertex index 9 out of range (the mesh has 4 vertices, 0 to 3)");
-  require_error("{\"segments\": [{\"vertices\": [0, 1, 2]}]}", "h.json: /segments/0/vertices: expected two vertex indices [i, j], found an array of 3");
-  require_error("{\"segments\": [{\"vertices\": [2, 2]}]}", "h.json: /segments/0/vertices: zero-length segment (its two ends coincide)");
+  require_error("{\"segments\": [{\"vertices\": [0, 1, 2]}]}",
+                "h.json: /segments/0/vertices: expected two vertex indices [i, j], found an array of 3");
+  require_error("{\"segments\": [{\"vertices\": [2, 2]}]}",
+                "h.json: /segments/0/vertices: zero-length segment (its two ends coincide)");
   require_error("{\"segments\": [{\"rest\": [[0, 0, 0]]}]}",
                 "h.json: /segments/0/rest: expected two end points [[x, y, z], [x, y, z]], found an array of 1");
   // Frames.
-  require_error("{\"points\": [{\"vertex\": 0}], \"frames\": []}", "h.json: /frames: no frames (leave \"frames\" out for a single output)");
+  require_error("{\"points\": [{\"vertex\": 0}], \"frames\": []}",
+                "h.json: /frames: no frames (leave \"frames\" out for a single output)");
   require_error("{\"points\": [{\"vertex\": 0}], \"frames\": [{\"points\": [[0, 0, 0], [1, 1, 1]]}]}",
                 "h.json: /frames/0/points: 2 entries, expected 1 (one per point handle)");
   require_error("{\"points\": [{\"vertex\": 0}], \"frames\": [{}, {\"segments\": [null]}]}",
                 "h.json: /frames/1/segments: 1 entries, expected 0 (one per segment handle)");
   require_error("{\"points\": [{\"vertex\": 0}], \"frames\": [{\"points\": [{\"offset\": [0, 0, 0], \"x\": 1}]}]}",
                 "h.json: /frames/0/points/0/x: unknown key (expected \"target\", \"offset\")");
-  require_error("{\"points\": [{\"vertex\": 0}], \"frames\": [{\"points\": [{}]}]}", "h.json: /frames/0/points/0: expected \"target\" or \"offset\"");
+  require_error("{\"points\": [{\"vertex\": 0}], \"frames\": [{\"points\": [{}]}]}",
+                "h.json: /frames/0/points/0: expected \"target\" or \"offset\"");
   require_error("{\"points\": [{\"vertex\": 0}], \"frames\": [{\"points\": [[1e200, 0, 0]]}]}",
                 "h.json: /frames/0/points/0: coordinates too large for --precision float");
 }

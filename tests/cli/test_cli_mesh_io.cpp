@@ -26,9 +26,9 @@ namespace {
 Mesh sample_mesh() {
   Mesh m;
   m.vertices.resize(9, 3);
-  m.vertices << 0.0f, 0.0f, 0.0f,  //
-      1.0f, -0.0f, 0.1f,           //
-      1.5f, 1.25f, -3.0e-3f,       //
+  m.vertices << 0.0f, 0.0f, 0.0f,          //
+      1.0f, -0.0f, 0.1f,                   //
+      1.5f, 1.25f, -3.0e-3f,               //
       0.3333333f, 2.7182817f, 3.1415927f,  //
       -12345.678f, 0.000123f, 42.0f,       //
       1.0e6f, -7.5f, 0.0009765625f,        //
@@ -101,7 +101,7 @@ TEST_CASE("written files are what their extension says", "[cli][mesh]") {
   CHECK(cli_test::read_text(dir / "c.off").rfind("OFF\n", 0) == 0);
   write_mesh(m, dir / "d.obj", {});
   const std::string obj = cli_test::read_text(dir / "d.obj");
-  CHECK(obj.find("\nvn ") != std::string::npos);           // normals recomputed and written
+  CHECK(obj.find("\nvn ") != std::string::npos);                           // normals recomputed and written
   CHECK(obj.find("\nf 2//2 5//5 6//6 9//9 3//3\n") != std::string::npos);  // the pentagon, 1-based
   const std::string gz = cli_test::read_text((write_mesh(m, dir / "e.ply.gz", {}), dir / "e.ply.gz"));
   REQUIRE(gz.size() > 2);
@@ -131,8 +131,10 @@ TEST_CASE("OBJ keeps the file's vertex order, unused vertices and polygons", "[c
   CHECK(m.vertices.row(4) == Eigen::RowVector3f(5, 5, 5));
   CHECK(m.vertices.row(5) == Eigen::RowVector3f(0, 0, 1));
   REQUIRE(m.face_count() == 2);
-  CHECK(std::vector<std::uint32_t>(m.face_indices.begin(), m.face_indices.begin() + 4) == std::vector<std::uint32_t>{2, 3, 0, 1});
-  CHECK(std::vector<std::uint32_t>(m.face_indices.begin() + 4, m.face_indices.end()) == std::vector<std::uint32_t>{0, 1, 5});
+  CHECK(std::vector<std::uint32_t>(m.face_indices.begin(), m.face_indices.begin() + 4) ==
+        std::vector<std::uint32_t>{2, 3, 0, 1});
+  CHECK(std::vector<std::uint32_t>(m.face_indices.begin() + 4, m.face_indices.end()) ==
+        std::vector<std::uint32_t>{0, 1, 5});
 }
 
 TEST_CASE("OFF and PLY keep the file's vertex order", "[cli][mesh]") {
@@ -206,7 +208,8 @@ TEST_CASE("malformed and missing mesh files are reported with the file and the p
              "element face 1\nproperty list uchar int vertex_indices\nend_header\n0 0 0\n1 0 0\n0 1 0\n3 0 1 7\n");
   require_read_error(dir / "index.ply", "face 0 refers to vertex 7, but there are only 3");
   write_text(dir / "count.obj", "v 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n");
-  require_read_error(dir / "count.obj", "line 1: a vertex needs 3 coordinates (x y z, optionally w, or x y z r g b), found 2");
+  require_read_error(dir / "count.obj",
+                     "line 1: a vertex needs 3 coordinates (x y z, optionally w, or x y z r g b), found 2");
   // A binary PLY cut short in its vertex data.
   Mesh m;
   m.vertices.resize(3, 3);
@@ -282,8 +285,9 @@ TEST_CASE("strict readers: the malformed files that used to pass are refused", "
     CHECK(m.vertices == cube.vertices);
     CHECK(m.face_indices == cube.face_indices);
   }
-  std::string be = "ply\nformat binary_big_endian 1.0\nelement vertex 3\nproperty float x\nproperty float y\n"
-                   "property float z\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n";
+  std::string be =
+      "ply\nformat binary_big_endian 1.0\nelement vertex 3\nproperty float x\nproperty float y\n"
+      "property float z\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n";
   auto put_be = [&](const void* p, std::size_t n) {
     const auto* b = static_cast<const unsigned char*>(p);
     for (std::size_t i = n; i-- > 0;) be.push_back(char(b[i]));
@@ -307,6 +311,7 @@ TEST_CASE("gzip input is refused past the size limit while decompressing", "[cli
     read_mesh(dir / "zeros.obj.gz", std::size_t(16) << 20);
     FAIL("no error");
   } catch (const InputError& e) {
-    CHECK(std::string(e.what()).find("decompresses to more than the input limit of 16 MiB (--max-input-mib raises it)") != std::string::npos);
+    CHECK(std::string(e.what()).find(
+              "decompresses to more than the input limit of 16 MiB (--max-input-mib raises it)") != std::string::npos);
   }
 }

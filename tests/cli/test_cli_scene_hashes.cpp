@@ -41,7 +41,8 @@ std::uint64_t hash_points(const Points<double>& p) {
 std::vector<Scene> scenes() {
   std::vector<Scene> s;
   const Mesh human = read_mesh(MLSDEFORM_SOURCE_DIR "/data/human_man.obj");
-  for (Transform t : {Transform::rigid, Transform::similarity, Transform::affine}) s.push_back(human_bend_scene(human, 3, 60, t));
+  for (Transform t : {Transform::rigid, Transform::similarity, Transform::affine})
+    s.push_back(human_bend_scene(human, 3, 60, t));
   s.push_back(bar_twist_scene(3, 180));
   s.push_back(cylinder_scene(3.0, 2, 120));
   s.push_back(bar_bend_scene(2, 2));
@@ -81,9 +82,10 @@ TEST_CASE("the demo scenes' results are bitwise what they were", "[cli][regressi
     UNSCOPED_INFO(key << ": no expected hash");
   };
   for (const Scene& s : scenes()) {
-    const std::string stem = s.name + "/" + std::string(s.options.transform == Transform::rigid        ? "rigid"
-                                                         : s.options.transform == Transform::similarity ? "similarity"
-                                                                                                        : "affine");
+    const std::string stem = s.name + "/" +
+                             std::string(s.options.transform == Transform::rigid        ? "rigid"
+                                         : s.options.transform == Transform::similarity ? "similarity"
+                                                                                        : "affine");
     check(stem + "/float/scalar", hash_points(run_scene<float>(s, Backend::scalar, 1).result));
     check(stem + "/double/scalar", hash_points(run_scene<double>(s, Backend::scalar, 1).result));
     for (Isa isa : supported_isas()) {

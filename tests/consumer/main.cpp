@@ -2,11 +2,11 @@
 // rigid motion from points. Exits non-zero on any failure.
 #include <mlsdeform/mlsdeform.hpp>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <limits>
 #include <string>
-#include <algorithm>
 
 namespace {
 

@@ -40,8 +40,10 @@ void check_resolved(const HandlesFile& h, const PointsRowMajor<float>& vertices)
     return;
   }
   const auto k = Eigen::Index(h.points.size()), s = Eigen::Index(h.segments.size());
-  if (r.rest.points.rows() != k || r.rest.segment_a.rows() != s || r.rest.segment_b.rows() != s) bug("rest handle counts");
-  if (!r.rest.points.allFinite() || !r.rest.segment_a.allFinite() || !r.rest.segment_b.allFinite()) bug("non-finite rest handle");
+  if (r.rest.points.rows() != k || r.rest.segment_a.rows() != s || r.rest.segment_b.rows() != s)
+    bug("rest handle counts");
+  if (!r.rest.points.allFinite() || !r.rest.segment_a.allFinite() || !r.rest.segment_b.allFinite())
+    bug("non-finite rest handle");
   for (Eigen::Index i = 0; i < s; ++i)
     if (r.rest.segment_a.row(i) == r.rest.segment_b.row(i)) bug("zero-length rest segment accepted");
   if (r.frames.size() != (h.animated() ? h.frames.size() : 1)) bug("frame count");
@@ -68,7 +70,8 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   }
   if (h.points.empty() && h.segments.empty()) bug("a file without handles was accepted");
   for (const auto& f : h.frames)
-    if (f.points.size() != h.points.size() || f.segments.size() != h.segments.size()) bug("a frame with mismatched counts");
+    if (f.points.size() != h.points.size() || f.segments.size() != h.segments.size())
+      bug("a frame with mismatched counts");
   check_resolved<float>(h, vertices);
   check_resolved<double>(h, vertices);
   return 0;

@@ -40,7 +40,8 @@ PointsD read_obj_vertices(const std::string& path) {
   while (std::getline(in, line)) {
     if (line.size() < 2 || line[0] != 'v' || line[1] != ' ') continue;
     double x, y, z;
-    if (std::sscanf(line.c_str() + 2, "%lf %lf %lf", &x, &y, &z) != 3) throw std::runtime_error("bad 'v' line in " + path);
+    if (std::sscanf(line.c_str() + 2, "%lf %lf %lf", &x, &y, &z) != 3)
+      throw std::runtime_error("bad 'v' line in " + path);
     xyz.insert(xyz.end(), {x, y, z});
   }
   PointsD p(static_cast<Eigen::Index>(xyz.size() / 3), 3);
@@ -124,8 +125,9 @@ PointsD read_ply_vertices(const std::string& path) {
   for (long long i = 0; i < vertices; ++i)
     for (int c = 0; c < 3; ++c) {
       float v;
-      std::memcpy(&v, buf.data() + static_cast<std::size_t>(i) * static_cast<std::size_t>(stride) +
-                          static_cast<std::size_t>(offset[c]),
+      std::memcpy(&v,
+                  buf.data() + static_cast<std::size_t>(i) * static_cast<std::size_t>(stride) +
+                      static_cast<std::size_t>(offset[c]),
                   sizeof v);
       p(i, c) = v;
     }

@@ -176,8 +176,7 @@ DirectVertex direct_vertex(const Vec3d& v, const Handles<T>& rest, const Handles
   r.q_star_norm = q_star.norm();
   const double dR = 2 * (dH + 16 * r.norm_H) / r.gap;
   double dmu = 0;
-  if (o.transform == Transform::similarity && D > 0)
-    dmu = mu * m + (std::sqrt(3.0) * dH + 16 * r.norm_H) / D;
+  if (o.transform == Transform::similarity && D > 0) dmu = mu * m + (std::sqrt(3.0) * dH + 16 * r.norm_H) / D;
   const double vn = vhat.norm();
   r.bound_unit = m * sum_wq + mu * dR * vn + dmu * vn + mu * m * (vn + l) + 8 * (q_star.norm() + mu * vn);
   return r;
@@ -224,9 +223,9 @@ Comparison compare_with_direct(const Points<T>& out, const Points<T>& rest_verti
 }
 
 template DirectVertex direct_vertex<float>(const Vec3d&, const Handles<float>&, const Handles<float>&, const Options&,
-                                         double);
+                                           double);
 template DirectVertex direct_vertex<double>(const Vec3d&, const Handles<double>&, const Handles<double>&,
-                                          const Options&, double);
+                                            const Options&, double);
 template Comparison compare_with_direct<float>(const Points<float>&, const Points<float>&, const Handles<float>&,
                                                const Handles<float>&, const Options&);
 template Comparison compare_with_direct<double>(const Points<double>&, const Points<double>&, const Handles<double>&,

@@ -39,11 +39,11 @@ namespace mlsdeform::testing {
 /// One vertex of the direct evaluation, with what the error bound needs.
 struct DirectVertex {
   Eigen::Vector3d out = Eigen::Vector3d::Zero();
-  bool snapped = false;   ///< at distance 0 from a handle
-  bool well_posed = true; ///< gap > 0 (rigid, similarity), G invertible (affine)
-  double bound_unit = 0;  ///< the bound of the file comment divided by eps (so bound = eps * bound_unit)
-  double gap = 0, norm_H = 0;   ///< conditioning of the rotation fit (rigid, similarity)
-  double dH_unit = 0;           ///< the bound on |dH|_F divided by eps
+  bool snapped = false;        ///< at distance 0 from a handle
+  bool well_posed = true;      ///< gap > 0 (rigid, similarity), G invertible (affine)
+  double bound_unit = 0;       ///< the bound of the file comment divided by eps (so bound = eps * bound_unit)
+  double gap = 0, norm_H = 0;  ///< conditioning of the rotation fit (rigid, similarity)
+  double dH_unit = 0;          ///< the bound on |dH|_F divided by eps
   double mu = 1, D = 0, vhat_norm = 0, q_star_norm = 0;
   double s1 = 0;         ///< largest singular value of H (rigid, similarity)
   double sum_scale = 0;  ///< sum_j |A_j| (|qhat_j| + |q_j|) / |H|_F: the cancellation in H (rigid, similarity)
@@ -56,9 +56,9 @@ DirectVertex direct_vertex(const Eigen::Vector3d& v, const Handles<T>& rest, con
 
 /// Statistics of a comparison of the deformer's output with the direct evaluation.
 struct Comparison {
-  double max_dev = 0;         ///< largest |v'_path - v'_direct|
-  double max_ratio = 0;       ///< largest deviation / bound
-  Eigen::Index worst = -1;    ///< vertex of max_ratio
+  double max_dev = 0;       ///< largest |v'_path - v'_direct|
+  double max_ratio = 0;     ///< largest deviation / bound
+  Eigen::Index worst = -1;  ///< vertex of max_ratio
   Eigen::Index checked = 0, ill_posed = 0, snapped = 0, failures = 0;
 };
 
@@ -87,11 +87,11 @@ Comparison compare_with_direct(const Points<T>& out, const Points<T>& rest_verti
 /// direct_vertex (rigid, weight exponent u) at the given rows of a scene with point handles p -> q, with
 /// what deform_tolerance needs per row.
 struct SampledReference {
-  Points<double> out;            ///< the reference's v', one row per sample
-  std::vector<double> kappa;     ///< s1 / (s2 + d s3) of the vertex's H (+inf: not unique; 0: on a handle)
-  std::vector<double> sum_scale; ///< sum_j |A_j| (|qhat_j| + |q_j|) / |H|_F: cancellation in H
-  std::vector<double> arm;       ///< |v - p*|
-  double diameter = 0;           ///< of the rest vertices' bounding box
+  Points<double> out;             ///< the reference's v', one row per sample
+  std::vector<double> kappa;      ///< s1 / (s2 + d s3) of the vertex's H (+inf: not unique; 0: on a handle)
+  std::vector<double> sum_scale;  ///< sum_j |A_j| (|qhat_j| + |q_j|) / |H|_F: cancellation in H
+  std::vector<double> arm;        ///< |v - p*|
+  double diameter = 0;            ///< of the rest vertices' bounding box
   Eigen::Index handles = 0;
 };
 

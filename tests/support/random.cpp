@@ -64,7 +64,7 @@ Eigen::Matrix<Real, 3, 3> Rng::rotation() {
       const long double w = q(0), x = q(1), y = q(2), z = q(3);
       Matrix3L R;
       R << 1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y),  //
-          2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x),    //
+          2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x),   //
           2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y);
       return R;
     } else {
@@ -77,11 +77,11 @@ Eigen::Matrix<Real, 3, 3> Rng::rotation() {
   }
 }
 
-#define MLSDEFORM_RNG_INSTANCE(Real)                                                \
-  template Real Rng::uniform<Real>();                                               \
+#define MLSDEFORM_RNG_INSTANCE(Real)                                                        \
+  template Real Rng::uniform<Real>();                                                       \
   template Real Rng::uniform<Real>(std::type_identity_t<Real>, std::type_identity_t<Real>); \
-  template Real Rng::gaussian<Real>();                                              \
-  template Eigen::Matrix<Real, 3, 1> Rng::unit_vector<Real>();                      \
+  template Real Rng::gaussian<Real>();                                                      \
+  template Eigen::Matrix<Real, 3, 1> Rng::unit_vector<Real>();                              \
   template Eigen::Matrix<Real, 3, 3> Rng::rotation<Real>();
 MLSDEFORM_RNG_INSTANCE(float)
 MLSDEFORM_RNG_INSTANCE(double)

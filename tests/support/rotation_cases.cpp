@@ -80,7 +80,8 @@ Matrix3L axis_angle_rotation(const Vector3L& axis, long double angle) {
 namespace {
 
 constexpr FamilyInfo kFamilies[] = {
-    {Family::uniform, "uniform", "R uniform on SO(3); 3..300 points (log-uniform), weights uniform in (0, 1], no noise"},
+    {Family::uniform, "uniform",
+     "R uniform on SO(3); 3..300 points (log-uniform), weights uniform in (0, 1], no noise"},
     {Family::noise_1e_6, "noise_1e-6", "as uniform, Gaussian noise of 1e-6 of the point spread on q"},
     {Family::noise_1e_2, "noise_1e-2", "as uniform, noise 1e-2 of the point spread"},
     {Family::noise_1e_1, "noise_1e-1", "as uniform, noise 1e-1 of the point spread"},
@@ -170,23 +171,42 @@ PointCase point_family(Rng& rng, Family family) {
   Matrix3L R = rng.rotation();
   bool wide = false, mirror = false;
   switch (family) {
-    case Family::noise_1e_6: noise = 1e-6L; break;
-    case Family::noise_1e_2: noise = 1e-2L; break;
-    case Family::noise_1e_1: noise = 1e-1L; break;
+    case Family::noise_1e_6:
+      noise = 1e-6L;
+      break;
+    case Family::noise_1e_2:
+      noise = 1e-2L;
+      break;
+    case Family::noise_1e_1:
+      noise = 1e-1L;
+      break;
     case Family::near_pi:
       R = axis_angle_rotation(rng.unit_vector(), std::numbers::pi_v<long double> - rng.uniform(0, 1e-3L));
       break;
-    case Family::exactly_pi: R = axis_angle_rotation(rng.unit_vector(), std::numbers::pi_v<long double>); break;
-    case Family::small_angle: R = axis_angle_rotation(rng.unit_vector(), rng.uniform(0, 1e-6L)); break;
-    case Family::three_points: n = 3; break;
+    case Family::exactly_pi:
+      R = axis_angle_rotation(rng.unit_vector(), std::numbers::pi_v<long double>);
+      break;
+    case Family::small_angle:
+      R = axis_angle_rotation(rng.unit_vector(), rng.uniform(0, 1e-6L));
+      break;
+    case Family::three_points:
+      n = 3;
+      break;
     case Family::wide_weights:
       wide = true;
       noise = 1e-2L;
       break;
-    case Family::collinear: dims = 1; break;
-    case Family::coplanar: dims = 2; break;
-    case Family::reflected: mirror = true; break;
-    default: break;
+    case Family::collinear:
+      dims = 1;
+      break;
+    case Family::coplanar:
+      dims = 2;
+      break;
+    case Family::reflected:
+      mirror = true;
+      break;
+    default:
+      break;
   }
   const PointsL p = cloud(rng, n, dims);
   VectorL w = uniform_weights(rng, n);
@@ -266,15 +286,19 @@ Case<T> make_case(Family family, std::uint64_t seed, std::uint64_t index) {
       c.H_exact = pc.H;
       c.generator = pc.generator;
       c.points = pc.n;
-      c.noise = family == Family::noise_1e_6   ? 1e-6L
-                : family == Family::noise_1e_2 ? 1e-2L
-                : family == Family::noise_1e_1 ? 1e-1L
+      c.noise = family == Family::noise_1e_6     ? 1e-6L
+                : family == Family::noise_1e_2   ? 1e-2L
+                : family == Family::noise_1e_1   ? 1e-1L
                 : family == Family::wide_weights ? 1e-2L
                                                  : 0.0L;
       break;
     }
-    case Family::zero: c.H_exact.setZero(); break;
-    case Family::identity: c.H_exact = std::pow(10.0L, rng.uniform(-3, 3)) * Matrix3L::Identity(); break;
+    case Family::zero:
+      c.H_exact.setZero();
+      break;
+    case Family::identity:
+      c.H_exact = std::pow(10.0L, rng.uniform(-3, 3)) * Matrix3L::Identity();
+      break;
     case Family::exact_rotation:
       c.generator = rng.rotation();
       c.H_exact = c.generator;
@@ -300,7 +324,9 @@ Case<T> make_case(Family family, std::uint64_t seed, std::uint64_t index) {
       c.points = base.points;
       break;
     }
-    case Family::wide_exponents: c.H_exact = wide_exponent_matrix<T>(rng); break;
+    case Family::wide_exponents:
+      c.H_exact = wide_exponent_matrix<T>(rng);
+      break;
   }
   c.H = c.H_exact.template cast<T>();
   return c;

@@ -59,11 +59,11 @@ Reference reference(const Matrix3<T>& H) {
 /// How far a candidate rotation R (for the matrix H) is from the reference. All in long double, from the
 /// exact values of R and H.
 struct Errors {
-  bool finite = true;               ///< every entry of R finite
-  long double orthonormality = 0;   ///< max |(R^T R - I)_ij|
-  long double det_error = 0;        ///< |det R - 1|
-  long double trace_loss = 0;       ///< (optimum - trace(R^T H)) / ||H||_F, signed (0 when H = 0)
-  long double angle = 0;            ///< angle (rad) between R and R*: 2 asin(||R - R*||_F / sqrt(8))
+  bool finite = true;              ///< every entry of R finite
+  long double orthonormality = 0;  ///< max |(R^T R - I)_ij|
+  long double det_error = 0;       ///< |det R - 1|
+  long double trace_loss = 0;      ///< (optimum - trace(R^T H)) / ||H||_F, signed (0 when H = 0)
+  long double angle = 0;           ///< angle (rad) between R and R*: 2 asin(||R - R*||_F / sqrt(8))
 };
 
 template <class T>

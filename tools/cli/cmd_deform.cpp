@@ -18,7 +18,9 @@ namespace {
 using Clock = std::chrono::steady_clock;
 double ms_since(Clock::time_point t) { return std::chrono::duration<double, std::milli>(Clock::now() - t).count(); }
 
-const char* name(Transform t) { return t == Transform::rigid ? "rigid" : t == Transform::similarity ? "similarity" : "affine"; }
+const char* name(Transform t) {
+  return t == Transform::rigid ? "rigid" : t == Transform::similarity ? "similarity" : "affine";
+}
 
 template <class T>
 int deform(const DeformArgs& a) {
@@ -29,7 +31,8 @@ int deform(const DeformArgs& a) {
 
   const std::size_t frame_count = handles.animated() ? handles.frames.size() : 1;
   std::vector<std::string> outputs;
-  for (std::size_t f = 0; f < frame_count; ++f) outputs.push_back(handles.animated() ? frame_path(a.out, f, frame_count) : a.out);
+  for (std::size_t f = 0; f < frame_count; ++f)
+    outputs.push_back(handles.animated() ? frame_path(a.out, f, frame_count) : a.out);
   for (const auto& o : outputs) check_output_path(o, a.force);  // before any work: fail fast, write nothing
 
   const ResolvedHandles<T> resolved = resolve_handles<T>(handles, mesh.vertices);
@@ -44,17 +47,21 @@ int deform(const DeformArgs& a) {
   const double setup_ms = ms_since(t0);
 
   if (!a.quiet) {
-    std::printf("%s: %lld vertices, %zu faces%s\n", a.mesh.c_str(), static_cast<long long>(mesh.vertex_count()), mesh.face_count(),
-                mesh.dropped_primitives ? (" (" + std::to_string(mesh.dropped_primitives) + " points/lines dropped)").c_str() : "");
-    std::printf("%s: %zu point and %zu segment handles%s\n", a.handles.c_str(), handles.points.size(), handles.segments.size(),
+    std::printf("%s: %lld vertices, %zu faces%s\n", a.mesh.c_str(), static_cast<long long>(mesh.vertex_count()),
+                mesh.face_count(),
+                mesh.dropped_primitives
+                    ? (" (" + std::to_string(mesh.dropped_primitives) + " points/lines dropped)").c_str()
+                    : "");
+    std::printf("%s: %zu point and %zu segment handles%s\n", a.handles.c_str(), handles.points.size(),
+                handles.segments.size(),
                 handles.animated() ? (", " + std::to_string(frame_count) + " frames").c_str() : "");
     char threads[32];
     std::snprintf(threads, sizeof threads, a.options.threads > 0 ? "%d threads" : "all cores", a.options.threads);
     std::printf("deformer: %s, u = %g, %s, %s, %s backend, %s; set-up %.2f ms, %.1f MiB\n", name(a.options.transform),
                 a.options.weight_exponent, std::string(to_string(a.options.method)).c_str(),
                 std::is_same_v<T, float> ? "float" : "double",
-                a.options.backend == Backend::simd ? ("simd (" + std::string(to_string(isa)) + ")").c_str() : "scalar", threads,
-                setup_ms, double(deformer->memory_bytes()) / (1 << 20));
+                a.options.backend == Backend::simd ? ("simd (" + std::string(to_string(isa)) + ")").c_str() : "scalar",
+                threads, setup_ms, double(deformer->memory_bytes()) / (1 << 20));
   }
 
   Mesh result = mesh;
@@ -76,8 +83,9 @@ int deform(const DeformArgs& a) {
       deform_ms.push_back(ms_since(t0));
       result.vertices = out.template cast<float>();
       if (!result.vertices.allFinite())
-        throw InputError(a.handles, "the deformation produced non-finite coordinates (handles too far away or too close together?)",
-                         where);
+        throw InputError(
+            a.handles, "the deformation produced non-finite coordinates (handles too far away or too close together?)",
+            where);
       t0 = Clock::now();
       write_mesh(result, outputs[f], {a.force, a.ply_ascii ? PlyEncoding::ascii : PlyEncoding::binary, true});
       written.push_back(outputs[f]);

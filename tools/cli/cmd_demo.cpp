@@ -57,8 +57,8 @@ int demo(const DemoArgs& a) {
   scenes.push_back({cylinder_scene(2.0, a.frames, 120), "cylinder_rotated.off", 8, -90});
   scenes.push_back({bar_bend_scene(2, a.frames), "bar_bent_segments.ply.gz", 8, -90});
 
-  std::printf("%-24s %8s %8s %6s %11s %11s %8s %12s\n", "scene", "vertices", "handles", "frames", "scalar f/s", "simd f/s",
-              "speed-up", "max |d|");
+  std::printf("%-24s %8s %8s %6s %11s %11s %8s %12s\n", "scene", "vertices", "handles", "frames", "scalar f/s",
+              "simd f/s", "speed-up", "max |d|");
   std::vector<std::string> written;
   for (const auto& ds : scenes) {
     const Scene& s = ds.scene;
@@ -66,8 +66,9 @@ int demo(const DemoArgs& a) {
     const SceneRun simd = run_scene<T>(s, Backend::simd, a.threads);
     const double diff = (scalar.result - simd.result).cwiseAbs().maxCoeff();
     const auto handles = s.rest.point_count() + s.rest.segment_count();
-    std::printf("%-24s %8lld %8lld %6zu %11.1f %11.1f %7.2fx %12.2e\n", s.name.c_str(), static_cast<long long>(s.mesh.vertex_count()),
-                static_cast<long long>(handles), s.frames.size(), scalar.frames_per_second(), simd.frames_per_second(),
+    std::printf("%-24s %8lld %8lld %6zu %11.1f %11.1f %7.2fx %12.2e\n", s.name.c_str(),
+                static_cast<long long>(s.mesh.vertex_count()), static_cast<long long>(handles), s.frames.size(),
+                scalar.frames_per_second(), simd.frames_per_second(),
                 simd.frames_per_second() / scalar.frames_per_second(), diff);
     std::printf("  %s\n", s.description.c_str());
     const Mesh result = with_vertices(s.mesh, simd.result);
@@ -90,8 +91,8 @@ int demo(const DemoArgs& a) {
       fig.title = s.description;
       fig.cols = 2;
       Panel before = mesh_panel("before", s.mesh, s.rest);
-      Panel after = mesh_panel("after (" + std::to_string(s.frames.size()) + " frames)", with_vertices(s.mesh, run.result),
-                               s.rest, &s.frames.back());
+      Panel after = mesh_panel("after (" + std::to_string(s.frames.size()) + " frames)",
+                               with_vertices(s.mesh, run.result), s.rest, &s.frames.back());
       before.elev = after.elev = ds.elev;
       before.azim = after.azim = ds.azim;
       fig.panels = {before, after};
@@ -108,6 +109,8 @@ int demo(const DemoArgs& a) {
 
 }  // namespace
 
-int run_demo(const DemoArgs& args) { return args.precision == Precision::single ? demo<float>(args) : demo<double>(args); }
+int run_demo(const DemoArgs& args) {
+  return args.precision == Precision::single ? demo<float>(args) : demo<double>(args);
+}
 
 }  // namespace mlsdeform::cli

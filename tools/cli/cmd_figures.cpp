@@ -26,8 +26,9 @@ Mesh deformed(const Scene& s) { return with_vertices(s.mesh, run_scene<double>(s
 Figure figure_1(const Mesh& human) {
   Figure fig;
   fig.title = "Fig. 1: MLS deformations with affine, similarity and rigid transforms";
-  fig.caption = "data/human_man.obj (6890 vertices), 7 point handles: toes and heels fixed, the head rotated 60 degrees "
-                "forward about the waist, the hands brought to the knees; u = 2. No handle near the navel (Sec. 7).";
+  fig.caption =
+      "data/human_man.obj (6890 vertices), 7 point handles: toes and heels fixed, the head rotated 60 degrees "
+      "forward about the waist, the hands brought to the knees; u = 2. No handle near the navel (Sec. 7).";
   fig.cols = 4;
   fig.panel_width = 2.8;
   const char* titles[] = {"(b) affine", "(c) similarity", "(d) rigid"};
@@ -49,8 +50,9 @@ Figure figure_1(const Mesh& human) {
 Figure figure_3() {
   Figure fig;
   fig.title = "Fig. 3: twisting a bar by small torsions in succession";
-  fig.caption = "Table 2's bar: 6146 vertices, 256 point handles (two rings at each end); the top rotates about the bar's "
-                "axis, the bottom stays; each step deforms the previous result. (d): the same 180 degrees in one step.";
+  fig.caption =
+      "Table 2's bar: 6146 vertices, 256 point handles (two rings at each end); the top rotates about the bar's "
+      "axis, the bottom stays; each step deforms the previous result. (d): the same 180 degrees in one step.";
   fig.cols = 4;
   fig.panel_width = 2.4;
   fig.panel_height = 4.2;
@@ -68,9 +70,10 @@ Figure figure_3() {
 Figure figure_4() {
   Figure fig;
   fig.title = "Fig. 4: deforming with (a), (b) point handles and (c) segment handles";
-  fig.caption = "A bar (1666 vertices) bent 90 degrees: its upper end rotated and moved along an arc, its lower end fixed; "
-                "rigid, u = 2. (a) two points per end, (b) 16 per end, (c) two segments per end along the side edges. "
-                "Top: handles at rest; bottom: result and targets.";
+  fig.caption =
+      "A bar (1666 vertices) bent 90 degrees: its upper end rotated and moved along an arc, its lower end fixed; "
+      "rigid, u = 2. (a) two points per end, (b) 16 per end, (c) two segments per end along the side edges. "
+      "Top: handles at rest; bottom: result and targets.";
   fig.rows = 2;
   fig.cols = 3;
   fig.panel_width = 3.0;
@@ -95,8 +98,9 @@ Figure figure_4() {
 Figure figure_5() {
   Figure fig;
   fig.title = "Fig. 5: large deformation of a cylinder with weights w(d) = d^-u";
-  fig.caption = "Table 2's cylinder: 1058 vertices, 322 point handles (7 rings at each end); the top group rotated 120 degrees. "
-                "Lower row: each vertex's weighted centroid q* (eq. 2) over the deformed mesh; (a): p* at rest, u = 2.";
+  fig.caption =
+      "Table 2's cylinder: 1058 vertices, 322 point handles (7 rings at each end); the top group rotated 120 degrees. "
+      "Lower row: each vertex's weighted centroid q* (eq. 2) over the deformed mesh; (a): p* at rest, u = 2.";
   fig.rows = 2;
   fig.cols = 4;
   fig.panel_width = 2.6;
@@ -121,7 +125,8 @@ Figure figure_5() {
     const double u = 2 + i;
     const Scene s = cylinder_scene(u, 1, 120);
     const Mesh m = deformed(s);
-    top.push_back(mesh_panel(std::string("(") + letters[i] + ") u = " + std::to_string(int(u)), m, s.rest, &s.frames.back()));
+    top.push_back(
+        mesh_panel(std::string("(") + letters[i] + ") u = " + std::to_string(int(u)), m, s.rest, &s.frames.back()));
     Panel p;
     p.title = "q*, u = " + std::to_string(int(u));
     p.meshes.push_back({m, {0.78f, 0.80f, 0.86f}, 0.25f});
@@ -179,7 +184,8 @@ int run_figures(const FiguresArgs& a) {
     }
     const std::string png = (fs::path(out_dir) / ("fig" + std::to_string(f) + ".png")).string();
     render(fig, png, a.keep_spec);
-    std::printf("%s (%.1f s)\n", png.c_str(), std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
+    std::printf("%s (%.1f s)\n", png.c_str(),
+                std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
   }
   return 0;
 }

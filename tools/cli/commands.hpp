@@ -38,7 +38,7 @@ int run_demo(const DemoArgs& args);
 struct FiguresArgs {
   std::string out_dir;  ///< empty: the source tree's docs/figures
   std::string data_dir;
-  std::string only;     ///< e.g. "1,5"; empty: all
+  std::string only;  ///< e.g. "1,5"; empty: all
   bool keep_spec = false;
 };
 int run_figures(const FiguresArgs& args);

@@ -65,8 +65,8 @@ std::string read_file(const std::string& path, std::size_t max_bytes) {
   std::ifstream in(path, std::ios::binary);
   if (!in) throw InputError(path, "cannot open: " + errno_text(errno));
   if (S_ISREG(st.st_mode) && std::size_t(st.st_size) > max_bytes)
-    throw InputError(path, "file too large (" + std::to_string(st.st_size) + " bytes, limit " +
-                               std::to_string(max_bytes) + ")");
+    throw InputError(
+        path, "file too large (" + std::to_string(st.st_size) + " bytes, limit " + std::to_string(max_bytes) + ")");
   std::string data;
   if (S_ISREG(st.st_mode)) data.reserve(std::size_t(st.st_size));
   char buf[1 << 16];
@@ -197,7 +197,8 @@ class GzipSource final : public ByteSource {
       }
       if (ret == Z_BUF_ERROR && zs_.avail_in == 0 && in_eof_) throw InputError(path_, "truncated gzip data");
       if (ret != Z_OK && ret != Z_BUF_ERROR)
-        throw InputError(path_, "corrupt gzip data (" + std::string(zs_.msg ? zs_.msg : "error " + std::to_string(ret)) + ")");
+        throw InputError(path_,
+                         "corrupt gzip data (" + std::string(zs_.msg ? zs_.msg : "error " + std::to_string(ret)) + ")");
     }
     return produced;
   }
@@ -220,7 +221,8 @@ class GzipSource final : public ByteSource {
   struct Inflater {
     z_stream zs{};
     Inflater() {
-      if (inflateInit2(&zs, 15 + 32) != Z_OK) throw std::runtime_error("zlib: inflateInit2 failed");  // 32: gzip or zlib header
+      if (inflateInit2(&zs, 15 + 32) != Z_OK)
+        throw std::runtime_error("zlib: inflateInit2 failed");  // 32: gzip or zlib header
     }
     Inflater(const Inflater&) = delete;
     Inflater& operator=(const Inflater&) = delete;
@@ -252,7 +254,8 @@ std::unique_ptr<ByteSource> open_input(const std::string& path, std::size_t max_
   std::unique_ptr<ByteSource> raw;
   if (S_ISREG(st.st_mode)) {
     if (std::size_t(st.st_size) > max_bytes)
-      throw InputError(path, "file too large: " + std::to_string(st.st_size) + " bytes, more than " + input_limit(max_bytes));
+      throw InputError(path,
+                       "file too large: " + std::to_string(st.st_size) + " bytes, more than " + input_limit(max_bytes));
     std::FILE* f = std::fopen(path.c_str(), "rb");
     if (!f) throw InputError(path, "cannot open: " + errno_text(errno));
     raw = std::make_unique<FileSource>(f, std::size_t(st.st_size), path);
@@ -304,9 +307,11 @@ void check_output_path(const std::string& path, bool force) {
     if (!force) throw InputError(path, "already exists (use --force to overwrite)");
   }
   const std::string dir = parent_dir(path);
-  if (::stat(dir.c_str(), &st) != 0) throw InputError(path, "cannot write: directory '" + dir + "': " + errno_text(errno));
+  if (::stat(dir.c_str(), &st) != 0)
+    throw InputError(path, "cannot write: directory '" + dir + "': " + errno_text(errno));
   if (!S_ISDIR(st.st_mode)) throw InputError(path, "cannot write: '" + dir + "' is not a directory");
-  if (::access(dir.c_str(), W_OK) != 0) throw InputError(path, "cannot write: directory '" + dir + "': " + errno_text(errno));
+  if (::access(dir.c_str(), W_OK) != 0)
+    throw InputError(path, "cannot write: directory '" + dir + "': " + errno_text(errno));
 }
 
 void write_file_atomic(const std::string& path, std::string_view bytes, bool force) {

@@ -46,8 +46,7 @@ std::unique_ptr<ByteSource> gunzip_source(std::unique_ptr<ByteSource> compressed
 
 /// Decompresses gzip data (all members); `path` names the file in errors (corrupt or truncated data, or more
 /// than `max_bytes` decompressed: refused as soon as the output passes the limit, before it is all in memory).
-std::string gunzip(std::string_view compressed, const std::string& path,
-                   std::size_t max_bytes = std::size_t(4) << 30);
+std::string gunzip(std::string_view compressed, const std::string& path, std::size_t max_bytes = std::size_t(4) << 30);
 /// Compresses to the gzip format (level 6).
 std::string gzip(std::string_view data);
 

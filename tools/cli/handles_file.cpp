@@ -22,7 +22,9 @@ struct Node {
   std::string path;
   const std::string& file;
 
-  [[noreturn]] void fail(const std::string& problem) const { throw InputError(file, problem, path.empty() ? "/" : path); }
+  [[noreturn]] void fail(const std::string& problem) const {
+    throw InputError(file, problem, path.empty() ? "/" : path);
+  }
 
   Node operator[](const char* key) const { return {v.at(key), path + "/" + key, file}; }
   Node at(std::size_t i) const { return {v.at(i), path + "/" + std::to_string(i), file}; }
@@ -72,7 +74,8 @@ struct Node {
   std::uint64_t index() const {
     if (v.is_number_unsigned()) return v.get<std::uint64_t>();
     if (v.is_number_integer()) fail("vertex index " + std::to_string(v.get<std::int64_t>()) + " is negative");
-    fail(std::string("expected a vertex index (an integer from 0), found ") + (v.is_number() ? v.dump() : v.type_name()));
+    fail(std::string("expected a vertex index (an integer from 0), found ") +
+         (v.is_number() ? v.dump() : v.type_name()));
   }
 };
 
@@ -101,7 +104,8 @@ PointHandleSpec parse_point(const Node& n) {
   n.only_keys({"vertex", "rest", "target", "offset", "name"});
   PointHandleSpec h;
   h.path = n.path;
-  if (n.has("vertex") == n.has("rest")) n.fail(n.has("vertex") ? "give \"vertex\" or \"rest\", not both" : "missing \"vertex\" or \"rest\"");
+  if (n.has("vertex") == n.has("rest"))
+    n.fail(n.has("vertex") ? "give \"vertex\" or \"rest\", not both" : "missing \"vertex\" or \"rest\"");
   if (n.has("vertex"))
     h.vertex = n["vertex"].index();
   else
@@ -153,11 +157,13 @@ std::optional<Target> parse_frame_entry(const Node& n, bool segment) {
   return t;
 }
 
-std::vector<std::optional<Target>> parse_frame_list(const Node& frame, const char* key, std::size_t count, bool segment) {
+std::vector<std::optional<Target>> parse_frame_list(const Node& frame, const char* key, std::size_t count,
+                                                    bool segment) {
   std::vector<std::optional<Target>> out(count);
   if (!frame.has(key)) return out;
   const Node list = frame[key];
-  list.require_array(segment ? "an array with one entry per segment handle" : "an array with one entry per point handle");
+  list.require_array(segment ? "an array with one entry per segment handle"
+                             : "an array with one entry per point handle");
   if (list.v.size() != count)
     list.fail(std::to_string(list.v.size()) + " entries, expected " + std::to_string(count) + " (one per " +
               (segment ? "segment" : "point") + " handle)");
@@ -180,8 +186,10 @@ HandlesFile parse_handles(std::string_view text, const std::string& file) {
   std::vector<std::set<std::string>> open_objects;
   std::string duplicate;
   const json::parser_callback_t unique_keys = [&](int, json::parse_event_t event, json& parsed) {
-    if (event == json::parse_event_t::object_start) open_objects.emplace_back();
-    else if (event == json::parse_event_t::object_end && !open_objects.empty()) open_objects.pop_back();
+    if (event == json::parse_event_t::object_start)
+      open_objects.emplace_back();
+    else if (event == json::parse_event_t::object_end && !open_objects.empty())
+      open_objects.pop_back();
     else if (event == json::parse_event_t::key && !open_objects.empty() && duplicate.empty() &&
              !open_objects.back().insert(parsed.get<std::string>()).second)
       duplicate = parsed.get<std::string>();
@@ -203,7 +211,8 @@ HandlesFile parse_handles(std::string_view text, const std::string& file) {
     std::string why = e.what();
     const auto p = why.find(": ", why.find("parse error"));
     if (p != std::string::npos) why = why.substr(p + 2);
-    throw InputError(file, "invalid JSON: " + one_line(why), "line " + std::to_string(line) + ", column " + std::to_string(column));
+    throw InputError(file, "invalid JSON: " + one_line(why),
+                     "line " + std::to_string(line) + ", column " + std::to_string(column));
   } catch (const json::exception& e) {  // e.g. out_of_range 406, "number overflow parsing '1e999'" (no position)
     std::string why = e.what();
     if (const auto p = why.find("] "); p != std::string::npos) why = why.substr(p + 2);
@@ -227,7 +236,8 @@ HandlesFile parse_handles(std::string_view text, const std::string& file) {
     segments.require_array("an array of segment handles");
     for (std::size_t i = 0; i < segments.v.size(); ++i) h.segments.push_back(parse_segment(segments.at(i)));
   }
-  if (h.points.empty() && h.segments.empty()) root.fail("no handles (give at least one entry in \"points\" or \"segments\")");
+  if (h.points.empty() && h.segments.empty())
+    root.fail("no handles (give at least one entry in \"points\" or \"segments\")");
   if (root.has("frames")) {
     const Node frames = root["frames"];
     frames.require_array("an array of frames");
@@ -257,8 +267,9 @@ struct Converter {
   Vector3<T> operator()(const Eigen::Vector3d& p, const std::string& path) const {
     const Vector3<T> q = p.cast<T>();
     if (!q.allFinite())
-      throw InputError(file, "coordinates too large for " + std::string(std::is_same_v<T, float> ? "--precision float" : "double"),
-                       path);
+      throw InputError(
+          file, "coordinates too large for " + std::string(std::is_same_v<T, float> ? "--precision float" : "double"),
+          path);
     return q;
   }
 };
@@ -277,8 +288,8 @@ ResolvedHandles<T> resolve_handles(const HandlesFile& h, const PointsRowMajor<fl
   auto vertex = [&](std::uint64_t i, const std::string& path) -> Eigen::Vector3d {
     if (i >= n)
       throw InputError(h.file,
-                       "vertex index " + std::to_string(i) + " out of range (the mesh has " + std::to_string(n) + " vertices" +
-                           (n ? ", 0 to " + std::to_string(n - 1) : std::string()) + ")",
+                       "vertex index " + std::to_string(i) + " out of range (the mesh has " + std::to_string(n) +
+                           " vertices" + (n ? ", 0 to " + std::to_string(n - 1) : std::string()) + ")",
                        path);
     return vertices.row(Eigen::Index(i)).transpose().cast<double>();
   };
@@ -321,7 +332,9 @@ ResolvedHandles<T> resolve_handles(const HandlesFile& h, const PointsRowMajor<fl
       const bool own = !fp || !(*fp)[i];
       const Target& t = own ? h.points[i].target : *(*fp)[i];
       const std::string path = own ? h.points[i].path : frame_path + "/points/" + std::to_string(i);
-      const Eigen::Vector3d q = t.kind == Target::Kind::rest ? point_rest[i] : t.kind == Target::Kind::absolute ? t.a : point_rest[i] + t.a;
+      const Eigen::Vector3d q = t.kind == Target::Kind::rest       ? point_rest[i]
+                                : t.kind == Target::Kind::absolute ? t.a
+                                                                   : point_rest[i] + t.a;
       set_row(m.points, i, convert(q, path));
     }
     for (std::size_t i = 0; i < s; ++i) {

@@ -29,7 +29,7 @@ struct Target {
 };
 
 struct PointHandleSpec {
-  std::optional<std::uint64_t> vertex;  ///< rest position = this mesh vertex ...
+  std::optional<std::uint64_t> vertex;             ///< rest position = this mesh vertex ...
   Eigen::Vector3d rest = Eigen::Vector3d::Zero();  ///< ... or this position
   Target target;
   std::string path;  ///< JSON path, for messages

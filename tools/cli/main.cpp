@@ -42,8 +42,8 @@ const CLI::Validator exponent_check(
 // An option taking one of a few names ("rigid", "similarity", ...) into an enum. (Strings and IsMember rather
 // than CLI11's enum transformer: its --help shows the enums' numbers.)
 template <class E>
-CLI::Option* add_choice(CLI::App* app, const std::string& flags, E& target, const std::vector<std::pair<std::string, E>>& choices,
-                        const std::string& help) {
+CLI::Option* add_choice(CLI::App* app, const std::string& flags, E& target,
+                        const std::vector<std::pair<std::string, E>>& choices, const std::string& help) {
   std::vector<std::string> names;
   std::string current;
   for (const auto& [n, e] : choices) {
@@ -62,40 +62,45 @@ CLI::Option* add_choice(CLI::App* app, const std::string& flags, E& target, cons
       ->default_str(current);
 }
 
-const std::vector<std::pair<std::string, Precision>> precisions{{"float", Precision::single}, {"double", Precision::double_}};
+const std::vector<std::pair<std::string, Precision>> precisions{{"float", Precision::single},
+                                                                {"double", Precision::double_}};
 
 void add_common_deformer_options(CLI::App* c, Options& o, Precision& precision) {
   std::vector<std::pair<std::string, RotationMethod>> methods;
   for (auto r : all_rotation_methods) methods.emplace_back(std::string(to_string(r)), r);
-  add_choice<Transform>(c, "--transform,-t", o.transform,
-                        {{"rigid", Transform::rigid}, {"similarity", Transform::similarity}, {"affine", Transform::affine}},
-                        "the local transform fitted at each vertex (paper Sec. 4 and 6.1)");
+  add_choice<Transform>(
+      c, "--transform,-t", o.transform,
+      {{"rigid", Transform::rigid}, {"similarity", Transform::similarity}, {"affine", Transform::affine}},
+      "the local transform fitted at each vertex (paper Sec. 4 and 6.1)");
   c->add_option("--exponent,-u", o.weight_exponent, "the weight exponent u in w_i = |p_i - v|^-u (Fig. 5: 2, 3, 4)")
       ->check(exponent_check)
       ->default_str("2");
   add_choice(c, "--method", o.method, methods, "the rotation solver (axis_angle: the paper's Sec. 4.3-4.6)");
   add_choice(c, "--precision", precision, precisions, "floating-point type of the computation");
-  c->add_option("--threads,-j", o.threads, "worker threads; 0: all cores")->check(CLI::NonNegativeNumber)->default_str("0");
+  c->add_option("--threads,-j", o.threads, "worker threads; 0: all cores")
+      ->check(CLI::NonNegativeNumber)
+      ->default_str("0");
   add_choice<Backend>(c, "--backend", o.backend, {{"simd", Backend::simd}, {"scalar", Backend::scalar}},
                       "simd: the SIMD kernels (best ISA at run time); scalar: the reference");
   c->add_option_function<double>(
-       "--weight-budget",
-       [&o](double mib) { o.precompute_budget_bytes = static_cast<std::size_t>(mib * 1048576.0); },
+       "--weight-budget", [&o](double mib) { o.precompute_budget_bytes = static_cast<std::size_t>(mib * 1048576.0); },
        "MiB that the precomputed weight table may take (automatic storage); beyond it, on-the-fly weights or an error")
       ->check(CLI::Range(0.0, 1048576.0))
       ->default_str("32");
-  add_choice<SegmentWeight>(c, "--segment-weight", o.segment_weight,
-                            {{"constant", SegmentWeight::paper_constant}, {"exact", SegmentWeight::exact_integral}},
-                            "segment handles: constant d^-u along a segment (the paper's Sec. 6.2) or the exact integral");
+  add_choice<SegmentWeight>(
+      c, "--segment-weight", o.segment_weight,
+      {{"constant", SegmentWeight::paper_constant}, {"exact", SegmentWeight::exact_integral}},
+      "segment handles: constant d^-u along a segment (the paper's Sec. 6.2) or the exact integral");
 }
 
 int run(int argc, char** argv) {
-  CLI::App app{"mlsdeform " + std::to_string(MLSDEFORM_VERSION_MAJOR) + "." + std::to_string(MLSDEFORM_VERSION_MINOR) + "." +
-                   std::to_string(MLSDEFORM_VERSION_PATCH) +
+  CLI::App app{"mlsdeform " + std::to_string(MLSDEFORM_VERSION_MAJOR) + "." + std::to_string(MLSDEFORM_VERSION_MINOR) +
+                   "." + std::to_string(MLSDEFORM_VERSION_PATCH) +
                    ": as-rigid-as-possible deformation of 3D meshes by Moving Least Squares\n"
                    "(Cuno, Esperanca, Oliveira, Cavalcanti, \"3D As-Rigid-As-Possible Deformations Using MLS\").",
                "mlsdeform"};
-  app.set_version_flag("--version", std::to_string(MLSDEFORM_VERSION_MAJOR) + "." + std::to_string(MLSDEFORM_VERSION_MINOR) + "." +
+  app.set_version_flag("--version", std::to_string(MLSDEFORM_VERSION_MAJOR) + "." +
+                                        std::to_string(MLSDEFORM_VERSION_MINOR) + "." +
                                         std::to_string(MLSDEFORM_VERSION_PATCH));
   app.require_subcommand(1);
   app.footer(
@@ -109,16 +114,20 @@ int run(int argc, char** argv) {
   DeformArgs d;
   auto* deform = app.add_subcommand("deform", "Deform a mesh by the handles in a JSON file and write the result.");
   deform->add_option("--mesh,-m", d.mesh, "input mesh: " + readable_formats())->required();
-  deform->add_option("--handles,-H", d.handles, "handles file (JSON): point and segment handles, targets, optional frames")
+  deform
+      ->add_option("--handles,-H", d.handles,
+                   "handles file (JSON): point and segment handles, targets, optional frames")
       ->required();
-  deform->add_option("--out,-o", d.out,
-                     "output mesh, format by extension: " + writable_formats() +
-                         "; with frames, one file per frame: OUT_0000.EXT, OUT_0001.EXT, ...")
+  deform
+      ->add_option("--out,-o", d.out,
+                   "output mesh, format by extension: " + writable_formats() +
+                       "; with frames, one file per frame: OUT_0000.EXT, OUT_0001.EXT, ...")
       ->required();
   add_common_deformer_options(deform, d.options, d.precision);
-  deform->add_option_function<std::size_t>(
-           "--max-input-mib", [&d](std::size_t mib) { d.max_input_bytes = mib << 20; },
-           "the largest mesh file, or decompressed .gz data, that is read (MiB); larger inputs are refused unread")
+  deform
+      ->add_option_function<std::size_t>(
+          "--max-input-mib", [&d](std::size_t mib) { d.max_input_bytes = mib << 20; },
+          "the largest mesh file, or decompressed .gz data, that is read (MiB); larger inputs are refused unread")
       ->check(CLI::Range(std::size_t(1), std::size_t(1) << 24))
       ->default_str(std::to_string(kDefaultMaxInputBytes >> 20));
   deform->add_flag("--force,-f", d.force, "overwrite existing output files");
@@ -137,20 +146,27 @@ int run(int argc, char** argv) {
   auto* demo = app.add_subcommand("demo",
                                   "Deform a bundled mesh and the paper's primitives, print frames/s for the scalar and "
                                   "SIMD backends, write the results and images to a folder.");
-  demo->add_option("--out-dir,-o", demo_args.out_dir, "folder for the results (created; its earlier results are replaced)")
+  demo->add_option("--out-dir,-o", demo_args.out_dir,
+                   "folder for the results (created; its earlier results are replaced)")
       ->default_str(demo_args.out_dir);
-  demo->add_option("--frames", demo_args.frames, "frames per animated scene")->check(CLI::Range(1, 100000))->default_str("30");
-  demo->add_option("--threads,-j", demo_args.threads, "worker threads; 0: all cores")->check(CLI::NonNegativeNumber)->default_str("0");
+  demo->add_option("--frames", demo_args.frames, "frames per animated scene")
+      ->check(CLI::Range(1, 100000))
+      ->default_str("30");
+  demo->add_option("--threads,-j", demo_args.threads, "worker threads; 0: all cores")
+      ->check(CLI::NonNegativeNumber)
+      ->default_str("0");
   add_choice(demo, "--precision", demo_args.precision, precisions, "floating-point type of the computation");
-  demo->add_option("--data-dir", demo_args.data_dir, "folder with the bundled meshes (default: the source tree's data/)");
+  demo->add_option("--data-dir", demo_args.data_dir,
+                   "folder with the bundled meshes (default: the source tree's data/)");
   demo->add_flag("!--no-images", demo_args.images, "skip the PNG images (they need python3-matplotlib)");
 
   FiguresArgs fig_args;
-  auto* figures = app.add_subcommand("figures",
-                                     "Redraw the paper's Fig. 1, 3, 4 and 5 as PNG images (with python3-matplotlib).");
+  auto* figures =
+      app.add_subcommand("figures", "Redraw the paper's Fig. 1, 3, 4 and 5 as PNG images (with python3-matplotlib).");
   figures->add_option("--out-dir,-o", fig_args.out_dir, "folder for the images")->default_str(default_figures_dir());
   figures->add_option("--only", fig_args.only, "comma-separated figure numbers, e.g. 1,5 (default: all)");
-  figures->add_option("--data-dir", fig_args.data_dir, "folder with the bundled meshes (default: the source tree's data/)");
+  figures->add_option("--data-dir", fig_args.data_dir,
+                      "folder with the bundled meshes (default: the source tree's data/)");
   figures->add_flag("--keep-spec", fig_args.keep_spec, "also keep each figure's JSON description next to its PNG");
 
   if (argc <= 1) {
@@ -161,7 +177,10 @@ int run(int argc, char** argv) {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
     if (e.get_exit_code() == 0) return app.exit(e);  // --help, --version
-    const std::string sub = deform->parsed() ? " deform" : demo->parsed() ? " demo" : figures->parsed() ? " figures" : "";
+    const std::string sub = deform->parsed()    ? " deform"
+                            : demo->parsed()    ? " demo"
+                            : figures->parsed() ? " figures"
+                                                : "";
     std::fprintf(stderr, "mlsdeform: error: %s (see 'mlsdeform%s --help')\n", one_line(e.what()).c_str(), sub.c_str());
     return 2;
   }

@@ -14,10 +14,10 @@ namespace mlsdeform::cli {
 /// Vertices in the file's own order (so that a handles file can name them by index) and polygon faces kept
 /// as they are (no triangulation). Coordinates are 32-bit floats, as every supported format stores them.
 struct Mesh {
-  PointsRowMajor<float> vertices;             ///< n x 3
-  std::vector<std::uint32_t> face_start{0};   ///< face f is face_indices[face_start[f] .. face_start[f+1])
+  PointsRowMajor<float> vertices;            ///< n x 3
+  std::vector<std::uint32_t> face_start{0};  ///< face f is face_indices[face_start[f] .. face_start[f+1])
   std::vector<std::uint32_t> face_indices;
-  std::size_t dropped_primitives = 0;         ///< points and lines in the file, which are not kept
+  std::size_t dropped_primitives = 0;  ///< points and lines in the file, which are not kept
 
   Eigen::Index vertex_count() const { return vertices.rows(); }
   std::size_t face_count() const { return face_start.size() - 1; }
@@ -54,16 +54,15 @@ Mesh parse_mesh(ByteSource& source, const std::string& format, const std::string
 enum class PlyEncoding { binary, ascii };
 
 struct WriteOptions {
-  bool force = false;                        ///< overwrite an existing file
-  PlyEncoding ply = PlyEncoding::binary;     ///< for .ply and .ply.gz
-  bool normals = true;                       ///< write vertex normals where the format has them (not OFF)
+  bool force = false;                     ///< overwrite an existing file
+  PlyEncoding ply = PlyEncoding::binary;  ///< for .ply and .ply.gz
+  bool normals = true;                    ///< write vertex normals where the format has them (not OFF)
 };
 
 /// The file's bytes for the format of `path`'s extension (compressed if it ends in .gz).
 std::string encode_mesh(const Mesh& mesh, const std::string& path, const WriteOptions& options = {});
 /// encode_mesh, then write_file_atomic: all or nothing.
 void write_mesh(const Mesh& mesh, const std::string& path, const WriteOptions& options = {});
-
 
 /// Throws InputError naming `path` if its extension is not a format write_mesh knows.
 void check_output_format(const std::string& path);

@@ -116,7 +116,8 @@ class Reader {
       begin_ = 0;
     }
     if (end_ == buf_.size()) {  // one line fills the buffer
-      if (buf_.size() >= kMaxLine) throw InputError(path_, "a line longer than " + std::to_string(kMaxLine >> 20) + " MiB");
+      if (buf_.size() >= kMaxLine)
+        throw InputError(path_, "a line longer than " + std::to_string(kMaxLine >> 20) + " MiB");
       buf_.resize(buf_.size() * 2);
     }
     const std::size_t want = buf_.size() - end_;
@@ -182,15 +183,19 @@ std::vector<T> to_vector(std::deque<T>& blocks) {
 
 bool finite3(const float* c) { return std::isfinite(c[0]) && std::isfinite(c[1]) && std::isfinite(c[2]); }
 
-std::string non_finite(std::size_t vertex) { return "vertex " + std::to_string(vertex) + " has a non-finite coordinate"; }
+std::string non_finite(std::size_t vertex) {
+  return "vertex " + std::to_string(vertex) + " has a non-finite coordinate";
+}
 
 /// Refuses a count that the rest of the file cannot hold (`min_bytes` per item), before allocating for it.
 void check_count(std::uint64_t count, std::size_t min_bytes, std::size_t remaining, const std::string& what,
                  const std::string& path, const std::string& where) {
   if (count > std::numeric_limits<std::uint32_t>::max() || count * min_bytes > remaining)
-    throw InputError(path, "the header promises " + std::to_string(count) + " " + what + ", but only " +
-                               std::to_string(remaining) + " bytes follow (at least " + std::to_string(min_bytes) +
-                               " per item)", where);
+    throw InputError(path,
+                     "the header promises " + std::to_string(count) + " " + what + ", but only " +
+                         std::to_string(remaining) + " bytes follow (at least " + std::to_string(min_bytes) +
+                         " per item)",
+                     where);
 }
 
 std::string out_of_range(std::size_t face, std::int64_t v, std::uint64_t nv) {
@@ -204,7 +209,7 @@ Mesh read_obj(Reader& reader, const std::string& path) {
   Mesh mesh;
   std::deque<float> coords;
   std::deque<std::uint32_t> corners, face_start{0};  // corners 0-based; relative (negative) ones resolved
-  std::uint64_t max_corner = 0;                       // the largest 1-based index, checked at the end
+  std::uint64_t max_corner = 0;                      // the largest 1-based index, checked at the end
   std::size_t max_corner_line = 0;
   std::vector<std::string_view> t;
   Lines lines(reader);
@@ -214,8 +219,9 @@ Mesh read_obj(Reader& reader, const std::string& path) {
     if (key == "v") {
       const std::size_t n = t.size() - 1;
       if (n != 3 && n != 4 && n != 6)
-        throw InputError(path, "a vertex needs 3 coordinates (x y z, optionally w, or x y z r g b), found " +
-                                   std::to_string(n), at_line(lines.line()));
+        throw InputError(
+            path, "a vertex needs 3 coordinates (x y z, optionally w, or x y z r g b), found " + std::to_string(n),
+            at_line(lines.line()));
       float c[6];
       for (std::size_t k = 0; k < n; ++k)
         if (!parse_number(t[k + 1], c[k]))
@@ -224,12 +230,12 @@ Mesh read_obj(Reader& reader, const std::string& path) {
         if (c[3] == 0.0f) throw InputError(path, "vertex with w = 0", at_line(lines.line()));
         for (int k = 0; k < 3; ++k) c[k] /= c[3];
       }
-      if (!finite3(c))
-        throw InputError(path, non_finite(coords.size() / 3), at_line(lines.line()));
+      if (!finite3(c)) throw InputError(path, non_finite(coords.size() / 3), at_line(lines.line()));
       coords.insert(coords.end(), c, c + 3);
     } else if (key == "f") {
       if (t.size() < 4)
-        throw InputError(path, "a face needs at least 3 vertices, found " + std::to_string(t.size() - 1), at_line(lines.line()));
+        throw InputError(path, "a face needs at least 3 vertices, found " + std::to_string(t.size() - 1),
+                         at_line(lines.line()));
       const auto defined = std::int64_t(coords.size() / 3);
       for (std::size_t k = 1; k < t.size(); ++k) {
         // v, v/vt, v//vn or v/vt/vn: every part an integer (texture and normal indices are not used).
@@ -240,7 +246,8 @@ Mesh read_obj(Reader& reader, const std::string& path) {
           throw InputError(path, "not a vertex index: " + shown(corner), at_line(lines.line()));
         while (slash != std::string_view::npos) {
           const std::size_t next = corner.find('/', slash + 1);
-          const std::string_view part = corner.substr(slash + 1, next == std::string_view::npos ? next : next - slash - 1);
+          const std::string_view part =
+              corner.substr(slash + 1, next == std::string_view::npos ? next : next - slash - 1);
           std::int64_t unused = 0;
           if (!(part.empty() && next != std::string_view::npos && slash + 1 == next) && !part.empty() &&
               !parse_number(part, unused))
@@ -249,7 +256,8 @@ Mesh read_obj(Reader& reader, const std::string& path) {
         }
         if (v < 0) {  // relative to the vertices defined so far
           if (-v > defined)
-            throw InputError(path, "vertex index " + std::to_string(v) + " refers before the first vertex", at_line(lines.line()));
+            throw InputError(path, "vertex index " + std::to_string(v) + " refers before the first vertex",
+                             at_line(lines.line()));
           v = defined + v + 1;
         }
         if (std::uint64_t(v) > std::numeric_limits<std::uint32_t>::max())
@@ -260,8 +268,8 @@ Mesh read_obj(Reader& reader, const std::string& path) {
       face_start.push_back(std::uint32_t(corners.size()));
     } else if (key == "l" || key == "p") {
       ++mesh.dropped_primitives;
-    } else if (key == "vt" || key == "vn" || key == "vp" || key == "o" || key == "g" || key == "s" ||
-               key == "usemtl" || key == "mtllib") {
+    } else if (key == "vt" || key == "vn" || key == "vp" || key == "o" || key == "g" || key == "s" || key == "usemtl" ||
+               key == "mtllib") {
       // Texture coordinates, normals, names, groups, smoothing and materials: not used.
     } else {
       throw InputError(path, "unsupported OBJ statement " + shown(key), at_line(lines.line()));
@@ -272,8 +280,9 @@ Mesh read_obj(Reader& reader, const std::string& path) {
   if (n > std::numeric_limits<std::uint32_t>::max()) throw InputError(path, "too many vertices");
   // Indices may refer to vertices defined later in the file: checked once all are known.
   if (max_corner > n)
-    throw InputError(path, "vertex index " + std::to_string(max_corner) + " is out of range (" + std::to_string(n) +
-                               " vertices)", at_line(max_corner_line));
+    throw InputError(
+        path, "vertex index " + std::to_string(max_corner) + " is out of range (" + std::to_string(n) + " vertices)",
+        at_line(max_corner_line));
   mesh.vertices.resize(Eigen::Index(n), 3);
   std::copy(coords.begin(), coords.end(), mesh.vertices.data());
   std::deque<float>().swap(coords);
@@ -295,14 +304,16 @@ Mesh read_off(Reader& reader, const std::string& path) {
     counts = t;
   }
   std::uint64_t nv = 0, nf = 0, ne = 0;
-  if (counts.size() != 3 || !parse_number(counts[0], nv) || !parse_number(counts[1], nf) || !parse_number(counts[2], ne))
+  if (counts.size() != 3 || !parse_number(counts[0], nv) || !parse_number(counts[1], nf) ||
+      !parse_number(counts[2], ne))
     throw InputError(path, "malformed OFF: expected 'vertices faces edges' counts", at_line(lines.line()));
   // Each vertex line needs at least "0 0 0\n", each face line "3 0 0 0\n".
   check_count(nv, 6, reader.remaining(), "vertices", path, at_line(lines.line()));
   check_count(nf, 8, reader.remaining(), "faces", path, at_line(lines.line()));
   if (nv * 6 + nf * 8 > reader.remaining())
-    throw InputError(path, "the header promises " + std::to_string(nv) + " vertices and " + std::to_string(nf) +
-                               " faces, but only " + std::to_string(reader.remaining()) + " bytes follow",
+    throw InputError(path,
+                     "the header promises " + std::to_string(nv) + " vertices and " + std::to_string(nf) +
+                         " faces, but only " + std::to_string(reader.remaining()) + " bytes follow",
                      at_line(lines.line()));
   Mesh mesh;
   mesh.vertices.resize(Eigen::Index(nv), 3);
@@ -325,13 +336,16 @@ Mesh read_off(Reader& reader, const std::string& path) {
       throw InputError(path, "malformed OFF: truncated in face " + std::to_string(f) + " of " + std::to_string(nf));
     std::uint64_t k = 0;
     if (!parse_number(t[0], k) || k < 3)
-      throw InputError(path, "face " + std::to_string(f) + ": expected a vertex count of at least 3, found " +
-                                 shown(t[0]), at_line(lines.line()));
+      throw InputError(path,
+                       "face " + std::to_string(f) + ": expected a vertex count of at least 3, found " + shown(t[0]),
+                       at_line(lines.line()));
     // k indices, then optionally a colour (3 or 4 numbers).
     const std::size_t extra = t.size() - 1 >= k ? t.size() - 1 - k : std::size_t(-1);
     if (extra != 0 && extra != 3 && extra != 4)
-      throw InputError(path, "face " + std::to_string(f) + " promises " + std::to_string(k) + " vertices but has " +
-                                 std::to_string(t.size() - 1) + " numbers", at_line(lines.line()));
+      throw InputError(path,
+                       "face " + std::to_string(f) + " promises " + std::to_string(k) + " vertices but has " +
+                           std::to_string(t.size() - 1) + " numbers",
+                       at_line(lines.line()));
     for (std::uint64_t j = 0; j < k; ++j) {
       std::int64_t v = 0;
       const std::string_view tok = t[std::size_t(j + 1)];
@@ -342,8 +356,7 @@ Mesh read_off(Reader& reader, const std::string& path) {
     }
     for (std::size_t j = std::size_t(k) + 1; j < t.size(); ++j) {
       float colour = 0;
-      if (!parse_number(t[j], colour))
-        throw InputError(path, "not a number: " + shown(t[j]), at_line(lines.line()));
+      if (!parse_number(t[j], colour)) throw InputError(path, "not a number: " + shown(t[j]), at_line(lines.line()));
     }
     mesh.face_start.push_back(std::uint32_t(corners.size()));
   }
@@ -359,24 +372,41 @@ enum class Scalar { i8, u8, i16, u16, i32, u32, f32, f64 };
 
 std::size_t size_of(Scalar s) {
   switch (s) {
-    case Scalar::i8: case Scalar::u8: return 1;
-    case Scalar::i16: case Scalar::u16: return 2;
-    case Scalar::i32: case Scalar::u32: case Scalar::f32: return 4;
-    case Scalar::f64: return 8;
+    case Scalar::i8:
+    case Scalar::u8:
+      return 1;
+    case Scalar::i16:
+    case Scalar::u16:
+      return 2;
+    case Scalar::i32:
+    case Scalar::u32:
+    case Scalar::f32:
+      return 4;
+    case Scalar::f64:
+      return 8;
   }
   return 0;
 }
 
 bool scalar_type(std::string_view t, Scalar& s) {
-  if (t == "char" || t == "int8") s = Scalar::i8;
-  else if (t == "uchar" || t == "uint8") s = Scalar::u8;
-  else if (t == "short" || t == "int16") s = Scalar::i16;
-  else if (t == "ushort" || t == "uint16") s = Scalar::u16;
-  else if (t == "int" || t == "int32") s = Scalar::i32;
-  else if (t == "uint" || t == "uint32") s = Scalar::u32;
-  else if (t == "float" || t == "float32") s = Scalar::f32;
-  else if (t == "double" || t == "float64") s = Scalar::f64;
-  else return false;
+  if (t == "char" || t == "int8")
+    s = Scalar::i8;
+  else if (t == "uchar" || t == "uint8")
+    s = Scalar::u8;
+  else if (t == "short" || t == "int16")
+    s = Scalar::i16;
+  else if (t == "ushort" || t == "uint16")
+    s = Scalar::u16;
+  else if (t == "int" || t == "int32")
+    s = Scalar::i32;
+  else if (t == "uint" || t == "uint32")
+    s = Scalar::u32;
+  else if (t == "float" || t == "float32")
+    s = Scalar::f32;
+  else if (t == "double" || t == "float64")
+    s = Scalar::f64;
+  else
+    return false;
   return true;
 }
 
@@ -403,13 +433,20 @@ bool is_integer(Scalar s) { return s != Scalar::f32 && s != Scalar::f64; }
 /// Whether the integer v is a value of type s (an ASCII body may write anything).
 bool fits(Scalar s, std::int64_t v) {
   switch (s) {
-    case Scalar::i8: return v >= -128 && v <= 127;
-    case Scalar::u8: return v >= 0 && v <= 255;
-    case Scalar::i16: return v >= -32768 && v <= 32767;
-    case Scalar::u16: return v >= 0 && v <= 65535;
-    case Scalar::i32: return v >= std::numeric_limits<std::int32_t>::min() && v <= std::numeric_limits<std::int32_t>::max();
-    case Scalar::u32: return v >= 0 && v <= std::int64_t(std::numeric_limits<std::uint32_t>::max());
-    default: return true;
+    case Scalar::i8:
+      return v >= -128 && v <= 127;
+    case Scalar::u8:
+      return v >= 0 && v <= 255;
+    case Scalar::i16:
+      return v >= -32768 && v <= 32767;
+    case Scalar::u16:
+      return v >= 0 && v <= 65535;
+    case Scalar::i32:
+      return v >= std::numeric_limits<std::int32_t>::min() && v <= std::numeric_limits<std::int32_t>::max();
+    case Scalar::u32:
+      return v >= 0 && v <= std::int64_t(std::numeric_limits<std::uint32_t>::max());
+    default:
+      return true;
   }
 }
 
@@ -421,14 +458,48 @@ bool read_binary(Reader& reader, Scalar s, bool big_endian, double& out) {
   if (!reader.bytes(reinterpret_cast<char*>(raw), n)) return false;
   if (big_endian != (std::endian::native == std::endian::big)) std::reverse(raw, raw + n);
   switch (s) {
-    case Scalar::i8: out = double(std::int8_t(raw[0])); break;
-    case Scalar::u8: out = double(raw[0]); break;
-    case Scalar::i16: { std::int16_t v; std::memcpy(&v, raw, 2); out = v; break; }
-    case Scalar::u16: { std::uint16_t v; std::memcpy(&v, raw, 2); out = v; break; }
-    case Scalar::i32: { std::int32_t v; std::memcpy(&v, raw, 4); out = v; break; }
-    case Scalar::u32: { std::uint32_t v; std::memcpy(&v, raw, 4); out = v; break; }
-    case Scalar::f32: { float v; std::memcpy(&v, raw, 4); out = v; break; }
-    case Scalar::f64: { double v; std::memcpy(&v, raw, 8); out = v; break; }
+    case Scalar::i8:
+      out = double(std::int8_t(raw[0]));
+      break;
+    case Scalar::u8:
+      out = double(raw[0]);
+      break;
+    case Scalar::i16: {
+      std::int16_t v;
+      std::memcpy(&v, raw, 2);
+      out = v;
+      break;
+    }
+    case Scalar::u16: {
+      std::uint16_t v;
+      std::memcpy(&v, raw, 2);
+      out = v;
+      break;
+    }
+    case Scalar::i32: {
+      std::int32_t v;
+      std::memcpy(&v, raw, 4);
+      out = v;
+      break;
+    }
+    case Scalar::u32: {
+      std::uint32_t v;
+      std::memcpy(&v, raw, 4);
+      out = v;
+      break;
+    }
+    case Scalar::f32: {
+      float v;
+      std::memcpy(&v, raw, 4);
+      out = v;
+      break;
+    }
+    case Scalar::f64: {
+      double v;
+      std::memcpy(&v, raw, 8);
+      out = v;
+      break;
+    }
   }
   return true;
 }
@@ -524,8 +595,10 @@ Mesh read_ply(Reader& reader, const std::string& path) {
     min_total += std::size_t(el.count) * el.min_bytes(binary);
   }
   if (min_total > body)
-    throw InputError(path, "the header's elements need at least " + std::to_string(min_total) + " bytes, but only " +
-                               std::to_string(body) + " follow", "header");
+    throw InputError(path,
+                     "the header's elements need at least " + std::to_string(min_total) + " bytes, but only " +
+                         std::to_string(body) + " follow",
+                     "header");
 
   Mesh mesh;
   const std::uint64_t nv = elements[std::size_t(vertex_element)].count;
@@ -611,11 +684,13 @@ Mesh read_ply(Reader& reader, const std::string& path) {
         mesh.vertices.row(Eigen::Index(i)) << c[0], c[1], c[2];
       } else if (int(e) == face_element) {
         if (list_size < 3)
-          throw InputError(path, "face " + std::to_string(i) + " has " + std::to_string(list_size) +
-                                     " vertices (at least 3)", where());
+          throw InputError(path,
+                           "face " + std::to_string(i) + " has " + std::to_string(list_size) + " vertices (at least 3)",
+                           where());
         for (std::size_t j = 0; j < list_size; ++j) {
           const double v = values[list_begin + j];  // an exact integer of at most 32 bits
-          if (v < 0 || v >= double(nv)) throw InputError(path, out_of_range(std::size_t(i), std::int64_t(v), nv), where());
+          if (v < 0 || v >= double(nv))
+            throw InputError(path, out_of_range(std::size_t(i), std::int64_t(v), nv), where());
           corners.push_back(std::uint32_t(v));
         }
         mesh.face_start.push_back(std::uint32_t(corners.size()));
@@ -632,7 +707,9 @@ Mesh read_ply(Reader& reader, const std::string& path) {
 
 }  // namespace
 
-std::string readable_formats() { return "obj, off, ply (ASCII or binary), and each gzip-compressed (.obj.gz, .off.gz, .ply.gz)"; }
+std::string readable_formats() {
+  return "obj, off, ply (ASCII or binary), and each gzip-compressed (.obj.gz, .off.gz, .ply.gz)";
+}
 
 Mesh read_mesh(const std::string& path, std::size_t max_bytes) {
   const std::string ext = format_extension(path);

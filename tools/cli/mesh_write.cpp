@@ -52,8 +52,8 @@ void put_le(std::string& s, T v) {
 }
 
 std::string comment() {
-  return "written by mlsdeform " + std::to_string(MLSDEFORM_VERSION_MAJOR) + "." + std::to_string(MLSDEFORM_VERSION_MINOR) +
-         "." + std::to_string(MLSDEFORM_VERSION_PATCH);
+  return "written by mlsdeform " + std::to_string(MLSDEFORM_VERSION_MAJOR) + "." +
+         std::to_string(MLSDEFORM_VERSION_MINOR) + "." + std::to_string(MLSDEFORM_VERSION_PATCH);
 }
 
 std::string encode_obj(const Mesh& m, const PointsRowMajor<float>* normals) {
@@ -131,7 +131,8 @@ std::string encode_ply(const Mesh& m, const PointsRowMajor<float>* normals, PlyE
   TextOut o;
   const bool binary = encoding == PlyEncoding::binary;
   o.s.reserve(256 + std::size_t(m.vertex_count()) * (binary ? 24 : 70) + m.face_indices.size() * (binary ? 5 : 8));
-  o << "ply\nformat " << (binary ? "binary_little_endian" : "ascii") << " 1.0\ncomment " << comment() << "\nelement vertex ";
+  o << "ply\nformat " << (binary ? "binary_little_endian" : "ascii") << " 1.0\ncomment " << comment()
+    << "\nelement vertex ";
   o.num(std::uint64_t(m.vertex_count()));
   o << "\nproperty float x\nproperty float y\nproperty float z\n";
   if (normals) o << "property float nx\nproperty float ny\nproperty float nz\n";
@@ -181,7 +182,8 @@ PointsRowMajor<float> vertex_normals(const Mesh& mesh) {
     for (auto c = b; c < e; ++c) {
       const Eigen::Vector3d p = mesh.vertices.row(mesh.face_indices[c]).cast<double>();
       const Eigen::Vector3d q = mesh.vertices.row(mesh.face_indices[c + 1 < e ? c + 1 : b]).cast<double>();
-      n += Eigen::Vector3d((p.y() - q.y()) * (p.z() + q.z()), (p.z() - q.z()) * (p.x() + q.x()), (p.x() - q.x()) * (p.y() + q.y()));
+      n += Eigen::Vector3d((p.y() - q.y()) * (p.z() + q.z()), (p.z() - q.z()) * (p.x() + q.x()),
+                           (p.x() - q.x()) * (p.y() + q.y()));
     }
     for (auto c = b; c < e; ++c) acc.row(mesh.face_indices[c]) += n.transpose();
   }
@@ -205,7 +207,9 @@ std::vector<std::uint32_t> triangulate(const Mesh& mesh) {
   return t;
 }
 
-std::string writable_formats() { return "obj, off, ply (binary; ASCII with --ply-ascii), and each gzip-compressed (.obj.gz, .off.gz, .ply.gz)"; }
+std::string writable_formats() {
+  return "obj, off, ply (binary; ASCII with --ply-ascii), and each gzip-compressed (.obj.gz, .off.gz, .ply.gz)";
+}
 
 void check_output_format(const std::string& path) {
   const std::string ext = format_extension(path);
@@ -220,7 +224,9 @@ std::string encode_mesh(const Mesh& mesh, const std::string& path, const WriteOp
   PointsRowMajor<float> normals;
   if (options.normals && ext != "off") normals = vertex_normals(mesh);
   const PointsRowMajor<float>* n = options.normals && ext != "off" ? &normals : nullptr;
-  std::string bytes = ext == "obj" ? encode_obj(mesh, n) : ext == "off" ? encode_off(mesh) : encode_ply(mesh, n, options.ply);
+  std::string bytes = ext == "obj"   ? encode_obj(mesh, n)
+                      : ext == "off" ? encode_off(mesh)
+                                     : encode_ply(mesh, n, options.ply);
   return is_gzip_path(path) ? gzip(bytes) : bytes;
 }
 

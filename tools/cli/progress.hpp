@@ -18,12 +18,14 @@ class Progress {
     if (tty_) {
       constexpr int width = 30;
       const int filled = int(double(index + 1) / double(total_) * width);
-      std::fprintf(stderr, "\r[%s%s] %zu/%zu  deform %.2f ms  write %.1f ms  %s\x1b[K", std::string(std::size_t(filled), '#').c_str(),
-                   std::string(std::size_t(width - filled), '.').c_str(), index + 1, total_, deform_ms, write_ms, path.c_str());
+      std::fprintf(stderr, "\r[%s%s] %zu/%zu  deform %.2f ms  write %.1f ms  %s\x1b[K",
+                   std::string(std::size_t(filled), '#').c_str(), std::string(std::size_t(width - filled), '.').c_str(),
+                   index + 1, total_, deform_ms, write_ms, path.c_str());
       if (index + 1 == total_) std::fputc('\n', stderr);
       std::fflush(stderr);
     } else {
-      std::printf("frame %zu/%zu: deform %.3f ms, write %.1f ms -> %s\n", index + 1, total_, deform_ms, write_ms, path.c_str());
+      std::printf("frame %zu/%zu: deform %.3f ms, write %.1f ms -> %s\n", index + 1, total_, deform_ms, write_ms,
+                  path.c_str());
     }
   }
   /// Ends a bar cut short by an error, so the error message starts on its own line.

@@ -187,17 +187,26 @@ void render(const Figure& fig, const std::string& png_path, bool keep_spec) {
     jp["meshes"] = json::array();
     for (const auto& m : p.meshes) {
       const auto tris = triangulate(m.mesh);
-      jp["meshes"].push_back({{"vertices", flat(m.mesh.vertices, quantum)}, {"triangles", tris}, {"color", color(m.color)},
+      jp["meshes"].push_back({{"vertices", flat(m.mesh.vertices, quantum)},
+                              {"triangles", tris},
+                              {"color", color(m.color)},
                               {"alpha", m.alpha}});
     }
     jp["points"] = json::array();
     for (const auto& l : p.points)
-      jp["points"].push_back({{"xyz", flat(l.xyz, quantum)}, {"color", color(l.color)}, {"size", l.size},
-                              {"marker", l.marker}, {"label", l.label}});
+      jp["points"].push_back({{"xyz", flat(l.xyz, quantum)},
+                              {"color", color(l.color)},
+                              {"size", l.size},
+                              {"marker", l.marker},
+                              {"label", l.label}});
     jp["segments"] = json::array();
     for (const auto& l : p.segments)
-      jp["segments"].push_back({{"a", flat(l.a, quantum)}, {"b", flat(l.b, quantum)}, {"color", color(l.color)},
-                                {"width", l.width}, {"arrow", l.arrow}, {"label", l.label}});
+      jp["segments"].push_back({{"a", flat(l.a, quantum)},
+                                {"b", flat(l.b, quantum)},
+                                {"color", color(l.color)},
+                                {"width", l.width},
+                                {"arrow", l.arrow},
+                                {"label", l.label}});
     panels.push_back(std::move(jp));
   }
   spec["panels"] = std::move(panels);
@@ -216,14 +225,17 @@ void render(const Figure& fig, const std::string& png_path, bool keep_spec) {
   if (!renderer().ok) throw InputError(png_path, "cannot render: " + renderer().why);
   const int rc = run({renderer().python, figures_script(), spec_path}, /*quiet=*/false);
   if (!keep_spec) std::filesystem::remove(spec_path);
-  if (rc != 0) throw InputError(png_path, "rendering failed (" + renderer().python + " " + figures_script() + " exited with " + std::to_string(rc) + ")");
+  if (rc != 0)
+    throw InputError(png_path, "rendering failed (" + renderer().python + " " + figures_script() + " exited with " +
+                                   std::to_string(rc) + ")");
 }
 
 }  // namespace mlsdeform::cli
 
 namespace mlsdeform::cli {
 
-Panel mesh_panel(const std::string& title, const Mesh& mesh, const Handles<double>& rest, const Handles<double>* target) {
+Panel mesh_panel(const std::string& title, const Mesh& mesh, const Handles<double>& rest,
+                 const Handles<double>* target) {
   Panel p;
   p.title = title;
   p.meshes.push_back({mesh});

@@ -75,6 +75,7 @@ namespace mlsdeform::cli {
 
 /// A panel with one shaded mesh and handles: the rest handles when `target` is null, else the targets and an
 /// arrow from each moved handle's rest position to its target.
-Panel mesh_panel(const std::string& title, const Mesh& mesh, const Handles<double>& rest, const Handles<double>* target = nullptr);
+Panel mesh_panel(const std::string& title, const Mesh& mesh, const Handles<double>& rest,
+                 const Handles<double>* target = nullptr);
 
 }  // namespace mlsdeform::cli

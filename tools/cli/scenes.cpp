@@ -19,7 +19,8 @@ constexpr double kPi = std::numbers::pi;
 double radians(double degrees) { return degrees * kPi / 180.0; }
 
 // Adds quad a b c d, flipped if needed so that its normal points away from `inside`.
-void add_quad(Mesh& m, std::uint32_t a, std::uint32_t b, std::uint32_t c, std::uint32_t d, const Eigen::Vector3d& inside) {
+void add_quad(Mesh& m, std::uint32_t a, std::uint32_t b, std::uint32_t c, std::uint32_t d,
+              const Eigen::Vector3d& inside) {
   const Eigen::Vector3d pa = m.vertices.row(a).cast<double>(), pb = m.vertices.row(b).cast<double>(),
                         pc = m.vertices.row(c).cast<double>();
   const Eigen::Vector3d n = (pb - pa).cross(pc - pa);
@@ -33,7 +34,8 @@ void add_quad(Mesh& m, std::uint32_t a, std::uint32_t b, std::uint32_t c, std::u
 Points<double> moved(const Points<double>& p, const Eigen::Matrix3d& R, const Eigen::Vector3d& pivot,
                      const Eigen::Vector3d& shift = Eigen::Vector3d::Zero()) {
   Points<double> q(p.rows(), 3);
-  for (Eigen::Index i = 0; i < p.rows(); ++i) q.row(i) = (R * (p.row(i).transpose() - pivot) + pivot + shift).transpose();
+  for (Eigen::Index i = 0; i < p.rows(); ++i)
+    q.row(i) = (R * (p.row(i).transpose() - pivot) + pivot + shift).transpose();
   return q;
 }
 
@@ -142,12 +144,16 @@ Scene human_bend_scene(const Mesh& human, int frames, double degrees, Transform 
   };
   const double floor = v.col(1).minCoeff(), height = v.col(1).maxCoeff() - floor;
   auto any = [](const auto&) { return true; };
-  auto foot = [&](int side) { return [&, side](const auto& p) { return p(1) < floor + 0.06 * height && side * p(0) > 0; }; };
+  auto foot = [&](int side) {
+    return [&, side](const auto& p) { return p(1) < floor + 0.06 * height && side * p(0) > 0; };
+  };
   const Eigen::Index head = best([](const auto& p) { return p(1); }, any);
   const Eigen::Index left_hand = best([](const auto& p) { return -p(0); }, any);
   const Eigen::Index right_hand = best([](const auto& p) { return p(0); }, any);
-  const Eigen::Index toes[2] = {best([](const auto& p) { return p(2); }, foot(-1)), best([](const auto& p) { return p(2); }, foot(1))};
-  const Eigen::Index heels[2] = {best([](const auto& p) { return -p(2); }, foot(-1)), best([](const auto& p) { return -p(2); }, foot(1))};
+  const Eigen::Index toes[2] = {best([](const auto& p) { return p(2); }, foot(-1)),
+                                best([](const auto& p) { return p(2); }, foot(1))};
+  const Eigen::Index heels[2] = {best([](const auto& p) { return -p(2); }, foot(-1)),
+                                 best([](const auto& p) { return -p(2); }, foot(1))};
   const std::vector<Eigen::Index> moving = {head, left_hand, right_hand};
   const std::vector<Eigen::Index> fixed = {toes[0], toes[1], heels[0], heels[1]};
   std::vector<Eigen::Index> all = moving;
@@ -157,7 +163,8 @@ Scene human_bend_scene(const Mesh& human, int frames, double degrees, Transform 
   // The hands end in front of the knees, a third of their span apart: not a rigid motion of the handles, so
   // that the three kinds of transform differ (Fig. 1).
   const double span = v(right_hand, 0) - v(left_hand, 0);
-  const Eigen::Vector3d hand_goal[2] = {{-span / 6, floor + 0.3 * height, 0.25 * height}, {span / 6, floor + 0.3 * height, 0.25 * height}};
+  const Eigen::Vector3d hand_goal[2] = {{-span / 6, floor + 0.3 * height, 0.25 * height},
+                                        {span / 6, floor + 0.3 * height, 0.25 * height}};
   for (int f = 1; f <= frames; ++f) {
     const double t = double(f) / frames;
     const Eigen::Matrix3d R = Eigen::AngleAxisd(radians(degrees * t), Eigen::Vector3d::UnitX()).toRotationMatrix();
@@ -194,7 +201,8 @@ Scene bar_twist_scene(int steps, double degrees) {
   s.rest = points_only(rows_of(v, all));
   const auto nb = Eigen::Index(bottom.size());
   for (int f = 1; f <= steps; ++f) {
-    const Eigen::Matrix3d R = Eigen::AngleAxisd(radians(degrees * f / steps), Eigen::Vector3d::UnitY()).toRotationMatrix();
+    const Eigen::Matrix3d R =
+        Eigen::AngleAxisd(radians(degrees * f / steps), Eigen::Vector3d::UnitY()).toRotationMatrix();
     Points<double> q = s.rest.points;
     q.bottomRows(q.rows() - nb) = moved(rows_of(v, top), R, Eigen::Vector3d::Zero());
     s.frames.push_back(points_only(q));
@@ -224,7 +232,8 @@ Scene cylinder_scene(double u, int frames, double degrees) {
   s.options.weight_exponent = u;
   const Eigen::Vector3d pivot(0, height * (rings - 1 - (group - 1) / 2.0) / (rings - 1), 0);  // centre of the top group
   for (int f = 1; f <= frames; ++f) {
-    const Eigen::Matrix3d R = Eigen::AngleAxisd(radians(degrees * f / frames), Eigen::Vector3d::UnitZ()).toRotationMatrix();
+    const Eigen::Matrix3d R =
+        Eigen::AngleAxisd(radians(degrees * f / frames), Eigen::Vector3d::UnitZ()).toRotationMatrix();
     Points<double> q = s.rest.points;
     q.bottomRows(Eigen::Index(top.size())) = moved(rows_of(v, top), R, pivot);
     s.frames.push_back(points_only(q));
@@ -247,7 +256,8 @@ Scene bar_bend_scene(int variant, int frames) {
     const double a = t * kPi / 2;
     const Eigen::Matrix3d Ra = Eigen::AngleAxisd(-a, Eigen::Vector3d::UnitZ()).toRotationMatrix();
     const double r = a > 0 ? L / a : 0;
-    const Eigen::Vector3d end = a > 0 ? Eigen::Vector3d(r - r * std::cos(a), r * std::sin(a), 0) : Eigen::Vector3d(0, L, 0);
+    const Eigen::Vector3d end =
+        a > 0 ? Eigen::Vector3d(r - r * std::cos(a), r * std::sin(a), 0) : Eigen::Vector3d(0, L, 0);
     return moved(p, Ra, Eigen::Vector3d(0, L, 0), end - Eigen::Vector3d(0, L, 0));
   };
   Handles<double> rest;
@@ -292,7 +302,8 @@ Scene bar_bend_scene(int variant, int frames) {
     const double t = double(f) / frames;
     Handles<double> q = rest;
     if (variant < 2) {
-      q.points.bottomRows(q.points.rows() - moving_from) = top_motion(t, rest.points.bottomRows(rest.points.rows() - moving_from));
+      q.points.bottomRows(q.points.rows() - moving_from) =
+          top_motion(t, rest.points.bottomRows(rest.points.rows() - moving_from));
     } else {
       q.segment_a.bottomRows(2) = top_motion(t, rest.segment_a.bottomRows(2));
       q.segment_b.bottomRows(2) = top_motion(t, rest.segment_b.bottomRows(2));
@@ -302,8 +313,8 @@ Scene bar_bend_scene(int variant, int frames) {
   return s;
 }
 
-Points<double> weighted_centroids(const Points<double>& vertices, const Handles<double>& rest, const Handles<double>& moved_h,
-                                  double u) {
+Points<double> weighted_centroids(const Points<double>& vertices, const Handles<double>& rest,
+                                  const Handles<double>& moved_h, double u) {
   Points<double> out(vertices.rows(), 3);
   for (Eigen::Index i = 0; i < vertices.rows(); ++i) {
     const Eigen::Vector3d v = vertices.row(i).transpose();

@@ -47,8 +47,8 @@ Scene bar_bend_scene(int variant, int frames);
 
 /// The weighted centroids q* = sum_i w_i q_i / sum_i w_i of eq. (2) (Sec. 6.2's midpoint rule for segments,
 /// w = d^-u with d the distance to the rest handle), per vertex: what Fig. 5's lower row draws.
-Points<double> weighted_centroids(const Points<double>& vertices, const Handles<double>& rest, const Handles<double>& moved,
-                                  double u);
+Points<double> weighted_centroids(const Points<double>& vertices, const Handles<double>& rest,
+                                  const Handles<double>& moved, double u);
 
 struct SceneRun {
   Points<double> result;              ///< the last frame

@@ -34,8 +34,8 @@ std::size_t simd_lanes(bool double_precision);
 /// depend on it. Throws std::invalid_argument, writing nothing, if any entry of H is NaN or infinite.
 /// Allocates nothing.
 template <class T>
-void fit_rotations(const T* H, T* R, std::size_t n, RotationMethod method = RotationMethod::axis_angle,
-                   int threads = 1, BatchStats* stats = nullptr);
+void fit_rotations(const T* H, T* R, std::size_t n, RotationMethod method = RotationMethod::axis_angle, int threads = 1,
+                   BatchStats* stats = nullptr);
 
 extern template void fit_rotations<float>(const float*, float*, std::size_t, RotationMethod, int, BatchStats*);
 extern template void fit_rotations<double>(const double*, double*, std::size_t, RotationMethod, int, BatchStats*);

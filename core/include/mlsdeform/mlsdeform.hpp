@@ -2,9 +2,9 @@
 // Cavalcanti), and the batched weighted rotation fit at its heart. The one header consumers include.
 #pragma once
 
+#include <mlsdeform/batch.hpp>
+#include <mlsdeform/deformer.hpp>
 #include <mlsdeform/point_fit.hpp>
 #include <mlsdeform/rotation.hpp>
 #include <mlsdeform/types.hpp>
-#include <mlsdeform/batch.hpp>
-#include <mlsdeform/deformer.hpp>
 #include <mlsdeform/version.hpp>

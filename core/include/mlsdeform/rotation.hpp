@@ -51,9 +51,8 @@ extern template Matrix3<double> fit_rotation<double>(const Matrix3<double>&, Rot
 /// row-major or dynamic-size matrix), evaluated into a Matrix3 first. Throws std::invalid_argument if a
 /// dynamic-size argument is not 3 x 3.
 template <class Derived>
-  requires(!std::is_same_v<Derived, Matrix3<typename Derived::Scalar>>)
-Matrix3<typename Derived::Scalar> fit_rotation(const Eigen::MatrixBase<Derived>& H,
-                                               RotationMethod method = RotationMethod::axis_angle) {
+requires(!std::is_same_v<Derived, Matrix3<typename Derived::Scalar>>) Matrix3<typename Derived::Scalar> fit_rotation(
+    const Eigen::MatrixBase<Derived>& H, RotationMethod method = RotationMethod::axis_angle) {
   using T = typename Derived::Scalar;
   static_assert(std::is_same_v<T, float> || std::is_same_v<T, double>, "fit_rotation: float or double entries");
   static_assert(Derived::RowsAtCompileTime == 3 || Derived::RowsAtCompileTime == Eigen::Dynamic,

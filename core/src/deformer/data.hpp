@@ -89,26 +89,26 @@ using AlignedVector = std::vector<T, AlignedAllocator<T>>;
 template <class T>
 struct DeformerData {
   Transform transform = Transform::rigid;
-  std::size_t n = 0;          ///< vertices
-  std::size_t blocks = 0;     ///< ceil(n / kLanes)
-  std::size_t points = 0;     ///< point handles k
-  std::size_t segments = 0;   ///< segment handles s
-  double scale = 1;           ///< the local frame's power of two (see Units above)
-  AlignedVector<T> table;     ///< omega, A (rigid, similarity) or alpha (affine), blocked as above
-  AlignedVector<T> p_star;    ///< rigid, similarity: weighted centroid of the rest handles, SoA, padded
-  AlignedVector<T> vhat;      ///< rigid, similarity: v - p*, SoA, padded
-  AlignedVector<T> D;         ///< similarity: sum_j A_j . phat_j (= sum_i w_i |phat_i|^2 / S), padded
+  std::size_t n = 0;         ///< vertices
+  std::size_t blocks = 0;    ///< ceil(n / kLanes)
+  std::size_t points = 0;    ///< point handles k
+  std::size_t segments = 0;  ///< segment handles s
+  double scale = 1;          ///< the local frame's power of two (see Units above)
+  AlignedVector<T> table;    ///< omega, A (rigid, similarity) or alpha (affine), blocked as above
+  AlignedVector<T> p_star;   ///< rigid, similarity: weighted centroid of the rest handles, SoA, padded
+  AlignedVector<T> vhat;     ///< rigid, similarity: v - p*, SoA, padded
+  AlignedVector<T> D;        ///< similarity: sum_j A_j . phat_j (= sum_i w_i |phat_i|^2 / S), padded
 
   // WeightStorage::on_the_fly (rigid and similarity with point handles only): no table; per frame the
   // weights are recomputed from the distances (reference.hpp, deform_block_on_the_fly). Local frame:
   // x_local = (x - centre) / world_scale.
   bool on_the_fly = false;
-  AlignedVector<T> v_local;   ///< rest vertices, local frame, SoA, padded
-  AlignedVector<T> dref2;     ///< squared distance to the nearest handle, local (padding lanes: 1)
-  AlignedVector<T> snap;      ///< index of the handle a vertex sits on (closer than 64 eps the scene), else -1
-  AlignedVector<T> p_local;   ///< point handles, local frame, SoA: x[k], y[k], z[k]
-  double world_scale = 1;     ///< 2^e of the local frame
-  T half_u = 1;               ///< u / 2: w = (dref2 / d2)^(u/2)
+  AlignedVector<T> v_local;  ///< rest vertices, local frame, SoA, padded
+  AlignedVector<T> dref2;    ///< squared distance to the nearest handle, local (padding lanes: 1)
+  AlignedVector<T> snap;     ///< index of the handle a vertex sits on (closer than 64 eps the scene), else -1
+  AlignedVector<T> p_local;  ///< point handles, local frame, SoA: x[k], y[k], z[k]
+  double world_scale = 1;    ///< 2^e of the local frame
+  T half_u = 1;              ///< u / 2: w = (dref2 / d2)^(u/2)
 
   std::size_t pseudo_handles() const { return points + 2 * segments; }
   std::size_t padded() const { return blocks * kLanes; }

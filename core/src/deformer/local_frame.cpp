@@ -29,8 +29,10 @@ LocalFrame make_local_frame(const Points<T>& vertices, const Handles<T>& handles
   const double m = half.maxCoeff();
   const double diag = m > 0 ? 2 * m * (half / m).norm() : 0.0;
   if (!(diag <= double(coordinate_limit<T>())))
-    throw std::invalid_argument("Deformer: the scene (bounding box of rest vertices and handles) is too large for the "
-                                "precision: diagonal " + num(diag));
+    throw std::invalid_argument(
+        "Deformer: the scene (bounding box of rest vertices and handles) is too large for the "
+        "precision: diagonal " +
+        num(diag));
   s.e = diag > 0 ? std::ilogb(diag) : 0;
   s.size_local = std::ldexp(diag, -s.e);
   return s;

@@ -46,7 +46,7 @@ bool use_on_the_fly(const Options& o, const RestHandles& rh, std::size_t padded)
 
 template <class T>
 DeformerData<T> precompute(const Points<T>& vertices, const Handles<T>& handles, const Options& o,
-                                   tbb::task_arena* arena) {
+                           tbb::task_arena* arena) {
   check_options(o);
   check_points(vertices, "rest vertices", "", std::numeric_limits<T>::max());
   check_handles(handles, "rest handles", std::numeric_limits<T>::max());

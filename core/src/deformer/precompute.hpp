@@ -19,8 +19,8 @@ DeformerData<T> precompute(const Points<T>& vertices, const Handles<T>& handles,
 
 /// The coefficient table (data.table, p_star, vhat, D) of every block.
 template <class T>
-void precompute_table(DeformerData<T>& data, const Points<T>& vertices, const LocalFrame& scene,
-                      const RestHandles& rh, const Options& o, tbb::task_arena* arena);
+void precompute_table(DeformerData<T>& data, const Points<T>& vertices, const LocalFrame& scene, const RestHandles& rh,
+                      const Options& o, tbb::task_arena* arena);
 
 /// The on-the-fly session data: the rest vertices and handles in the local frame, each vertex's squared
 /// distance to its nearest handle (weights are relative to it), and the handle a vertex sits on, if any.

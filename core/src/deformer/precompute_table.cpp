@@ -18,7 +18,7 @@ namespace {
 
 using Vec3d = Eigen::Vector3d;
 
-/// Sec. 5: the rest-pose precomputation for the vertices of block b (see deformer_data.hpp for what is
+/// Sec. 5: the rest-pose precomputation for the vertices of block b (see data.hpp for what is
 /// stored). Everything in double in the local frame; results rounded to T once, at the end.
 template <class T>
 void precompute_block(DeformerData<T>& data, std::size_t b, const Points<T>& vertices, const LocalFrame& scene,
@@ -86,8 +86,7 @@ void precompute_block(DeformerData<T>& data, std::size_t b, const Points<T>& ver
         if (snapped)
           mom[q] = q + k == nearest ? segment_moments_of_constant(1.0, geo[q].tc) : SegmentMoments{};
         else
-          mom[q] = exact ? segment_moments_exact(geo[q], d_min, u)
-                         : segment_moments_constant(geo[q], d_min, u);
+          mom[q] = exact ? segment_moments_exact(geo[q], d_min, u) : segment_moments_constant(geo[q], d_min, u);
         S += mom[q].I0 + 2 * mom[q].I1 + mom[q].I2;
       }
       // Weighted centroid p* (eq. 2; Sec. 6.2: segment end points weighted by int w (1-t) and int w t).
@@ -98,7 +97,7 @@ void precompute_block(DeformerData<T>& data, std::size_t b, const Points<T>& ver
       }
       p_star.setZero();
       for (std::size_t j = 0; j < J; ++j) p_star += omega[j] * rh.P[j];
-      // A_j (deformer_data.hpp): sum_j q_j A_j^T = sum_i w_i qhat_i phat_i^T / S, with the segments' W_i.
+      // A_j (data.hpp): sum_j q_j A_j^T = sum_i w_i qhat_i phat_i^T / S, with the segments' W_i.
       // Segments about their closest point pc = p(tc): phat(t) = g + (t - tc) e with g = pc - p* and e = b - a,
       // so A_c = int w (1 - t) phat / S = (g (I0 + I1) + e ((1 - tc) J1 - J2)) / S and
       // A_d = int w t phat / S = (g (I1 + I2) + e (tc J1 + J2)) / S: near a segment g, J1 and J2 are small
@@ -175,7 +174,7 @@ void precompute_block(DeformerData<T>& data, std::size_t b, const Points<T>& ver
         data.p_star[c * np + i] = T(scene.centre[c] + std::ldexp(p_star[c], scene.e));
         data.vhat[c * np + i] = T(std::ldexp(vhat[c], scene.e));
       }
-      // Units (deformer_data.hpp): A in local units times 2^s, D as (physical D) / 2^e times 2^s.
+      // Units (data.hpp): A in local units times 2^s, D as (physical D) / 2^e times 2^s.
       if (data.transform == Transform::similarity) data.D[i] = T(std::ldexp(D, scene.e));
     }
   }
@@ -184,8 +183,8 @@ void precompute_block(DeformerData<T>& data, std::size_t b, const Points<T>& ver
 }  // namespace
 
 template <class T>
-void precompute_table(DeformerData<T>& data, const Points<T>& vertices, const LocalFrame& scene,
-                      const RestHandles& rh, const Options& o, tbb::task_arena* arena) {
+void precompute_table(DeformerData<T>& data, const Points<T>& vertices, const LocalFrame& scene, const RestHandles& rh,
+                      const Options& o, tbb::task_arena* arena) {
   const std::size_t np = data.padded();
   data.table.assign(np * rh.P.size() * data.components(), T(0));
   if (o.transform != Transform::affine) {
@@ -198,8 +197,8 @@ void precompute_table(DeformerData<T>& data, const Points<T>& vertices, const Lo
   });
 }
 
-template void precompute_table<float>(DeformerData<float>&, const Points<float>&, const LocalFrame&,
-                                      const RestHandles&, const Options&, tbb::task_arena*);
+template void precompute_table<float>(DeformerData<float>&, const Points<float>&, const LocalFrame&, const RestHandles&,
+                                      const Options&, tbb::task_arena*);
 template void precompute_table<double>(DeformerData<double>&, const Points<double>&, const LocalFrame&,
                                        const RestHandles&, const Options&, tbb::task_arena*);
 

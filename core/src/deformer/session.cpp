@@ -53,8 +53,10 @@ struct Deformer<T>::Impl {
                           options.method == RotationMethod::horn_quaternion;
     const kernels::KernelTable& k =
         options.backend == Backend::simd && in_lanes ? detail::active_kernels() : kernels::kernel_table_scalar();
-    if constexpr (std::is_same_v<T, float>) return k.deform_f;
-    else return k.deform_d;
+    if constexpr (std::is_same_v<T, float>)
+      return k.deform_f;
+    else
+      return k.deform_d;
   }
 
   /// One frame for validated `moved`: vertex v, coordinate c goes to out[c * cstride + v * vstride]. Nothing

@@ -37,7 +37,8 @@ void check_options(const Options& o) {
       o.weight_storage != WeightStorage::on_the_fly)
     throw std::invalid_argument("Deformer: unknown WeightStorage value " +
                                 std::to_string(static_cast<int>(o.weight_storage)));
-  if (o.threads < 0) throw std::invalid_argument("Deformer: threads must be >= 0 (got " + std::to_string(o.threads) + ")");
+  if (o.threads < 0)
+    throw std::invalid_argument("Deformer: threads must be >= 0 (got " + std::to_string(o.threads) + ")");
 }
 
 template <class T>
@@ -81,8 +82,10 @@ template <class T>
 void check_affine_rank(const std::vector<Vec3d>& P) {
   const std::size_t J = P.size();
   if (J < 4)
-    throw std::invalid_argument("Deformer: the affine transform needs handles spanning 3D (at least four non-coplanar "
-                                "points, segment end points included); got " + std::to_string(J));
+    throw std::invalid_argument(
+        "Deformer: the affine transform needs handles spanning 3D (at least four non-coplanar "
+        "points, segment end points included); got " +
+        std::to_string(J));
   Vec3d mean = Vec3d::Zero();
   for (const Vec3d& p : P) mean += p;
   mean /= double(J);
@@ -120,17 +123,17 @@ void check_coincident(const Handles<T>& moved, const CoincidentPairs& pairs) {
       throw std::invalid_argument("Deformer: point handles " + std::to_string(i) + " and " + std::to_string(j) +
                                   " share their rest position but have different targets (" +
                                   num(double(moved.points(i, 0))) + ", " + num(double(moved.points(i, 1))) + ", " +
-                                  num(double(moved.points(i, 2))) + ") and (" + num(double(moved.points(j, 0))) +
-                                  ", " + num(double(moved.points(j, 1))) + ", " + num(double(moved.points(j, 2))) +
+                                  num(double(moved.points(i, 2))) + ") and (" + num(double(moved.points(j, 0))) + ", " +
+                                  num(double(moved.points(j, 1))) + ", " + num(double(moved.points(j, 2))) +
                                   "); a vertex there cannot follow both");
 }
 
-#define MLSDEFORM_VALIDATION(T)                                                                   \
-  template void check_points<T>(const Points<T>&, const char*, const char*, T);                    \
-  template void check_handles<T>(const Handles<T>&, const char*, T);                               \
-  template void check_moved<T>(const Handles<T>&, const Handles<T>&);                              \
-  template void check_affine_rank<T>(const std::vector<Vec3d>&);                                   \
-  template CoincidentPairs coincident_points<T>(const Points<T>&);                                 \
+#define MLSDEFORM_VALIDATION(T)                                                 \
+  template void check_points<T>(const Points<T>&, const char*, const char*, T); \
+  template void check_handles<T>(const Handles<T>&, const char*, T);            \
+  template void check_moved<T>(const Handles<T>&, const Handles<T>&);           \
+  template void check_affine_rank<T>(const std::vector<Vec3d>&);                \
+  template CoincidentPairs coincident_points<T>(const Points<T>&);              \
   template void check_coincident<T>(const Handles<T>&, const CoincidentPairs&);
 MLSDEFORM_VALIDATION(float)
 MLSDEFORM_VALIDATION(double)

@@ -18,7 +18,7 @@ namespace mlsdeform::detail {
 /// x with 17 significant digits (messages).
 std::string num(double x);
 
-/// Coordinates of targets may not exceed this: with |A_j| summing to O(1) (deformer_data.hpp, units), the
+/// Coordinates of targets may not exceed this: with |A_j| summing to O(1) (data.hpp, units), the
 /// correlation matrix, q* and their intermediate differences then stay finite.
 template <class T>
 constexpr T coordinate_limit() {

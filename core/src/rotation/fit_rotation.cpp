@@ -34,14 +34,21 @@ Matrix3<T> fit_rotation(const Matrix3<T>& H, RotationMethod method) {
   const int e = std::ilogb(m);
   constexpr int emax = std::numeric_limits<T>::max_exponent - 1;  // 127 or 1023
   Matrix3<T> Hn = H;
-  if (-e > emax) Hn *= std::ldexp(T(1), emax), Hn *= std::ldexp(T(1), -e - emax);
-  else Hn *= std::ldexp(T(1), -e);
+  if (-e > emax)
+    Hn *= std::ldexp(T(1), emax), Hn *= std::ldexp(T(1), -e - emax);
+  else
+    Hn *= std::ldexp(T(1), -e);
   switch (method) {
-    case RotationMethod::axis_angle: return detail::fit_rotation_axis_angle(Hn);
-    case RotationMethod::horn_quaternion: return detail::fit_rotation_horn_quaternion(Hn);
-    case RotationMethod::horn_matrix: return detail::fit_rotation_horn_matrix(Hn);
-    case RotationMethod::kanatani: return detail::fit_rotation_kanatani(Hn);
-    case RotationMethod::svd: return detail::fit_rotation_svd(Hn);
+    case RotationMethod::axis_angle:
+      return detail::fit_rotation_axis_angle(Hn);
+    case RotationMethod::horn_quaternion:
+      return detail::fit_rotation_horn_quaternion(Hn);
+    case RotationMethod::horn_matrix:
+      return detail::fit_rotation_horn_matrix(Hn);
+    case RotationMethod::kanatani:
+      return detail::fit_rotation_kanatani(Hn);
+    case RotationMethod::svd:
+      return detail::fit_rotation_svd(Hn);
   }
   throw std::invalid_argument("fit_rotation: unknown RotationMethod value " + std::to_string(static_cast<int>(method)));
 }

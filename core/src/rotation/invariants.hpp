@@ -11,11 +11,11 @@ namespace mlsdeform::detail {
 
 template <class T>
 struct Invariants {
-  T E;          // trace H (paper's E)
-  Vector3<T> z; // (H21 - H12, H02 - H20, H10 - H01) = -V (paper's V, eq. 6), 0-based indices
-  T norm2;      // ||H||_F^2
-  T det;        // det H
-  T c2;         // sum_{i<j} |H_i x H_j|^2: second invariant of H^T H (Lagrange identity)
+  T E;           // trace H (paper's E)
+  Vector3<T> z;  // (H21 - H12, H02 - H20, H10 - H01) = -V (paper's V, eq. 6), 0-based indices
+  T norm2;       // ||H||_F^2
+  T det;         // det H
+  T c2;          // sum_{i<j} |H_i x H_j|^2: second invariant of H^T H (Lagrange identity)
 };
 
 /// Eq. (6) and the coefficients of (13), on a normalised H.

@@ -10,7 +10,6 @@ namespace {
 template <class T>
 using Weights = Eigen::Ref<const Eigen::Matrix<T, Eigen::Dynamic, 1>>;
 
-
 // Weighted centroids (eq. 2), H = sum w qhat phat^T (eq. 6, column convention) and sum w |phat|^2.
 template <class T>
 SimilarityTransform<T> fit(const Eigen::Ref<const Points<T>>& p, const Eigen::Ref<const Points<T>>& q,
@@ -24,8 +23,8 @@ SimilarityTransform<T> fit(const Eigen::Ref<const Points<T>>& p, const Eigen::Re
   if (!p.allFinite() || !q.allFinite() || !w.allFinite())
     throw std::invalid_argument("fit: non-finite coordinate or weight");
   if (w.size() != 0 && (w.array() < T(0)).any()) throw std::invalid_argument("fit: negative weight");
-  Eigen::Matrix<T, Eigen::Dynamic, 1> wn = w.size() ? Eigen::Matrix<T, Eigen::Dynamic, 1>(w)
-                                                    : Eigen::Matrix<T, Eigen::Dynamic, 1>::Ones(n);
+  Eigen::Matrix<T, Eigen::Dynamic, 1> wn =
+      w.size() ? Eigen::Matrix<T, Eigen::Dynamic, 1>(w) : Eigen::Matrix<T, Eigen::Dynamic, 1>::Ones(n);
   const T wmax = wn.maxCoeff();
   if (!(wmax > T(0))) throw std::invalid_argument("fit: the weights sum to zero");
   wn /= wmax;      // first by the largest, so that the sum cannot overflow (weights near the float maximum)
@@ -63,11 +62,11 @@ template SimilarityTransform<float> fit_rigid<float>(const Eigen::Ref<const Poin
                                                      const Eigen::Ref<const Points<float>>&, const Weights<float>&,
                                                      RotationMethod);
 template SimilarityTransform<double> fit_rigid<double>(const Eigen::Ref<const Points<double>>&,
-                                                       const Eigen::Ref<const Points<double>>&,
-                                                       const Weights<double>&, RotationMethod);
+                                                       const Eigen::Ref<const Points<double>>&, const Weights<double>&,
+                                                       RotationMethod);
 template SimilarityTransform<float> fit_similarity<float>(const Eigen::Ref<const Points<float>>&,
-                                                          const Eigen::Ref<const Points<float>>&,
-                                                          const Weights<float>&, RotationMethod);
+                                                          const Eigen::Ref<const Points<float>>&, const Weights<float>&,
+                                                          RotationMethod);
 template SimilarityTransform<double> fit_similarity<double>(const Eigen::Ref<const Points<double>>&,
                                                             const Eigen::Ref<const Points<double>>&,
                                                             const Weights<double>&, RotationMethod);

@@ -51,7 +51,8 @@ Eigen::Matrix<T, 4, 4> davenport(const Matrix3<T>& H, const Invariants<T>& inv) 
 /// lambda3). Measured (proto at 4,000 cases per family): no case beyond the bound at tau = cbrt(eps) / 2,
 /// and careful lanes are 0 on gaussian H and < 1e-3 on the point-set families.
 /// A is symmetric: its 10 distinct entries from 11 complementary 2x2 minors of the row pairs (0, 1) and
-/// (2, 3) of S = K - y I (Laplace expansion by complementary minors), as kernels/rotation/rotation_axis.hpp computes them.
+/// (2, 3) of S = K - y I (Laplace expansion by complementary minors), as kernels/rotation/rotation_axis.hpp computes
+/// them.
 template <class T>
 Eigen::Matrix<T, 4, 1> rotation_axis(const Matrix3<T>& H, const Invariants<T>& inv, T y, T& dk) {
   const T S00 = inv.E - y, S11 = (T(2) * H(0, 0) - inv.E) - y, S22 = (T(2) * H(1, 1) - inv.E) - y,
