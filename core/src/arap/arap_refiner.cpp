@@ -1,13 +1,16 @@
 // Surface ARAP (Sorkine & Alexa 2007) as a refinement of the MLS result: the session (arap.hpp documents the
-// energy and the weights). Local step: one S_i per vertex, gathered over its one-ring (CSR), then all n
-// rotation fits in one fit_rotations call (SIMD lanes). Global step: the reduced cotangent Laplacian of the
+// energy and the weights). Local step: one S_i per vertex, gathered over its one-ring (CSR), and its rotation
+// by the active ISA's batched fit (SIMD lanes), chunk by chunk. Global step: the reduced cotangent Laplacian of the
 // free vertices, factorised once (Eigen's SimplicialLDLT, AMD ordering, in double) and kept as plain arrays;
 // per iteration the three right-hand sides are solved together (interleaved) by forward and backward
 // substitution, with nothing allocated.
+#include "../dispatch.hpp"
 #include "../parallel.hpp"
 
 #include <mlsdeform/arap.hpp>
 #include <mlsdeform/batch.hpp>
+
+#include <kernel_table.hpp>
 
 #include <Eigen/Geometry>  // cross
 #include <Eigen/SparseCholesky>
@@ -84,12 +87,19 @@ struct ArapRefiner<T>::Impl {
   std::vector<double> Rd;  ///< R_i in double, row-major, 9 values per vertex
   std::vector<double> y;   ///< the three right-hand sides, permuted and interleaved (3 values per row)
 
-  /// S_i = sum_j w_ij (x_i - x_j)(p_i - p_j)^T for every vertex, then all rotations in one batched fit.
+  /// For every vertex S_i = sum_j w_ij (x_i - x_j)(p_i - p_j)^T and its rotation R_i, by the active kernel
+  /// table's batched axis/angle fit on each chunk of vertices (one parallel pass: S, fit, R in double).
   void local_step() {
     const std::size_t nn = std::size_t(n);
+    kernels::FitRotationsFn<T> fit;
+    if constexpr (std::is_same_v<T, float>)
+      fit = detail::active_kernels().fit_axis_angle_f;
+    else
+      fit = detail::active_kernels().fit_axis_angle_d;
     detail::parallel_ranges((nn + kGrain - 1) / kGrain, options.threads, arena.get(),
                             [&](std::size_t c0, std::size_t c1) {
-                              for (std::size_t i = c0 * kGrain; i < std::min(nn, c1 * kGrain); ++i) {
+                              const std::size_t i0 = c0 * kGrain, i1 = std::min(nn, c1 * kGrain);
+                              for (std::size_t i = i0; i < i1; ++i) {
                                 double s[9] = {0, 0, 0, 0, 0, 0, 0, 0, 0};
                                 const double* xi = X.data() + 3 * i;
                                 for (Eigen::Index e = start[i]; e < start[i + 1]; ++e) {
@@ -100,11 +110,8 @@ struct ArapRefiner<T>::Impl {
                                 }
                                 for (int k = 0; k < 9; ++k) H[std::size_t(k) * nn + i] = T(s[k]);
                               }
-                            });
-    fit_rotations(H.data(), R.data(), nn, RotationMethod::axis_angle, options.threads);
-    detail::parallel_ranges((nn + kGrain - 1) / kGrain, options.threads, arena.get(),
-                            [&](std::size_t c0, std::size_t c1) {
-                              for (std::size_t i = c0 * kGrain; i < std::min(nn, c1 * kGrain); ++i)
+                              fit(H.data(), R.data(), nn, i0, i1, nullptr);  // S_i is finite: X is
+                              for (std::size_t i = i0; i < i1; ++i)
                                 for (std::size_t k = 0; k < 9; ++k) Rd[9 * i + k] = double(R[k * nn + i]);
                             });
   }
@@ -136,16 +143,25 @@ struct ArapRefiner<T>::Impl {
     const auto& L = ldlt.matrixL().nestedExpression();
     const int *Lp = L.outerIndexPtr(), *Li = L.innerIndexPtr();
     const double* Lx = L.valuePtr();
-    for (std::size_t col = 0; col < m; ++col)  // L z = y (unit lower)
-      for (int p = Lp[col]; p < Lp[col + 1]; ++p)
-        for (std::size_t k = 0; k < 3; ++k)
-          y[3 * std::size_t(Li[std::size_t(p)]) + k] -= Lx[std::size_t(p)] * y[3 * col + k];
+    // Each column's three values are held in registers (the compiler cannot know that the rows below never
+    // alias them): L z = y (unit lower), z /= D, L^T x = z.
+    for (std::size_t col = 0; col < m; ++col) {
+      const double z0 = y[3 * col], z1 = y[3 * col + 1], z2 = y[3 * col + 2];
+      for (int p = Lp[col]; p < Lp[col + 1]; ++p) {
+        double* t = y.data() + 3 * std::size_t(Li[p]);
+        t[0] -= Lx[p] * z0, t[1] -= Lx[p] * z1, t[2] -= Lx[p] * z2;
+      }
+    }
     for (std::size_t r = 0; r < m; ++r)
       for (std::size_t k = 0; k < 3; ++k) y[3 * r + k] /= D[r];
-    for (std::size_t col = m; col-- > 0;)  // L^T x = z
-      for (int p = Lp[col]; p < Lp[col + 1]; ++p)
-        for (std::size_t k = 0; k < 3; ++k)
-          y[3 * col + k] -= Lx[std::size_t(p)] * y[3 * std::size_t(Li[std::size_t(p)]) + k];
+    for (std::size_t col = m; col-- > 0;) {
+      double x0 = y[3 * col], x1 = y[3 * col + 1], x2 = y[3 * col + 2];
+      for (int p = Lp[col]; p < Lp[col + 1]; ++p) {
+        const double* t = y.data() + 3 * std::size_t(Li[p]);
+        x0 -= Lx[p] * t[0], x1 -= Lx[p] * t[1], x2 -= Lx[p] * t[2];
+      }
+      y[3 * col] = x0, y[3 * col + 1] = x1, y[3 * col + 2] = x2;
+    }
     for (std::size_t f = 0; f < nf; ++f)
       for (int k = 0; k < 3; ++k) X(free_vertices[f], k) = y[3 * std::size_t(perm[f]) + std::size_t(k)];
   }
