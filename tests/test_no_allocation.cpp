@@ -103,3 +103,33 @@ TEMPLATE_TEST_CASE("deform and fit_rotations allocate nothing in steady state", 
     CHECK(allocations_during([&] { fit_rotations(H.data(), R.data(), 1000, m); }) == 0);
   }
 }
+
+TEMPLATE_TEST_CASE("ARAP refinement allocates nothing in steady state", "[allocation][arap]", float, double) {
+  using T = TestType;
+  // A strip of 20 x 10 vertices, two triangles per quad; its first and last columns constrained.
+  const int nx = 20, ny = 10;
+  Points<T> v(nx * ny, 3);
+  Triangles f(2 * (nx - 1) * (ny - 1), 3);
+  for (int i = 0; i < nx; ++i)
+    for (int j = 0; j < ny; ++j) v.row(i * ny + j) << T(i) / 10, T(j) / 10, T((i * j) % 3) / 50;
+  Eigen::Index k = 0;
+  for (int i = 0; i + 1 < nx; ++i)
+    for (int j = 0; j + 1 < ny; ++j) {
+      f.row(k++) << i * ny + j, (i + 1) * ny + j, (i + 1) * ny + j + 1;
+      f.row(k++) << i * ny + j, (i + 1) * ny + j + 1, i * ny + j + 1;
+    }
+  Handles<T> rest;
+  rest.points.resize(2 * ny, 3);
+  for (int j = 0; j < ny; ++j) rest.points.row(j) = v.row(j), rest.points.row(ny + j) = v.row((nx - 1) * ny + j);
+  Handles<T> moved = rest;
+  moved.points.col(1).tail(ny).array() += T(0.5);
+  Options o;
+  o.threads = 1;  // with more threads TBB's task allocation is its own (scalable allocator, not new)
+  o.arap_iterations = 3;
+  Deformer<T> d(v, f, rest, o);
+  Points<T> out;
+  CHECK(allocations_during([&] { d.deform(moved, out); }) > 0);
+  CHECK(allocations_during([&] { d.deform(moved, out); }) == 0);
+  PointsRowMajor<T> buffer(v.rows(), 3);
+  CHECK(allocations_during([&] { d.deform(moved, InterleavedView<T>(buffer.data(), buffer.rows(), 3)); }) == 0);
+}

@@ -2,6 +2,7 @@
 // that best maps the handles' rest positions to their moved positions under inverse-distance weights.
 #pragma once
 
+#include <mlsdeform/arap.hpp>
 #include <mlsdeform/rotation.hpp>
 #include <mlsdeform/types.hpp>
 
@@ -66,6 +67,11 @@ struct Options {
   WeightStorage weight_storage = WeightStorage::automatic;
   /// WeightStorage::automatic allocates a weight table of at most this many bytes (see WeightStorage).
   std::size_t precompute_budget_bytes = std::size_t(32) << 20;
+  /// Surface-ARAP iterations after MLS (arap.hpp), for sessions built with the mesh's triangles; 0 (default)
+  /// is the paper's MLS. Each point handle constrains its nearest rest vertex, each segment handle the
+  /// nearest vertices of its two ends, held where MLS put them; the iterations then make the one-rings
+  /// locally rigid (docs/api.md, "ARAP refinement").
+  int arap_iterations = 0;
 };
 
 /// A deformation session (Sec. 5): the constructor precomputes everything that depends only on the rest
@@ -79,6 +85,10 @@ class Deformer {
   /// mismatched segment end-point counts, weight_exponent < 1 or non-finite, a zero-length segment, or an
   /// affine transform whose handles do not span 3D (fewer than four non-coplanar points).
   Deformer(const Points<T>& rest_vertices, const Handles<T>& rest_handles, const Options& options = {});
+  /// The same over a triangle mesh, so that options.arap_iterations > 0 can refine MLS's result (without
+  /// triangles that option throws std::invalid_argument). Also throws on a triangle index out of range.
+  Deformer(const Points<T>& rest_vertices, const Triangles& triangles, const Handles<T>& rest_handles,
+           const Options& options = {});
   ~Deformer();
   Deformer(Deformer&&) noexcept;
   Deformer& operator=(Deformer&&) noexcept;
@@ -88,7 +98,8 @@ class Deformer {
   /// Deform with the given moved handles (same counts as the rest handles; point handles that share a rest
   /// position must share their target too, since a vertex there cannot follow both). Writes `out` (resized
   /// only if its size is wrong); allocates nothing once `out` has its size. On invalid input throws
-  /// std::invalid_argument and leaves `out` untouched.
+  /// std::invalid_argument and leaves `out` untouched. With arap_iterations > 0, concurrent calls on one
+  /// session take turns (the refinement's scratch belongs to the session).
   void deform(const Handles<T>& moved_handles, Points<T>& out) const;
   /// The same, writing interleaved xyz (e.g. a mapped vertex buffer of vertex_count() * 3 values).
   void deform(const Handles<T>& moved_handles, InterleavedView<T> out) const;

@@ -2,6 +2,7 @@
 // Cavalcanti), and the batched weighted rotation fit at its heart. The one header consumers include.
 #pragma once
 
+#include <mlsdeform/arap.hpp>
 #include <mlsdeform/batch.hpp>
 #include <mlsdeform/deformer.hpp>
 #include <mlsdeform/point_fit.hpp>

@@ -2,6 +2,7 @@
 // hands a DeformFrame (kernels/contract.hpp) to the kernel table over blocks of kLanes vertices.
 #include "../dispatch.hpp"
 #include "../parallel.hpp"
+#include "arap_stage.hpp"
 #include "precompute.hpp"
 #include "validation.hpp"
 
@@ -45,6 +46,8 @@ struct Deformer<T>::Impl {
   detail::CoincidentPairs coincident;  ///< point handles at one rest position
   detail::DeformerData<T> data;
   std::unique_ptr<tbb::task_arena> arena;
+  Triangles triangles;                         ///< the rest mesh, when given
+  std::unique_ptr<detail::ArapStage<T>> arap;  ///< when options.arap_iterations > 0
 
   /// The kernel for this session's settings: the active ISA's, or the scalar reference's for Backend::scalar,
   /// Isa::scalar, or a rotation method without a SIMD kernel (kanatani, horn_matrix, svd).
@@ -99,11 +102,20 @@ struct Deformer<T>::Impl {
 
 template <class T>
 Deformer<T>::Deformer(const Points<T>& rest_vertices, const Handles<T>& rest_handles, const Options& options)
+    : Deformer(rest_vertices, Triangles(), rest_handles, options) {}
+
+template <class T>
+Deformer<T>::Deformer(const Points<T>& rest_vertices, const Triangles& triangles, const Handles<T>& rest_handles,
+                      const Options& options)
     : impl_(std::make_unique<Impl>()) {
   detail::check_options(options);
   impl_->options = options;
   impl_->arena = detail::make_arena(options.threads);
   impl_->data = detail::precompute(rest_vertices, rest_handles, options, impl_->arena.get());
+  detail::check_triangles(triangles, rest_vertices.rows());
+  if (options.arap_iterations > 0)
+    impl_->arap = detail::ArapStage<T>::make(rest_vertices, triangles, rest_handles, options);
+  impl_->triangles = triangles;
   impl_->rest = rest_handles;
   impl_->targets = rest_handles;
   impl_->coincident = detail::coincident_points(rest_handles.points);
@@ -134,7 +146,12 @@ void Deformer<T>::deform(const Handles<T>& moved_handles, Points<T>& out) const 
   detail::check_coincident(moved_handles, impl().coincident);
   const auto n = static_cast<Eigen::Index>(impl().data.n);
   if (out.rows() != n) out.resize(n, 3);
-  impl().run(moved_handles, out.data(), 1, static_cast<std::size_t>(n));
+  if (!impl().arap) return impl().run(moved_handles, out.data(), 1, static_cast<std::size_t>(n));
+  detail::ArapStage<T>& arap = *impl().arap;
+  const std::lock_guard<std::mutex> lock(arap.mutex);
+  impl().run(moved_handles, arap.mls.data(), 1, static_cast<std::size_t>(n));  // out untouched on a throw
+  arap.run(arap.mls, impl().options.arap_iterations);
+  out = arap.mls;
 }
 
 template <class T>
@@ -144,7 +161,12 @@ void Deformer<T>::deform(const Handles<T>& moved_handles, InterleavedView<T> out
   if (out.rows() != static_cast<Eigen::Index>(impl().data.n))
     throw std::invalid_argument("Deformer: the interleaved output has " + std::to_string(out.rows()) +
                                 " rows but the model has " + std::to_string(impl().data.n) + " vertices");
-  impl().run(moved_handles, out.data(), 3, 1);
+  if (!impl().arap) return impl().run(moved_handles, out.data(), 3, 1);
+  detail::ArapStage<T>& arap = *impl().arap;
+  const std::lock_guard<std::mutex> lock(arap.mutex);
+  impl().run(moved_handles, arap.mls.data(), 1, static_cast<std::size_t>(impl().data.n));
+  arap.run(arap.mls, impl().options.arap_iterations);
+  out = arap.mls;
 }
 
 template <class T>
@@ -188,9 +210,14 @@ template <class T>
 void Deformer<T>::reset_rest_pose(const Points<T>& rest_vertices, const Handles<T>& rest_handles) {
   // Strong guarantee: build everything first, then commit with non-throwing moves.
   detail::DeformerData<T> data = detail::precompute(rest_vertices, rest_handles, impl().options, impl().arena.get());
+  detail::check_triangles(impl().triangles, rest_vertices.rows());
+  std::unique_ptr<detail::ArapStage<T>> arap;
+  if (impl().options.arap_iterations > 0)
+    arap = detail::ArapStage<T>::make(rest_vertices, impl().triangles, rest_handles, impl().options);
   Handles<T> rest = rest_handles, targets = rest_handles;
   auto coincident = detail::coincident_points(rest_handles.points);
   impl().data = std::move(data);
+  impl().arap = std::move(arap);
   impl().rest = std::move(rest);
   impl().targets = std::move(targets);
   impl().coincident = std::move(coincident);
@@ -213,7 +240,8 @@ std::size_t Deformer<T>::memory_bytes() const {
   const auto handle_values = [](const Handles<T>& h) {
     return static_cast<std::size_t>(h.points.size() + h.segment_a.size() + h.segment_b.size());
   };
-  return impl().data.bytes() + (handle_values(impl().rest) + handle_values(impl().targets)) * sizeof(T);
+  return impl().data.bytes() + (handle_values(impl().rest) + handle_values(impl().targets)) * sizeof(T) +
+         (impl().arap ? impl().arap->refiner.memory_bytes() : 0);
 }
 
 template <class T>

@@ -1,0 +1,71 @@
+// mlsdeform: surface ARAP refinement (Sorkine & Alexa 2007) started from the MLS result. MLS gives every
+// vertex the best transform for the handles; a few local/global ARAP iterations over the mesh's one-rings
+// then make the surface locally rigid where few handles leave MLS too smooth (an arm bent by a hand handle).
+#pragma once
+
+#include <mlsdeform/types.hpp>
+
+#include <Eigen/Core>
+
+#include <cstddef>
+#include <memory>
+#include <span>
+
+namespace mlsdeform {
+
+/// Triangles: m x 3 zero-based vertex indices. Polygons are triangulated by the caller (the command-line
+/// program fans them).
+using Triangles = Eigen::Matrix<int, Eigen::Dynamic, 3, Eigen::RowMajor>;
+
+struct ArapOptions {
+  /// Worker threads for the local step; 0 means all cores. The result is bitwise the same for any value.
+  int threads = 0;
+};
+
+/// A refinement session over a triangle mesh at rest: the constructor builds the cotangent weights and
+/// factorises the global step's system once, with the `constrained` vertices fixed; refine() runs the
+/// iterations. Energy (column vectors, p the rest and x the current positions, N(i) the one-ring of i):
+///   E(x) = sum_i sum_{j in N(i)} w_ij |(x_i - x_j) - R_i (p_i - p_j)|^2,
+/// local step: R_i = argmax trace(R^T S_i), S_i = sum_j w_ij (x_i - x_j)(p_i - p_j)^T, all n fits in one
+/// fit_rotations call (SIMD lanes); global step: L x = b with the cotangent Laplacian L and
+/// b_i = sum_j (w_ij / 2)(R_i + R_j)(p_i - p_j), by a sparse Cholesky factorisation (Eigen's SimplicialLDLT,
+/// in double). Weights: w_ij = (cot alpha_ij + cot beta_ij) / 2 clamped below at zero (negative cotangents,
+/// from obtuse angles, make the energy indefinite) plus 1e-6 of the mean weight on every edge, so that a
+/// sliver or a clamped edge never disconnects a vertex; degenerate triangles (zero area) contribute nothing.
+/// Vertices in a connected component with no constrained vertex keep their start position.
+template <class T>
+class ArapRefiner {
+ public:
+  /// Throws std::invalid_argument on a face index out of range, a non-finite vertex, or a constrained index
+  /// out of range or repeated.
+  ArapRefiner(const Points<T>& rest_vertices, const Triangles& triangles, std::span<const Eigen::Index> constrained,
+              const ArapOptions& options = {});
+  ~ArapRefiner();
+  ArapRefiner(ArapRefiner&&) noexcept;
+  ArapRefiner& operator=(ArapRefiner&&) noexcept;
+
+  /// `iterations` local/global steps from `start` (n x 3, e.g. the MLS result), with constrained vertex
+  /// constrained[k] held at targets.row(k). Writes `out` (resized only if its size is wrong; it may be `start`
+  /// itself); allocates nothing once `out` has its size. Not for concurrent calls (the session holds the
+  /// scratch). iterations = 0 copies `start` with the constraints applied. Throws std::invalid_argument on
+  /// sizes that do not match or non-finite input.
+  void refine(const Points<T>& start, const Points<T>& targets, int iterations, Points<T>& out);
+
+  /// E(x) with the optimal rotations for x (as one local step computes them), in double.
+  double energy(const Points<T>& x) const;
+
+  Eigen::Index vertex_count() const;
+  /// Edges whose cotangent weight was negative (clamped to the floor).
+  std::size_t clamped_weights() const;
+  /// Bytes held: the factorisation, the one-ring weights and the scratch.
+  std::size_t memory_bytes() const;
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+extern template class ArapRefiner<float>;
+extern template class ArapRefiner<double>;
+
+}  // namespace mlsdeform

@@ -1,0 +1,279 @@
+// ArapRefiner (surface ARAP started from the MLS result) and Options::arap_iterations.
+//
+// Bounds come from the global step's conditioning: refine() solves L_ff x = b for the free vertices with a
+// backward-stable sparse Cholesky, so a perturbation db of the right-hand side (different rounding of the
+// rotations) moves x by at most |db|_2 / lambda_min(L_ff), and the solve's own rounding is a few eps
+// kappa(L_ff) |x|. The test computes lambda_min and kappa of L_ff independently (dense, long double, from its
+// own cotangent weights) for the small tube it deforms.
+#include "accuracy_bounds.hpp"
+#include "isa_guard.hpp"
+#include "rotation_cases.hpp"
+
+#include <mlsdeform/mlsdeform.hpp>
+
+#include <Eigen/Eigenvalues>
+#include <Eigen/Geometry>
+#include <catch2/catch.hpp>
+
+#include <cmath>
+#include <cstring>
+#include <numbers>
+#include <random>
+#include <vector>
+
+using namespace mlsdeform;
+using LD = long double;
+
+namespace {
+
+/// A tube along x: `rings` rings of `m` vertices (radius 0.3, length 2), two triangles per quad, with the
+/// vertices jittered by `jitter` (so that some angles are obtuse and their cotangents negative).
+struct Tube {
+  Points<double> v;
+  Triangles f;
+  int m, rings;
+  Eigen::Index at(int ring, int k) const { return Eigen::Index(ring) * m + ((k % m) + m) % m; }
+};
+
+Tube tube(int m, int rings, double jitter, unsigned seed) {
+  Tube t{Points<double>(Eigen::Index(m) * rings, 3), Triangles(2 * Eigen::Index(m) * (rings - 1), 3), m, rings};
+  std::mt19937_64 g(seed);
+  std::uniform_real_distribution<double> u(-1, 1);
+  for (int r = 0; r < rings; ++r)
+    for (int k = 0; k < m; ++k) {
+      const double a = 2 * std::numbers::pi * k / m, x = 2.0 * r / (rings - 1);
+      const bool end = r == 0 || r == rings - 1;
+      t.v.row(t.at(r, k)) << x + (end ? 0 : jitter * u(g)), 0.3 * std::cos(a) + jitter * u(g),
+          0.3 * std::sin(a) + jitter * u(g);
+    }
+  Eigen::Index f = 0;
+  for (int r = 0; r + 1 < rings; ++r)
+    for (int k = 0; k < m; ++k) {
+      t.f.row(f++) << int(t.at(r, k)), int(t.at(r + 1, k)), int(t.at(r + 1, k + 1));
+      t.f.row(f++) << int(t.at(r, k)), int(t.at(r + 1, k + 1)), int(t.at(r, k + 1));
+    }
+  return t;
+}
+
+/// The two end rings: the constrained vertices.
+std::vector<Eigen::Index> ends(const Tube& t) {
+  std::vector<Eigen::Index> c;
+  for (int k = 0; k < t.m; ++k) c.push_back(t.at(0, k));
+  for (int k = 0; k < t.m; ++k) c.push_back(t.at(t.rings - 1, k));
+  return c;
+}
+
+/// Targets: the far end turned by `angle` about x and lifted by `lift`; the near end fixed.
+Points<double> end_targets(const Tube& t, double angle, double lift) {
+  const std::vector<Eigen::Index> c = ends(t);
+  Points<double> q(Eigen::Index(c.size()), 3);
+  const Eigen::Matrix3d R = Eigen::AngleAxisd(angle, Eigen::Vector3d::UnitX()).toRotationMatrix();
+  for (std::size_t k = 0; k < c.size(); ++k) {
+    const Eigen::Vector3d p = t.v.row(c[k]).transpose();
+    const Eigen::Vector3d to = k < std::size_t(t.m) ? p : Eigen::Vector3d(R * p + Eigen::Vector3d(0, lift, 0));
+    q.row(Eigen::Index(k)) = to.transpose();
+  }
+  return q;
+}
+
+/// The reduced cotangent Laplacian of the free vertices, dense, in long double, with the weights of
+/// arap.hpp (cotangents halved per triangle, clamped at zero, plus 1e-6 of the mean on every edge).
+Eigen::Matrix<LD, Eigen::Dynamic, Eigen::Dynamic> reduced_laplacian(const Tube& t) {
+  const Eigen::Index n = t.v.rows();
+  Eigen::Matrix<LD, Eigen::Dynamic, Eigen::Dynamic> W = Eigen::Matrix<LD, Eigen::Dynamic, Eigen::Dynamic>::Zero(n, n);
+  Eigen::Matrix<LD, Eigen::Dynamic, Eigen::Dynamic> E = W;
+  for (Eigen::Index f = 0; f < t.f.rows(); ++f)
+    for (int k = 0; k < 3; ++k) {
+      const int a = t.f(f, k), b = t.f(f, (k + 1) % 3), c = t.f(f, (k + 2) % 3);
+      const Eigen::Matrix<LD, 3, 1> u = (t.v.row(a) - t.v.row(c)).transpose().cast<LD>(),
+                                    w = (t.v.row(b) - t.v.row(c)).transpose().cast<LD>();
+      const LD cot = u.dot(w) / u.cross(w).norm();
+      W(a, b) += cot / 2, W(b, a) += cot / 2, E(a, b) = E(b, a) = 1;
+    }
+  LD sum = 0, edges = 0;
+  for (Eigen::Index i = 0; i < n; ++i)
+    for (Eigen::Index j = i + 1; j < n; ++j)
+      if (E(i, j) > 0) W(i, j) = W(j, i) = std::max<LD>(W(i, j), 0), sum += W(i, j), ++edges;
+  const LD floor = 1e-6L * sum / edges;
+  for (Eigen::Index i = 0; i < n; ++i)
+    for (Eigen::Index j = 0; j < n; ++j)
+      if (E(i, j) > 0) W(i, j) += floor;
+  std::vector<Eigen::Index> free;
+  for (int r = 1; r + 1 < t.rings; ++r)
+    for (int k = 0; k < t.m; ++k) free.push_back(t.at(r, k));
+  const auto nf = Eigen::Index(free.size());
+  Eigen::Matrix<LD, Eigen::Dynamic, Eigen::Dynamic> L(nf, nf);
+  for (Eigen::Index a = 0; a < nf; ++a)
+    for (Eigen::Index b = 0; b < nf; ++b)
+      L(a, b) = a == b ? W.row(free[std::size_t(a)]).sum() : -W(free[std::size_t(a)], free[std::size_t(b)]);
+  return L;
+}
+
+struct Conditioning {
+  LD lambda_min, kappa;
+};
+
+Conditioning conditioning(const Tube& t) {
+  const auto L = reduced_laplacian(t);
+  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix<LD, Eigen::Dynamic, Eigen::Dynamic>> es(L);
+  return {es.eigenvalues()(0), es.eigenvalues()(L.rows() - 1) / es.eigenvalues()(0)};
+}
+
+}  // namespace
+
+TEST_CASE("ARAP: constrained vertices exact, energy decreasing every iteration", "[arap]") {
+  const Tube t = tube(16, 20, 0.02, 1);
+  const std::vector<Eigen::Index> c = ends(t);
+  ArapRefiner<double> arap(t.v, t.f, c);
+  CHECK(arap.clamped_weights() > 0);  // the jitter makes obtuse angles: the clamp is exercised
+  const Points<double> q = end_targets(t, 1.5, 0.4);
+  // Start: the rest pose with the constraints applied (far from rigid: the far ring jumps).
+  Points<double> x;
+  arap.refine(t.v, q, 0, x);
+  double E = arap.energy(x);
+  // The energy at x with its optimal rotations, evaluated in double over ~2,000 terms of one sign: relative
+  // rounding below 2000 eps ~ 5e-13; each local and global step does not increase it in exact arithmetic
+  // (rotation and solve errors enter only at second order at the optimum of each step).
+  for (int it = 1; it <= 12; ++it) {
+    arap.refine(x, q, 1, x);
+    const double E1 = arap.energy(x);
+    INFO("iteration " << it << ": " << E << " -> " << E1);
+    CHECK(E1 <= E * (1 + 1e-12));
+    E = E1;
+    for (std::size_t k = 0; k < c.size(); ++k) CHECK(x.row(c[k]) == q.row(Eigen::Index(k)));  // bitwise
+  }
+}
+
+TEST_CASE("ARAP: a rigid motion of every handle gives that motion", "[arap]") {
+  const Tube t = tube(12, 10, 0.02, 2);
+  const std::vector<Eigen::Index> c = ends(t);
+  ArapRefiner<double> arap(t.v, t.f, c);
+  const Eigen::Matrix3d R = Eigen::AngleAxisd(0.7, Eigen::Vector3d(1, 2, 3).normalized()).toRotationMatrix();
+  const Eigen::Vector3d shift(0.5, -1, 2);
+  Points<double> moved(t.v.rows(), 3);
+  for (Eigen::Index i = 0; i < t.v.rows(); ++i) moved.row(i) = (R * t.v.row(i).transpose() + shift).transpose();
+  Points<double> q(Eigen::Index(c.size()), 3);
+  for (std::size_t k = 0; k < c.size(); ++k) q.row(Eigen::Index(k)) = moved.row(c[k]);
+  // From the rest pose (constraints moved), the iterations converge to the rigid motion; from the motion
+  // itself, they stay there to the solve's rounding: |dx| <= 16 eps kappa(L_ff) max |x| (16: the rounding
+  // of R p + t and of the right-hand side's few terms per vertex, first order).
+  Points<double> x;
+  arap.refine(moved, q, 3, x);
+  const Conditioning k = conditioning(t);
+  const LD bound = 16 * std::numeric_limits<double>::epsilon() * k.kappa * moved.cwiseAbs().maxCoeff();
+  INFO("kappa(L_ff) = " << double(k.kappa));
+  CHECK(LD((x - moved).cwiseAbs().maxCoeff()) <= bound);
+  arap.refine(t.v, q, 200, x);
+  CHECK((x - moved).cwiseAbs().maxCoeff() < 1e-6);
+}
+
+TEST_CASE("ARAP: bitwise the same for any thread count", "[arap]") {
+  const Tube t = tube(24, 40, 0.02, 3);
+  const std::vector<Eigen::Index> c = ends(t);
+  const Points<float> v = t.v.cast<float>(), q = end_targets(t, 2.0, 0.5).cast<float>();
+  Points<float> ref;
+  for (int threads : {1, 2, 0}) {
+    ArapOptions o;
+    o.threads = threads;
+    ArapRefiner<float> arap(v, t.f, c, o);
+    Points<float> x;
+    arap.refine(v, q, 5, x);
+    if (threads == 1) {
+      ref = x;
+      continue;
+    }
+    INFO("threads " << threads);
+    CHECK(std::memcmp(x.data(), ref.data(), sizeof(float) * std::size_t(x.size())) == 0);
+  }
+}
+
+TEST_CASE("ARAP: the local step on every ISA agrees with the scalar reference", "[arap][isa]") {
+  // One iteration from the same start: the rotations R_i of the SIMD and scalar fits are each within the
+  // accuracy suite's angle bound of the optimum for S_i (tests/support/accuracy_bounds.hpp, kappa_i of S_i
+  // from the long-double SVD), so they differ by at most twice that; the right-hand side then differs by
+  // |db_i| <= sum_j w_ij |p_i - p_j| dR_max and x by |db|_2 / lambda_min(L_ff), plus each solve's rounding.
+  const Tube t = tube(12, 10, 0.02, 4);
+  const std::vector<Eigen::Index> c = ends(t);
+  const Points<double> q = end_targets(t, 1.0, 0.3);
+  testing::IsaGuard guard;
+  set_isa(Isa::scalar);
+  ArapRefiner<double> arap(t.v, t.f, c);
+  Points<double> start, ref;
+  arap.refine(t.v, q, 0, start);
+  arap.refine(start, q, 1, ref);
+  // dR_max over the vertices, from S_i at the start.
+  LD dR = 0, db2 = 0;
+  const auto L = reduced_laplacian(t);
+  for (Eigen::Index i = 0; i < t.v.rows(); ++i) {
+    Eigen::Matrix3d S = Eigen::Matrix3d::Zero();
+    LD wp = 0;
+    for (Eigen::Index f = 0; f < t.f.rows(); ++f)
+      for (int k = 0; k < 3; ++k) {
+        if (t.f(f, k) != i) continue;
+        for (int o : {1, 2}) {
+          const int j = t.f(f, (k + o) % 3);
+          S += (start.row(i) - start.row(j)).transpose() * (t.v.row(i) - t.v.row(j));
+          wp += (t.v.row(i) - t.v.row(j)).norm();
+        }
+      }
+    const testing::Reference r = testing::reference(S);
+    dR = std::max(dR, 2 * testing::tol_angle<double>(r.kappa, testing::c_b_uniform));
+    // Weights at most the largest |L| entry: a bound on sum_j w_ij |e_ij| (each edge counted per triangle).
+    db2 += std::pow(wp * L.cwiseAbs().maxCoeff(), 2);
+  }
+  const Conditioning k = conditioning(t);
+  const LD bound = std::sqrt(db2) * dR / k.lambda_min +
+                   16 * std::numeric_limits<double>::epsilon() * k.kappa * start.cwiseAbs().maxCoeff();
+  for (Isa isa : supported_isas()) {
+    if (isa == Isa::scalar) continue;
+    set_isa(isa);
+    Points<double> x;
+    arap.refine(start, q, 1, x);
+    INFO(to_string(isa) << ": bound " << double(bound));
+    CHECK(LD((x - ref).cwiseAbs().maxCoeff()) <= bound);
+  }
+}
+
+TEST_CASE("ARAP: bad input is refused with a message", "[arap]") {
+  const Tube t = tube(8, 4, 0, 5);
+  Triangles bad = t.f;
+  bad(3, 1) = int(t.v.rows());
+  CHECK_THROWS_WITH(ArapRefiner<double>(t.v, bad, ends(t)), Catch::Contains("outside"));
+  std::vector<Eigen::Index> twice = {0, 0};
+  CHECK_THROWS_WITH(ArapRefiner<double>(t.v, t.f, twice), Catch::Contains("constrained twice"));
+  ArapRefiner<double> arap(t.v, t.f, ends(t));
+  Points<double> x;
+  CHECK_THROWS_WITH(arap.refine(t.v, Points<double>(3, 3), 1, x), Catch::Contains("targets"));
+  CHECK_THROWS_WITH(arap.refine(t.v, end_targets(t, 0, 0), -1, x), Catch::Contains("iterations"));
+  Points<double> nan = t.v;
+  nan(2, 1) = std::nan("");
+  CHECK_THROWS_WITH(arap.refine(nan, end_targets(t, 0, 0), 1, x), Catch::Contains("non-finite"));
+}
+
+TEST_CASE("Deformer: arap_iterations refines MLS and keeps the handles", "[arap][deformer]") {
+  const Tube t = tube(16, 20, 0.01, 6);
+  Handles<double> rest;
+  const std::vector<Eigen::Index> c = ends(t);
+  rest.points.resize(Eigen::Index(c.size()), 3);
+  for (std::size_t k = 0; k < c.size(); ++k) rest.points.row(Eigen::Index(k)) = t.v.row(c[k]);
+  Handles<double> moved = rest;
+  moved.points = end_targets(t, 1.5, 0.4);
+  Options o;
+  Points<double> mls, refined;
+  Deformer<double>(t.v, t.f, rest, o).deform(moved, mls);
+  o.arap_iterations = 10;
+  Deformer<double> d(t.v, t.f, rest, o);
+  d.deform(moved, refined);
+  // Point handles at vertices: MLS interpolates them exactly, and ARAP holds them there.
+  for (std::size_t k = 0; k < c.size(); ++k) CHECK(refined.row(c[k]) == moved.points.row(Eigen::Index(k)));
+  ArapRefiner<double> arap(t.v, t.f, c);
+  CHECK(arap.energy(refined) < arap.energy(mls));  // every iteration lowers it (first test case)
+  // Interleaved output: the same values.
+  PointsRowMajor<double> buffer(t.v.rows(), 3);
+  d.deform(moved, InterleavedView<double>(buffer.data(), buffer.rows(), 3));
+  CHECK(Points<double>(buffer) == refined);
+  // Without triangles, or with a negative count, the option is refused.
+  CHECK_THROWS_WITH(Deformer<double>(t.v, rest, o), Catch::Contains("triangles"));
+  o.arap_iterations = -1;
+  CHECK_THROWS_WITH(Deformer<double>(t.v, t.f, rest, o), Catch::Contains("arap_iterations"));
+}
