@@ -37,8 +37,7 @@ struct CgalArap::Impl {
   }
 };
 
-CgalArap::CgalArap(const PointsD& rest, const mlsdeform::testing::Triangles& triangles,
-                   std::span<const Eigen::Index> control)
+CgalArap::CgalArap(const PointsD& rest, const mlsdeform::Triangles& triangles, std::span<const Eigen::Index> control)
     : impl_(std::make_unique<Impl>()) {
   auto& m = *impl_;
   for (Eigen::Index i = 0; i < rest.rows(); ++i)

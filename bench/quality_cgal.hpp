@@ -16,7 +16,7 @@ class CgalArap {
  public:
   /// The whole mesh is the region of interest, `control` its control vertices. Builds the Surface_mesh;
   /// CGAL factorises its system in the first deform().
-  CgalArap(const mlsdeform::testing::PointsD& rest, const mlsdeform::testing::Triangles& triangles,
+  CgalArap(const mlsdeform::testing::PointsD& rest, const mlsdeform::Triangles& triangles,
            std::span<const Eigen::Index> control);
   ~CgalArap();
 

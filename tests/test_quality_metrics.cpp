@@ -15,6 +15,7 @@
 #include <stdexcept>
 
 using namespace mlsdeform::testing;
+using mlsdeform::Triangles;
 
 namespace {
 

@@ -6,6 +6,7 @@
 // need them (surface ARAP, the quality benchmark's one-rings). Everything in double.
 #pragma once
 
+#include <mlsdeform/arap.hpp>  // Triangles
 #include <mlsdeform/types.hpp>
 
 #include <Eigen/Core>
@@ -16,8 +17,6 @@
 namespace mlsdeform::testing {
 
 using PointsD = Points<double>;
-/// m x 3 zero-based vertex indices, one triangle per row.
-using Triangles = Eigen::Matrix<int, Eigen::Dynamic, 3, Eigen::RowMajor>;
 
 /// The bundled mesh data/<file> of the source tree.
 std::string bundled_mesh(const std::string& file);
