@@ -61,12 +61,12 @@ TEST_CASE("on-the-fly weights: unsupported settings are refused, automatic follo
   Options o;
   o.weight_storage = WeightStorage::on_the_fly;
   o.transform = Transform::affine;
-  CHECK_THROWS_WITH(Deformer<float>(s.vertices, s.rest, o), Catch::Contains("point handles only"));
+  CHECK_THROWS_WITH(Deformer<float>(s.vertices, s.rest, o), Catch::Contains("point handles and MLS centroids only"));
   o.transform = Transform::rigid;
   Handles<float> seg = s.rest;
   seg.segment_a = s.rest.points.topRows(1);
   seg.segment_b = s.rest.points.bottomRows(1);
-  CHECK_THROWS_WITH(Deformer<float>(s.vertices, seg, o), Catch::Contains("point handles only"));
+  CHECK_THROWS_WITH(Deformer<float>(s.vertices, seg, o), Catch::Contains("point handles and MLS centroids only"));
   o.weight_storage = WeightStorage::automatic;
   CHECK(Deformer<float>(s.vertices, s.rest, o).uses_precomputed_weights());  // 2000 x 8 x 16 B << 32 MiB
   o.precompute_budget_bytes = 1000;

@@ -44,6 +44,16 @@ enum class WeightStorage {
   on_the_fly,
 };
 
+/// How the translation part of each vertex's transform is found (q*, the image of the rest centroid p*).
+enum class Centroids {
+  /// The paper's eq. (2): q* = the weighted centroid of the targets, a convex combination of them.
+  mls,
+  /// The paper's Sec. 7-8 (Fig. 8): q* = g(p*), g the radial-basis interpolant of the handles (triharmonic
+  /// r^3 with a linear polynomial, g(p_i) = q_i): smoother under large displacements. Precomputed weights
+  /// only (no WeightStorage::on_the_fly); the per-frame cost is that of `mls` (docs/api.md).
+  rbf,
+};
+
 /// Point handles (k x 3) and segment handles given by their end points (s x 3 each). Either kind may be
 /// empty, not both.
 template <class T>
@@ -72,6 +82,7 @@ struct Options {
   /// nearest vertices of its two ends, held where MLS put them; the iterations then make the one-rings
   /// locally rigid (docs/api.md, "ARAP refinement").
   int arap_iterations = 0;
+  Centroids centroids = Centroids::mls;
 };
 
 /// A deformation session (Sec. 5): the constructor precomputes everything that depends only on the rest

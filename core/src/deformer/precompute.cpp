@@ -20,25 +20,27 @@ namespace {
 /// per handle) costs about as much as reading 16-32 bytes per handle (bench/bench_scaling.cpp measures both).
 template <class T>
 bool use_on_the_fly(const Options& o, const RestHandles& rh, std::size_t padded) {
-  const bool supported = o.transform != Transform::affine && rh.s == 0;
+  const bool supported = o.transform != Transform::affine && rh.s == 0 && o.centroids == Centroids::mls;
+  const char* unsupported = o.transform == Transform::affine ? "the affine transform"
+                            : rh.s != 0                      ? "segment handles"
+                                                             : "Centroids::rbf";
   if (o.weight_storage == WeightStorage::on_the_fly && !supported)
     throw std::invalid_argument(std::string("Deformer: WeightStorage::on_the_fly supports rigid and similarity "
-                                            "transforms with point handles only (got ") +
-                                (o.transform == Transform::affine ? "the affine transform" : "segment handles") +
-                                "); use precomputed or automatic");
+                                            "transforms with point handles and MLS centroids only (got ") +
+                                unsupported + "); use precomputed or automatic");
   if (o.weight_storage != WeightStorage::automatic) return o.weight_storage == WeightStorage::on_the_fly;
   const double components = o.transform == Transform::affine ? 1 : 4;
   const double table = double(padded) * double(rh.P.size()) * components * sizeof(T);
   if (!(table > double(o.precompute_budget_bytes))) return false;
   if (supported) return true;
   char msg[512];
-  std::snprintf(msg, sizeof msg,
-                "Deformer: the weight table would take %.1f MiB (%zu vertices x %zu pseudo-handles), over "
-                "precompute_budget_bytes = %.1f MiB, and on-the-fly weights support only rigid and similarity "
-                "transforms with point handles (got %s); raise Options::precompute_budget_bytes (CLI: "
-                "--weight-budget MiB) or set WeightStorage::precomputed to allow it",
-                table / 1048576.0, padded, rh.P.size(), double(o.precompute_budget_bytes) / 1048576.0,
-                o.transform == Transform::affine ? "the affine transform" : "segment handles");
+  std::snprintf(
+      msg, sizeof msg,
+      "Deformer: the weight table would take %.1f MiB (%zu vertices x %zu pseudo-handles), over "
+      "precompute_budget_bytes = %.1f MiB, and on-the-fly weights support only rigid and similarity "
+      "transforms with point handles and MLS centroids (got %s); raise Options::precompute_budget_bytes (CLI: "
+      "--weight-budget MiB) or set WeightStorage::precomputed to allow it",
+      table / 1048576.0, padded, rh.P.size(), double(o.precompute_budget_bytes) / 1048576.0, unsupported);
   throw std::invalid_argument(msg);
 }
 

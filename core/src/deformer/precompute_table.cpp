@@ -3,6 +3,7 @@
 #include "precompute.hpp"
 
 #include "../parallel.hpp"
+#include "rbf_centroids.hpp"
 #include "weights.hpp"
 
 #include <Eigen/Eigenvalues>
@@ -10,6 +11,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <memory>
 #include <vector>
 
 namespace mlsdeform::detail {
@@ -22,7 +24,7 @@ using Vec3d = Eigen::Vector3d;
 /// stored). Everything in double in the local frame; results rounded to T once, at the end.
 template <class T>
 void precompute_block(DeformerData<T>& data, std::size_t b, const Points<T>& vertices, const LocalFrame& scene,
-                      const RestHandles& rh, const Options& o) {
+                      const RestHandles& rh, const Options& o, const RbfCentroids* rbf) {
   const std::size_t J = rh.P.size(), k = rh.k, s = rh.s;
   const double u = o.weight_exponent;
   // A vertex this close to a handle maps exactly to its target (no 0 * inf, no overflow of w = d^-u).
@@ -33,6 +35,8 @@ void precompute_block(DeformerData<T>& data, std::size_t b, const Points<T>& ver
   std::vector<SegmentGeometry> geo(s);
   std::vector<SegmentMoments> mom(s);
   std::vector<Vec3d> A(J);
+  std::vector<double> rbf_weights;  // Centroids::rbf: q* = g(p*) = sum_j rbf_weights_j q_j (rbf_centroids.hpp)
+  Eigen::VectorXd rbf_rhs;
   const std::size_t first = b * kLanes, count = std::min(kLanes, data.n - first), np = data.padded();
   for (std::size_t lane = 0; lane < count; ++lane) {
     const std::size_t i = first + lane;
@@ -144,6 +148,14 @@ void precompute_block(DeformerData<T>& data, std::size_t b, const Points<T>& ver
       for (int c = 0; c < 3; ++c) A[j][c] = std::ldexp(A[j][c], s_v);
     D = std::ldexp(D, s_v);
     G_vertex *= std::ldexp(1.0, s_v);
+    // Centroids::rbf: the weights of q* = g(p*) take omega's place as the centroid weights (A_j keep omega's
+    // projection above: it concerns p*, not q*). At a handle the interpolation is kept as it is: g interpolates
+    // there too, and f(p_i) = q_i stays exact.
+    const std::vector<double>* centroid = &omega;
+    if (rbf && !interpolate) {
+      rbf->weights(p_star, rbf_weights, rbf_rhs);
+      centroid = &rbf_weights;
+    }
     if (affine) {
       // Normal equations: L G = H with G = sum_j A_j phat_j^T (symmetric positive definite when the handles
       // span 3D), so v' = q* + H G^-1 vhat = sum_j (omega_j + A_j . G^-1 vhat) q_j. G is solved through its
@@ -163,11 +175,11 @@ void precompute_block(DeformerData<T>& data, std::size_t b, const Points<T>& ver
       double sum_beta = 0;
       for (std::size_t j = 0; j < J; ++j) sum_beta += A[j].dot(x);
       for (std::size_t j = 0; j < J; ++j)
-        data.coefficients(b, j)[lane] = T(omega[j] + (A[j].dot(x) - omega[j] * sum_beta));
+        data.coefficients(b, j)[lane] = T((*centroid)[j] + (A[j].dot(x) - omega[j] * sum_beta));
     } else {
       for (std::size_t j = 0; j < J; ++j) {
         T* co = data.coefficients(b, j) + lane;
-        co[0] = T(omega[j]);
+        co[0] = T((*centroid)[j]);
         for (int c = 0; c < 3; ++c) co[(c + 1) * kLanes] = T(A[j][c]);
       }
       for (int c = 0; c < 3; ++c) {
@@ -192,8 +204,10 @@ void precompute_table(DeformerData<T>& data, const Points<T>& vertices, const Lo
     data.vhat.assign(3 * np, T(0));
   }
   if (o.transform == Transform::similarity) data.D.assign(np, T(0));
+  const std::unique_ptr<RbfCentroids> rbf =
+      o.centroids == Centroids::rbf ? std::make_unique<RbfCentroids>(rh.P) : nullptr;
   parallel_ranges(data.blocks, o.threads, arena, [&](std::size_t b0, std::size_t b1) {
-    for (std::size_t b = b0; b < b1; ++b) precompute_block(data, b, vertices, scene, rh, o);
+    for (std::size_t b = b0; b < b1; ++b) precompute_block(data, b, vertices, scene, rh, o, rbf.get());
   });
 }
 

@@ -35,6 +35,8 @@ void check_options(const Options& o) {
       o.weight_storage != WeightStorage::on_the_fly)
     throw std::invalid_argument("Deformer: unknown WeightStorage value " +
                                 std::to_string(static_cast<int>(o.weight_storage)));
+  if (o.centroids != Centroids::mls && o.centroids != Centroids::rbf)
+    throw std::invalid_argument("Deformer: unknown Centroids value " + std::to_string(static_cast<int>(o.centroids)));
   if (o.arap_iterations < 0)
     throw std::invalid_argument("Deformer: arap_iterations must be >= 0 (got " + std::to_string(o.arap_iterations) +
                                 ")");

@@ -1,0 +1,66 @@
+#include "rbf_centroids.hpp"
+
+#include <Eigen/SVD>
+
+#include <algorithm>
+#include <array>
+#include <cstdio>
+#include <limits>
+#include <map>
+#include <stdexcept>
+#include <string>
+
+namespace mlsdeform::detail {
+
+RbfCentroids::RbfCentroids(const std::vector<Eigen::Vector3d>& P) {
+  std::map<std::array<double, 3>, std::size_t> seen;
+  for (std::size_t j = 0; j < P.size(); ++j) {
+    const auto [it, added] = seen.try_emplace({P[j][0], P[j][1], P[j][2]}, centres_.size());
+    if (added) centres_.push_back(P[j]), owner_.push_back(j);
+    centre_of_.push_back(it->second);
+  }
+  const auto m = Eigen::Index(centres_.size());
+  mean_ = Eigen::Vector3d::Zero();
+  for (const auto& c : centres_) mean_ += c;
+  mean_ /= double(m);
+  // The span of the centred centres: singular directions above the usual rank tolerance.
+  Eigen::Matrix<double, Eigen::Dynamic, 3> X(m, 3);
+  for (Eigen::Index i = 0; i < m; ++i) X.row(i) = (centres_[std::size_t(i)] - mean_).transpose();
+  const Eigen::JacobiSVD<Eigen::Matrix<double, Eigen::Dynamic, 3>> svd(X, Eigen::ComputeFullV);
+  const double tol =
+      double(std::max<Eigen::Index>(m, 3)) * std::numeric_limits<double>::epsilon() * svd.singularValues()(0);
+  Eigen::Index rank = 0;
+  while (rank < 3 && svd.singularValues()(rank) > tol) ++rank;
+  basis_ = svd.matrixV().leftCols(rank);
+  const Eigen::Index size = m + 1 + rank;
+  Eigen::MatrixXd M = Eigen::MatrixXd::Zero(size, size);
+  for (Eigen::Index i = 0; i < m; ++i) {
+    for (Eigen::Index j = 0; j < m; ++j) M(i, j) = phi((centres_[std::size_t(i)] - centres_[std::size_t(j)]).norm());
+    M(i, m) = M(m, i) = 1;
+    const Eigen::VectorXd y = basis_.transpose() * (centres_[std::size_t(i)] - mean_);
+    for (Eigen::Index c = 0; c < rank; ++c) M(i, m + 1 + c) = M(m + 1 + c, i) = y(c);
+  }
+  lu_.compute(M);
+  const double rcond = lu_.rcond();
+  if (!(rcond > 1e-10)) {
+    char msg[256];
+    std::snprintf(msg, sizeof msg,
+                  "Deformer: Centroids::rbf needs handles that are not nearly coincident (the interpolant's matrix "
+                  "has reciprocal condition %.3g, below 1e-10)",
+                  rcond);
+    throw std::invalid_argument(msg);
+  }
+}
+
+void RbfCentroids::weights(const Eigen::Vector3d& p_star, std::vector<double>& beta, Eigen::VectorXd& rhs) const {
+  const auto m = Eigen::Index(centres_.size()), rank = basis_.cols();
+  rhs.resize(m + 1 + rank);
+  for (Eigen::Index i = 0; i < m; ++i) rhs(i) = phi((p_star - centres_[std::size_t(i)]).norm());
+  rhs(m) = 1;
+  rhs.tail(rank) = basis_.transpose() * (p_star - mean_);
+  const Eigen::VectorXd w = lu_.solve(rhs);
+  beta.assign(centre_of_.size(), 0.0);
+  for (Eigen::Index i = 0; i < m; ++i) beta[owner_[std::size_t(i)]] = w(i);
+}
+
+}  // namespace mlsdeform::detail

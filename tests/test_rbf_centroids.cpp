@@ -1,0 +1,228 @@
+// Centroids::rbf (paper Sec. 7-8): q* = g(p*) with g the triharmonic RBF interpolant of the handles.
+//
+// Bounds. The centroid weights beta(p*) come from one solve with the interpolant's matrix M in double:
+// backward stable (partial pivoting), so each beta carries a relative error of at most (J + 4) eps(double)
+// kappa(M) (kappa computed here independently, in long double), and is then rounded to T. The kernels form
+// q* = sum_j beta_j q_j in T: at most (J + 1) roundings of terms of size |beta_j| |q_j|. So q* is off g(p*)
+// by at most eps(T) (J + 2) B Q + (J + 4) eps(double) kappa(M) B Q with B = sum_j |beta_j| and Q = max |q_j|.
+// What the rest of a vertex's transform adds (the rotation, mu) is the MLS path's own, bounded per vertex by
+// the direct evaluation (tests/support/mls_reference.hpp, the bound the deformer tests use).
+#include "test_deformer_common.hpp"
+
+#include "deformer/rbf_centroids.hpp"
+
+#include <Eigen/SVD>
+
+#include <cstring>
+#include <random>
+#include <vector>
+
+using namespace deformer_test;
+using mlsdeform::detail::RbfCentroids;
+using LD = long double;
+
+namespace {
+
+/// kappa(M) of the interpolant's matrix for the centres P (long double, the polynomial in raw centred
+/// coordinates: an orthonormal change of the polynomial basis is an orthogonal similarity of M, so kappa is
+/// the same as the library's).
+LD kappa_of(const std::vector<Vec3d>& P) {
+  const auto m = Eigen::Index(P.size());
+  Eigen::Matrix<LD, Eigen::Dynamic, Eigen::Dynamic> M =
+      Eigen::Matrix<LD, Eigen::Dynamic, Eigen::Dynamic>::Zero(m + 4, m + 4);
+  Vec3d mean = Vec3d::Zero();
+  for (const Vec3d& p : P) mean += p;
+  mean /= double(m);
+  for (Eigen::Index i = 0; i < m; ++i) {
+    for (Eigen::Index j = 0; j < m; ++j)
+      M(i, j) = std::pow((P[std::size_t(i)] - P[std::size_t(j)]).cast<LD>().norm(), 3);
+    M(i, m) = M(m, i) = 1;
+    for (int c = 0; c < 3; ++c) M(i, m + 1 + c) = M(m + 1 + c, i) = LD(P[std::size_t(i)][c] - mean[c]);
+  }
+  const auto sv = Eigen::JacobiSVD<Eigen::Matrix<LD, Eigen::Dynamic, Eigen::Dynamic>>(M).singularValues();
+  return sv(0) / sv(sv.size() - 1);
+}
+
+std::vector<Vec3d> random_centres(std::mt19937_64& g, int J) {
+  std::vector<Vec3d> P;
+  for (int j = 0; j < J; ++j) P.push_back(random_vector(g));
+  return P;
+}
+
+/// The rest handles in the deformer's local frame (core/src/deformer/local_frame.hpp: scaled by 2^-e, e the
+/// exponent of the scene's bounding-box diagonal; the translation cancels in M): beta does not depend on the
+/// frame (r^3 and the linear polynomials are invariant under similarity), but kappa(M) does.
+template <class T>
+std::vector<Vec3d> handle_points(const Scene<T>& sc) {
+  Vec3d lo = Vec3d::Constant(1e300), hi = -lo;
+  for (const auto* p : {&sc.vertices, &sc.rest.points})
+    for (Eigen::Index i = 0; i < p->rows(); ++i) {
+      lo = lo.cwiseMin(p->row(i).transpose().template cast<double>());
+      hi = hi.cwiseMax(p->row(i).transpose().template cast<double>());
+    }
+  const double scale = std::ldexp(1.0, -std::ilogb((hi - lo).norm()));
+  std::vector<Vec3d> P;
+  for (Eigen::Index i = 0; i < sc.rest.points.rows(); ++i)
+    P.push_back(scale * sc.rest.points.row(i).transpose().template cast<double>());
+  return P;
+}
+
+/// p* of vertex v for point handles (eq. 2, u = 2).
+template <class T>
+Vec3d rest_centroid(const Vec3d& v, const Handles<T>& rest) {
+  Vec3d s = Vec3d::Zero();
+  double W = 0;
+  for (Eigen::Index j = 0; j < rest.points.rows(); ++j) {
+    const Vec3d p = rest.points.row(j).transpose().template cast<double>();
+    const double w = 1 / (p - v).squaredNorm();
+    s += w * p, W += w;
+  }
+  return s / W;
+}
+
+/// The extra bound of the file comment for every vertex of a scene: max over vertices of the RBF terms.
+template <class T>
+double rbf_extra(const Scene<T>& sc, const Handles<T>& moved) {
+  const std::vector<Vec3d> P = handle_points(sc);
+  const RbfCentroids rbf(P);
+  const LD kappa = kappa_of(P);
+  const double J = double(P.size()), Q = moved.points.cwiseAbs().maxCoeff();
+  std::vector<double> beta;
+  Eigen::VectorXd rhs;
+  double B = 0;
+  for (Eigen::Index i = 0; i < sc.vertices.rows(); ++i) {
+    rbf.weights(rest_centroid(sc.vertices.row(i).transpose().template cast<double>(), sc.rest), beta, rhs);
+    double b = 0;
+    for (double x : beta) b += std::abs(x);
+    B = std::max(B, b);
+  }
+  return (std::numeric_limits<T>::epsilon() * (J + 2) +
+          (J + 4) * std::numeric_limits<double>::epsilon() * double(kappa)) *
+         B * Q;
+}
+
+}  // namespace
+
+TEST_CASE("RBF centroids: g interpolates the handles and reproduces affine maps", "[rbf]") {
+  std::mt19937_64 g(seed());
+  for (int J : {1, 2, 3, 4, 7, 20}) {
+    const std::vector<Vec3d> P = random_centres(g, J);
+    const RbfCentroids rbf(P);
+    const double kappa = double(kappa_of(P));
+    INFO("J = " << J << ", kappa(M) = " << kappa);
+    std::vector<double> beta;
+    Eigen::VectorXd rhs;
+    // Interpolation: beta(p_i) = e_i to the solve's accuracy, (J + 4) eps kappa(M) relative to sum |beta|.
+    for (int i = 0; i < J; ++i) {
+      rbf.weights(P[std::size_t(i)], beta, rhs);
+      double B = 0;
+      for (double x : beta) B += std::abs(x);
+      for (int j = 0; j < J; ++j)
+        CHECK(std::abs(beta[std::size_t(j)] - (i == j ? 1.0 : 0.0)) <=
+              (J + 4) * std::numeric_limits<double>::epsilon() * kappa * B);
+    }
+    // Affine reproduction at points of the centres' convex hull (where p* lies): sum_j beta_j (A p_j + b) = A x + b.
+    Mat3d A;
+    for (int c = 0; c < 3; ++c) A.col(c) = random_vector(g);
+    const Vec3d b = random_vector(g);
+    for (int trial = 0; trial < 5; ++trial) {
+      Vec3d x = Vec3d::Zero();
+      double W = 0;
+      for (int j = 0; j < J; ++j) {
+        const double w = std::uniform_real_distribution<double>(0, 1)(g);
+        x += w * P[std::size_t(j)], W += w;
+      }
+      x /= W;
+      rbf.weights(x, beta, rhs);
+      Vec3d q = Vec3d::Zero();
+      double B = 0;
+      for (int j = 0; j < J; ++j)
+        q += beta[std::size_t(j)] * (A * P[std::size_t(j)] + b), B += std::abs(beta[std::size_t(j)]);
+      const double scale = (A.norm() * 2 + b.norm()) * B;
+      CHECK((q - (A * x + b)).norm() <= (J + 4) * std::numeric_limits<double>::epsilon() * kappa * scale * 4);
+    }
+  }
+}
+
+TEST_CASE("RBF centroids: coincident handles share a centre; nearly coincident ones are refused", "[rbf]") {
+  std::vector<Vec3d> P = {Vec3d(0, 0, 0), Vec3d(1, 0, 0), Vec3d(0, 1, 0), Vec3d(1, 0, 0)};
+  const RbfCentroids rbf(P);
+  std::vector<double> beta;
+  Eigen::VectorXd rhs;
+  rbf.weights(Vec3d(1, 0, 0), beta, rhs);
+  CHECK(beta[3] == 0.0);  // the second handle at (1, 0, 0) gets no weight: the first one's target counts
+  P.push_back(Vec3d(1e-9, 0, 0));
+  CHECK_THROWS_WITH(RbfCentroids(P), Catch::Contains("nearly coincident"));
+}
+
+TEMPLATE_TEST_CASE("RBF centroids in the deformer: identity, interpolation, affine maps reproduced", "[rbf][deformer]",
+                   float, double) {
+  using T = TestType;
+  std::mt19937_64 g(seed());
+  INFO("seed " << seed());
+  for (int trial = 0; trial < 3; ++trial) {
+    const Scene<T> sc = random_scene<T>(g, 250, 6 + 2 * trial, 0);
+    const Mat3d R = random_rotation(g);
+    const Vec3d t = random_vector(g, -2, 2);
+    Mat3d N;
+    for (int c = 0; c < 3; ++c) N.col(c) = random_vector(g);
+    for (Transform tr : all_transforms) {
+      Options o;
+      o.transform = tr;
+      o.centroids = Centroids::rbf;
+      const Deformer<T> def(sc.vertices, sc.rest, o);
+      const Mat3d map = tr == Transform::affine ? Mat3d(R * (Mat3d::Identity() + 0.4 * N)) : R;
+      for (const Mat3d& M : {Mat3d(Mat3d::Identity()), map}) {
+        const Handles<T> moved = transformed(sc.rest, M, t * (M == Mat3d::Identity() ? 0.0 : 1.0));
+        const Vec3d shift = M == Mat3d::Identity() ? Vec3d::Zero() : t;
+        Points<T> out;
+        def.deform(moved, out);
+        INFO(name(tr) << " trial " << trial << "\n" << M);
+        // Vertices on handles: exactly their targets.
+        for (Eigen::Index i = 0; i < sc.rest.points.rows(); ++i)
+          for (Eigen::Index v = 0; v < sc.vertices.rows(); ++v)
+            if (sc.vertices.row(v) == sc.rest.points.row(i)) CHECK(out.row(v) == moved.points.row(i));
+        const double extra =
+            rbf_extra(sc, moved) + 8 * std::numeric_limits<double>::epsilon() * (M.norm() * 2 + shift.norm());
+        const double l = scene_size(sc.vertices, sc.rest);
+        for (Eigen::Index i = 0; i < sc.vertices.rows(); ++i) {
+          const Vec3d v = sc.vertices.row(i).transpose().template cast<double>();
+          const DirectVertex d = direct_vertex(v, sc.rest, moved, o, l);
+          const double bound = std::numeric_limits<T>::epsilon() * d.bound_unit + extra;
+          const double dev = (out.row(i).transpose().template cast<double>() - (M * v + shift)).norm();
+          INFO("vertex " << i << " deviation " << dev << " bound " << bound);
+          REQUIRE(dev <= bound);
+        }
+      }
+    }
+  }
+}
+
+TEMPLATE_TEST_CASE("RBF centroids: SIMD agrees with scalar, threads bitwise, on-the-fly refused", "[rbf][deformer]",
+                   float, double) {
+  using T = TestType;
+  std::mt19937_64 g(seed() + 1);
+  const Scene<T> sc = random_scene<T>(g, 700, 9, 0);
+  Handles<T> moved = sc.rest;
+  moved.points.row(0).array() += T(0.8);  // a large move: where RBF and MLS centroids differ most
+  Options o;
+  o.centroids = Centroids::rbf;
+  o.backend = Backend::scalar;
+  Points<T> scalar, simd, mls, two;
+  Deformer<T>(sc.vertices, sc.rest, o).deform(moved, scalar);
+  o.backend = Backend::simd;
+  o.threads = 1;
+  Deformer<T>(sc.vertices, sc.rest, o).deform(moved, simd);
+  o.threads = 2;
+  Deformer<T>(sc.vertices, sc.rest, o).deform(moved, two);
+  CHECK(std::memcmp(simd.data(), two.data(), sizeof(T) * std::size_t(simd.size())) == 0);
+  // q* is the same sum in both paths; the rotations differ as in the SIMD deformer test (256 eps there,
+  // derived in tests/test_deformer_simd.cpp).
+  CHECK((simd - scalar).cwiseAbs().maxCoeff() <= T(256) * std::numeric_limits<T>::epsilon());
+  o.centroids = Centroids::mls;
+  Deformer<T>(sc.vertices, sc.rest, o).deform(moved, mls);
+  CHECK((simd - mls).cwiseAbs().maxCoeff() > T(1e-3));  // the option changes the result
+  o.centroids = Centroids::rbf;
+  o.weight_storage = WeightStorage::on_the_fly;
+  CHECK_THROWS_WITH(Deformer<T>(sc.vertices, sc.rest, o), Catch::Contains("Centroids::rbf"));
+}
