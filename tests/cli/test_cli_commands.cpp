@@ -345,7 +345,12 @@ TEST_CASE("demo and figures draw their images (where python3-matplotlib is insta
     return;
   }
   REQUIRE(r.exit_code == 0);
-  const std::string png = cli_test::read_text(dir / "figs/fig5.png");
+  std::string png = cli_test::read_text(dir / "figs/fig5.png");
+  REQUIRE(png.size() > 8);
+  CHECK(png.substr(1, 3) == "PNG");
+  r = cli_test::run(program, {"figures", "--only", "arap", "--out-dir", dir / "figs"});
+  REQUIRE(r.exit_code == 0);
+  png = cli_test::read_text(dir / "figs/arap.png");
   REQUIRE(png.size() > 8);
   CHECK(png.substr(1, 3) == "PNG");
   r = cli_test::run(program, {"demo", "--frames", "1", "--out-dir", dir / "demo"});
@@ -356,7 +361,7 @@ TEST_CASE("demo and figures draw their images (where python3-matplotlib is insta
   }
   r = cli_test::run(program, {"figures", "--only", "2"});
   CHECK(r.exit_code == 2);
-  CHECK(r.err == "mlsdeform: error: --only: no figure '2' (choose from 1, 3, 4, 5)\n");
+  CHECK(r.err == "mlsdeform: error: --only: no figure '2' (choose from 1, 3, 4, 5, arap)\n");
 }
 
 TEST_CASE("deform: handles the library refuses end with exit 2, one line and no file", "[cli][commands][errors]") {
