@@ -327,11 +327,14 @@ TEST_CASE("demo runs with no arguments and writes what it says", "[cli][commands
     CHECK(r.out.find(name) != std::string::npos);
   CHECK(r.out.find("scalar f/s") != std::string::npos);
   CHECK(r.out.find("simd f/s") != std::string::npos);
-  for (const char* file : {"human_bent.obj", "bar_twisted.ply", "cylinder_rotated.off", "bar_bent_segments.ply.gz"}) {
+  CHECK(r.out.find("human + 10 ARAP iterations") != std::string::npos);
+  for (const char* file : {"human_bent.obj", "human_bent_arap.obj", "bar_twisted.ply", "cylinder_rotated.off",
+                           "bar_bent_segments.ply.gz"}) {
     INFO(file);
     CHECK(std::filesystem::exists(dir.path() / "demo-out" / file));
   }
   CHECK(read_mesh(out + "/human_bent.obj").vertex_count() == 6890);
+  CHECK(read_mesh(out + "/human_bent_arap.obj").vertex_count() == 6890);
   CHECK(read_mesh(out + "/bar_twisted.ply").vertex_count() == 6146);
   CHECK(read_mesh(out + "/cylinder_rotated.off").vertex_count() == 1058);
 }
