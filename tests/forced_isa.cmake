@@ -1,6 +1,6 @@
 # The deformer's tests once more under each forced instruction set (MLSDEFORM_ISA). The kernel tests
-# (test_batch_fit, test_batch_accuracy, test_deformer_simd, test_rotation_rank1) loop over every ISA the CPU
-# runs themselves; these run the best one only by default. An ISA the CPU lacks is refused by the library
+# (test_stages, test_batch_fit, test_batch_accuracy, test_deformer_simd, test_rotation_rank1, and test_arap's
+# local-step case) loop over every ISA the CPU runs themselves; these run the best one only by default. An ISA the CPU lacks is refused by the library
 # ("this CPU cannot run it"): the test then reports itself skipped. Release build only (label no_sanitizer):
 # under the sanitizers the segment tests alone take minutes per ISA.
 if(MLSDEFORM_SANITIZE)
@@ -8,7 +8,7 @@ if(MLSDEFORM_SANITIZE)
 endif()
 foreach(isa scalar sse4_2 avx2 avx512)
   foreach(name test_deformer test_deformer_segments test_deformer_continuity test_deformer_on_the_fly
-               test_deformer_errors test_no_allocation)
+               test_deformer_errors test_no_allocation test_arap)
     add_test(NAME isa_${isa}:${name} COMMAND ${name})
     set_tests_properties(isa_${isa}:${name} PROPERTIES ENVIRONMENT MLSDEFORM_ISA=${isa}
                          SKIP_REGULAR_EXPRESSION "this CPU cannot run it" LABELS "isa;no_sanitizer" TIMEOUT 600)

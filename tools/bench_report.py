@@ -513,6 +513,20 @@ def main():
         md.append("![roofline](plots/roofline.png)\n")
 
     # ----------------------------------------------------------------------------------------------------
+    # Shape quality: bench_quality prints its tables in markdown itself
+    # ----------------------------------------------------------------------------------------------------
+    quality = os.path.join(res, "bench_quality.md")
+    if os.path.exists(quality):
+        md.append("## Shape quality: MLS, MLS + ARAP, CGAL's ARAP\n")
+        md.append("`bench_quality`: per vertex, the RMS relative error of its one-ring edges after their best "
+                  "rotation (0 = locally rigid), median and 95th percentile; deformed / rest edge length, 1st "
+                  "and 99th percentile; triangles whose deformed normal points against their rest normal turned "
+                  "by the ring rotation of at least two of their corners (tests/support/quality.hpp). ms per "
+                  "frame: the median of one frame from the rest pose, set-up (weights, factorisations) not "
+                  "timed; CGAL's deformation runs on one thread.\n")
+        with open(quality) as f:
+            md.append(f.read())
+    # ----------------------------------------------------------------------------------------------------
     # Skipped
     # ----------------------------------------------------------------------------------------------------
     errs = [(p, n, e) for p, r in [("bench_rotation_fit", rot), ("bench_table2", t2), ("bench_scaling", sc),

@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # Build the benchmarks (Release), run the whole suite with JSON output, and write docs/benchmarks.md and
-# docs/plots/*.png (tools/bench_report.py). About 5-8 minutes on the 2-core development machine.
+# docs/plots/*.png (tools/bench_report.py). About 6-9 minutes on the 2-core development machine (bench_quality:
+# about 1 of them, mostly CGAL run to 500 iterations).
 #
 #   tools/bench_report.sh            the full run (what docs/benchmarks.md shows)
 #   tools/bench_report.sh --quick    a smoke test of the pipeline: 10^4 matrices, short timings; writes the
@@ -19,7 +20,7 @@ quick=0
 
 cmake -S . -B "$build" -DCMAKE_BUILD_TYPE=Release -DMLSDEFORM_BUILD_TESTS=OFF -DMLSDEFORM_BUILD_TOOLS=OFF \
   -DMLSDEFORM_BUILD_BENCH=ON >/dev/null
-cmake --build "$build" -j "$jobs" --target bench_rotation_fit bench_table2 bench_scaling bench_roofline
+cmake --build "$build" -j "$jobs" --target bench_rotation_fit bench_table2 bench_scaling bench_roofline bench_quality
 
 out=$build/bench-results
 docs=$root/docs
@@ -27,15 +28,17 @@ if ((quick)); then
   docs=$out/quick-docs
 fi
 mkdir -p "$out" "$docs"
-rm -f "$out"/*.json "$out"/error_sweep.csv
+rm -f "$out"/*.json "$out"/error_sweep.csv "$out"/bench_quality.md
 
 common=(--benchmark_out_format=json)
 rot_extra=()
 t2_extra=(--benchmark_repetitions=3 --benchmark_report_aggregates_only=true)
+quality_extra=()
 if ((quick)); then
   common+=(--benchmark_min_time=0.01)
   rot_extra=(--cases=10000)
   t2_extra=()
+  quality_extra=(--min-time 0)
 fi
 
 load() { cut -d' ' -f1-3 /proc/loadavg; }
@@ -50,6 +53,8 @@ echo "== bench_scaling"
 "$build/bench/bench_scaling" --benchmark_out="$out/bench_scaling.json" "${common[@]}"
 echo "== bench_roofline"
 "$build/bench/bench_roofline" --benchmark_out="$out/bench_roofline.json" "${common[@]}"
+echo "== bench_quality"
+"$build/bench/bench_quality" "${quality_extra[@]}" --json "$out/bench_quality.json" >"$out/bench_quality.md"
 end=$(date +%s)
 
 cmd="tools/bench_report.sh"

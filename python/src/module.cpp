@@ -13,6 +13,7 @@
 #include <cmath>
 #include <cstdint>
 #include <cstring>
+#include <limits>
 #include <memory>
 #include <optional>
 #include <stdexcept>
@@ -144,7 +145,8 @@ class PyDeformer {
   PyDeformer(const py::object& vertices, const py::object& points, const py::object& segments,
              const std::string& transform, double exponent, const std::string& method,
              const std::string& segment_weight, int threads, const std::string& weight_storage,
-             const std::string& backend, std::size_t budget_bytes, const py::object& dtype) {
+             const std::string& backend, std::size_t budget_bytes, const py::object& dtype, const py::object& faces,
+             int arap_iterations) {
     Options o;
     o.transform = parse_transform(transform);
     o.weight_exponent = exponent;
@@ -159,6 +161,7 @@ class PyDeformer {
                                                   {"on_the_fly", WeightStorage::on_the_fly}});
     o.backend = parse_enum<Backend>(backend, "backend", {{"simd", Backend::simd}, {"scalar", Backend::scalar}});
     o.precompute_budget_bytes = budget_bytes;
+    o.arap_iterations = arap_iterations;
     bool single = false;
     if (!dtype.is_none()) {
       const py::dtype dt = py::dtype::from_args(dtype);
@@ -171,10 +174,11 @@ class PyDeformer {
     }
     if (points.is_none() && segments.is_none())
       throw py::value_error("Deformer: no handles (give points=..., segments=(A, B), or both)");
+    const Triangles triangles = to_triangles(faces);
     if (single)
-      make<float>(vertices, points, segments, o);
+      make<float>(vertices, points, segments, triangles, o);
     else
-      make<double>(vertices, points, segments, o);
+      make<double>(vertices, points, segments, triangles, o);
   }
 
   bool single() const { return single_ != nullptr; }
@@ -247,14 +251,31 @@ class PyDeformer {
     return Vector3<T>(a.data()[0], a.data()[1], a.data()[2]);
   }
 
+  /// faces: None or an (m, 3) array of integer vertex indices.
+  static Triangles to_triangles(const py::object& faces) {
+    if (faces.is_none()) return Triangles();
+    const auto a = py::array_t<long long, py::array::c_style | py::array::forcecast>::ensure(faces);
+    if (!a || a.ndim() != 2 || a.shape(1) != 3)
+      throw py::value_error("faces: expected an (m, 3) array of vertex indices");
+    Triangles t(a.shape(0), 3);
+    const long long* f = a.data();
+    for (Eigen::Index i = 0; i < t.size(); ++i) {
+      if (f[i] < 0 || f[i] > std::numeric_limits<int>::max())
+        throw py::value_error("faces: vertex index " + std::to_string(f[i]) + " out of range");
+      t.data()[i] = int(f[i]);
+    }
+    return t;
+  }
+
   template <class T>
-  void make(const py::object& vertices, const py::object& points, const py::object& segments, const Options& o) {
+  void make(const py::object& vertices, const py::object& points, const py::object& segments,
+            const Triangles& triangles, const Options& o) {
     const Points<T> v = to_points(as_n3<T>(vertices, "vertices"));
     const Handles<T> h = make_handles<T>(points, segments);
     std::optional<Deformer<T>> d;
     {
       py::gil_scoped_release release;
-      d.emplace(v, h, o);
+      d.emplace(v, triangles, h, o);
     }
     if constexpr (std::is_same_v<T, float>)
       single_ = std::make_unique<Deformer<float>>(std::move(*d));
@@ -473,15 +494,16 @@ PYBIND11_MODULE(_mlsdeform, m) {
   py::class_<PyDeformer>(m, "Deformer", "A deformation session; see mlsdeform.Deformer in the Python package.")
       .def(py::init<const py::object&, const py::object&, const py::object&, const std::string&, double,
                     const std::string&, const std::string&, int, const std::string&, const std::string&, std::size_t,
-                    const py::object&>(),
+                    const py::object&, const py::object&, int>(),
            py::arg("vertices"), py::kw_only(), py::arg("points") = py::none(), py::arg("segments") = py::none(),
            py::arg("transform") = "rigid", py::arg("exponent") = 2.0, py::arg("method") = "axis_angle",
            py::arg("segment_weight") = "paper_constant", py::arg("threads") = 0,
            py::arg("weight_storage") = "automatic", py::arg("backend") = "simd",
            py::arg("precompute_budget_bytes") = std::size_t(32) << 20, py::arg("dtype") = py::none(),
+           py::arg("faces") = py::none(), py::arg("arap_iterations") = 0,
            R"(Deformer(vertices, *, points=None, segments=None, transform="rigid", exponent=2.0,
 method="axis_angle", segment_weight="paper_constant", threads=0, weight_storage="automatic",
-backend="simd", precompute_budget_bytes=32 MiB, dtype=None)
+backend="simd", precompute_budget_bytes=32 MiB, dtype=None, faces=None, arap_iterations=0)
 
 A deformation session (paper Sec. 5): precomputes what depends on the rest pose only.
 vertices: (n, 3) rest positions; float32 arrays make a float32 session, anything else float64 (or force
@@ -489,7 +511,9 @@ with dtype=). points: (k, 3) rest positions of point handles; segments: a pair (
 segment end points. transform: "rigid" | "similarity" | "affine"; exponent: u in w = |p - v|^-u (>= 1);
 method: "axis_angle" (the paper's) | "horn_quaternion" | "horn_matrix" | "kanatani" | "svd";
 segment_weight: "paper_constant" | "exact_integral"; threads: 0 = all cores; weight_storage:
-"automatic" | "precomputed" | "on_the_fly". Raises ValueError on bad input (the library's message).)")
+"automatic" | "precomputed" | "on_the_fly"; faces: (m, 3) vertex indices of the mesh's triangles, needed for
+arap_iterations > 0: that many surface-ARAP iterations after MLS (each handle's nearest vertex held where MLS
+put it). Raises ValueError on bad input (the library's message).)")
       .def("deform", &PyDeformer::deform, py::kw_only(), py::arg("points") = py::none(),
            py::arg("segments") = py::none(), py::arg("out") = py::none(),
            R"(deform(*, points=None, segments=None, out=None) -> (n, 3) array

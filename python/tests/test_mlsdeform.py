@@ -374,3 +374,30 @@ def test_fit_rotations_out_and_error_index():
         mlsdeform.fit_rotations(H, out=R.astype(np.float32))
     with pytest.raises(ValueError, match=r"expected shape \(6000, 3, 3\)"):
         mlsdeform.fit_rotations(H, out=R[:10])
+
+
+def test_arap_iterations_with_faces():
+    # A strip of 12 x 6 vertices in the plane z = 0, two triangles per quad; its two short ends are handles.
+    nx, ny = 12, 6
+    V = np.array([[i / 5, j / 5, 0.0] for i in range(nx) for j in range(ny)])
+    F = []
+    for i in range(nx - 1):
+        for j in range(ny - 1):
+            a, b, c, d = i * ny + j, (i + 1) * ny + j, (i + 1) * ny + j + 1, i * ny + j + 1
+            F += [[a, b, c], [a, c, d]]
+    F = np.array(F)
+    ends = [j for j in range(ny)] + [(nx - 1) * ny + j for j in range(ny)]
+    P = V[ends]
+    Q = P.copy()
+    Q[ny:, 2] += 0.8  # lift the far end
+    mls = mlsdeform.Deformer(V, points=P).deform(points=Q)
+    arap = mlsdeform.Deformer(V, points=P, faces=F, arap_iterations=5).deform(points=Q)
+    assert np.array_equal(arap[ends], Q)  # handles at vertices: exact
+    assert not np.allclose(arap, mls)
+    with pytest.raises(ValueError, match="triangles"):
+        mlsdeform.Deformer(V, points=P, arap_iterations=2)
+    with pytest.raises(ValueError, match="faces"):
+        mlsdeform.Deformer(V, points=P, faces=F[:, :2], arap_iterations=2)
+    with pytest.raises(ValueError, match="outside"):
+        mlsdeform.Deformer(V, points=P, faces=F + len(V), arap_iterations=2)
+

@@ -50,6 +50,39 @@ PointsD read_obj_vertices(const std::string& path) {
   return p;
 }
 
+Triangles read_obj_triangles(const std::string& path) {
+  std::ifstream in(path);
+  if (!in) throw std::runtime_error("cannot open " + path);
+  std::vector<long long> corners;  // zero-based, checked against the vertex count at the end
+  long long vertices = 0;
+  std::string line;
+  std::vector<long long> face;
+  while (std::getline(in, line)) {
+    if (!line.empty() && line.back() == '\r') line.pop_back();
+    if (line.size() < 2 || line[1] != ' ') continue;
+    if (line[0] == 'v') ++vertices;
+    if (line[0] != 'f') continue;
+    face.clear();
+    std::istringstream ss(line.substr(2));
+    for (std::string corner; ss >> corner;) {
+      char* end = nullptr;
+      const long long i = std::strtoll(corner.c_str(), &end, 10);
+      if (end == corner.c_str() || (*end != '\0' && *end != '/') || i == 0)
+        throw std::runtime_error("bad 'f' line in " + path + ": " + line);
+      face.push_back(i > 0 ? i - 1 : vertices + i);
+    }
+    if (face.size() < 3) throw std::runtime_error("face with fewer than three corners in " + path + ": " + line);
+    for (std::size_t k = 1; k + 1 < face.size(); ++k) corners.insert(corners.end(), {face[0], face[k], face[k + 1]});
+  }
+  Triangles t(static_cast<Eigen::Index>(corners.size() / 3), 3);
+  for (std::size_t k = 0; k < corners.size(); ++k) {
+    if (corners[k] < 0 || corners[k] >= vertices)
+      throw std::runtime_error("face index out of range in " + path + " (" + std::to_string(vertices) + " vertices)");
+    t(static_cast<Eigen::Index>(k / 3), static_cast<Eigen::Index>(k % 3)) = static_cast<int>(corners[k]);
+  }
+  return t;
+}
+
 PointsD read_ply_vertices(const std::string& path) {
   gzFile f = gzopen(path.c_str(), "rb");
   if (!f) throw std::runtime_error("cannot open " + path);
@@ -176,6 +209,43 @@ PointsD box_surface(int a, int b, int c) {
   PointsD p(static_cast<Eigen::Index>(v.size()), 3);
   for (std::size_t i = 0; i < v.size(); ++i) p.row(static_cast<Eigen::Index>(i)) = v[i].transpose();
   return p;
+}
+
+Triangles box_surface_triangles(int a, int b, int c) {
+  // The vertex numbering of box_surface: the same loops, counting the surface vertices.
+  const int dims[3] = {a, b, c};
+  std::vector<int> id(static_cast<std::size_t>((a + 1) * (b + 1) * (c + 1)), -1);
+  auto at = [&](const int(&g)[3]) -> int& {
+    return id[static_cast<std::size_t>((g[0] * (b + 1) + g[1]) * (c + 1) + g[2])];
+  };
+  int count = 0;
+  for (int i = 0; i <= a; ++i)
+    for (int j = 0; j <= b; ++j)
+      for (int k = 0; k <= c; ++k)
+        if (i == 0 || i == a || j == 0 || j == b || k == 0 || k == c) at({i, j, k}) = count++;
+  std::vector<int> tri;
+  for (int axis = 0; axis < 3; ++axis) {
+    const int u = (axis + 1) % 3, v = (axis + 2) % 3;  // (axis, u, v) is a right-handed permutation of (x, y, z)
+    for (int side : {0, 1}) {
+      // (u, v) counter-clockwise seen from +axis: u x v = +axis. The side at 0 faces -axis, so it is reversed.
+      for (int s = 0; s < dims[u]; ++s)
+        for (int t = 0; t < dims[v]; ++t) {
+          int g00[3], g10[3], g11[3], g01[3];
+          for (int* g : {g00, g10, g11, g01}) g[axis] = side * dims[axis];
+          g00[u] = g01[u] = s, g10[u] = g11[u] = s + 1;
+          g00[v] = g10[v] = t, g01[v] = g11[v] = t + 1;
+          const int q[4] = {at(g00), at(g10), at(g11), at(g01)};
+          if (side == 1)
+            tri.insert(tri.end(), {q[0], q[1], q[2], q[0], q[2], q[3]});
+          else
+            tri.insert(tri.end(), {q[0], q[2], q[1], q[0], q[3], q[2]});
+        }
+    }
+  }
+  Triangles t(static_cast<Eigen::Index>(tri.size() / 3), 3);
+  for (std::size_t k = 0; k < tri.size(); ++k)
+    t(static_cast<Eigen::Index>(k / 3), static_cast<Eigen::Index>(k % 3)) = tri[k];
+  return t;
 }
 
 PointsD random_box(Eigen::Index n, std::uint64_t seed) {

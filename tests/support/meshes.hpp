@@ -2,9 +2,11 @@
 // ../shared/data/meshes, see LICENSES.txt there for sources and attribution), two small readers (OBJ 'v'
 // lines; binary little-endian PLY, optionally gzip-compressed), and generated shapes (the paper's Table 2
 // Plane, Bar and Cylinder; random boxes). Only positions matter to MLS deformation (it never looks at the
-// faces), so faces are skipped. Everything in double.
+// faces), so the vertex readers skip faces; the triangle reader and the box-surface triangles serve what does
+// need them (surface ARAP, the quality benchmark's one-rings). Everything in double.
 #pragma once
 
+#include <mlsdeform/arap.hpp>  // Triangles
 #include <mlsdeform/types.hpp>
 
 #include <Eigen/Core>
@@ -30,6 +32,12 @@ std::string shared_mesh(const std::string& file);
 /// 'v' line has fewer than three numbers.
 PointsD read_obj_vertices(const std::string& path);
 
+/// The 'f' lines of a Wavefront OBJ file as triangles, each polygon a0 a1 ... ak fanned from its first
+/// corner into (a0, a_i, a_i+1). Corners may be written v, v/vt, v//vn or v/vt/vn; negative indices count back
+/// from the last 'v' line read so far (the OBJ rule). Throws std::runtime_error when the file cannot be read, or
+/// a face has fewer than three corners or an index that names no vertex of the file.
+Triangles read_obj_triangles(const std::string& path);
+
 /// The vertices of a binary little-endian PLY file, optionally gzip-compressed (zlib reads both). Supports
 /// a vertex element whose properties are scalars (float, double, uchar, int ...) with x, y, z among them
 /// (float). Throws std::runtime_error naming the file otherwise.
@@ -50,6 +58,11 @@ PointsD cylinder(int around, int rings);
 /// The surface vertices of an a x b x c box of unit cells (a parallelepiped, the paper's Fig. 3 Bar):
 /// (a+1)(b+1)(c+1) - (a-1)(b-1)(c-1) vertices; 16 x 16 x 88 gives the paper's 6,146.
 PointsD box_surface(int a, int b, int c);
+
+/// Triangles over box_surface(a, b, c)'s vertices (same indices): every unit square of the six sides cut along
+/// its diagonal from the corner of smallest coordinates, so 4 (ab + bc + ca) triangles, all counter-clockwise
+/// seen from outside (normals point out of the box).
+Triangles box_surface_triangles(int a, int b, int c);
 
 /// n points uniform in the 4 x 1 x 1 box [0, 4) x [0, 1) x [0, 1) (Rng(seed), double variates).
 PointsD random_box(Eigen::Index n, std::uint64_t seed);

@@ -1,17 +1,19 @@
 // Surface ARAP (Sorkine & Alexa 2007) as a refinement of the MLS result: the session (arap.hpp documents the
-// energy and the weights). Local step: one S_i per vertex, gathered over its one-ring (CSR), then all n
-// rotation fits in one fit_rotations call (SIMD lanes). Global step: the reduced cotangent Laplacian of the
-// free vertices, factorised once (Eigen's SimplicialLDLT, AMD ordering, in double), three right-hand sides
-// solved in place with the factor's own permutation (so that nothing is allocated per frame).
+// energy and the weights). Local step: one S_i per vertex, gathered over its one-ring (CSR), and its rotation
+// by the active ISA's batched fit (SIMD lanes), chunk by chunk. Global step: the reduced cotangent Laplacian of the
+// free vertices, factorised once (Eigen's SimplicialLDLT, AMD ordering, in double) and kept as plain arrays;
+// per iteration the three right-hand sides are solved together (interleaved) by forward and backward
+// substitution, with nothing allocated.
+#include "../dispatch.hpp"
 #include "../parallel.hpp"
 
 #include <mlsdeform/arap.hpp>
 #include <mlsdeform/batch.hpp>
 
+#include <kernel_table.hpp>
+
 #include <Eigen/Geometry>  // cross
 #include <Eigen/SparseCholesky>
-
-#include <tbb/parallel_invoke.h>
 
 #include <algorithm>
 #include <cmath>
@@ -27,6 +29,7 @@ namespace {
 
 using Vec3d = Eigen::Vector3d;
 using PointsD = Eigen::Matrix<double, Eigen::Dynamic, 3>;
+using RowPoints = Eigen::Matrix<double, Eigen::Dynamic, 3, Eigen::RowMajor>;
 
 /// Vertices per task of the local step and the right-hand side (each vertex's work is its own: any cut gives
 /// the same bits).
@@ -70,76 +73,97 @@ struct ArapRefiner<T>::Impl {
   /// with no constrained vertex: it keeps its start position).
   std::vector<Eigen::Index> row;
   std::vector<Eigen::Index> free_vertices;
-  Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>> ldlt;
   std::vector<int> perm;  ///< the factor's permutation P (as indices): P b puts b(i) at perm[i]
-  Eigen::VectorXd D;      ///< the factor's diagonal (vectorD() returns a copy: taken once)
+  /// The factor L D L^T of P L_ff P^T (Eigen stores L's strictly lower part by columns: the unit diagonal is
+  /// implicit), and D, copied once (vectorD() returns a copy).
+  Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>> ldlt;
+  std::vector<double> D;
+  std::vector<double> we;  ///< w_ij (p_i - p_j) per directed edge (3 values), in the CSR order
+  std::vector<double> c;   ///< c_i = sum_j w_ij (p_i - p_j) per vertex (3 values)
 
   // Scratch, sized once.
-  PointsD X;             ///< current positions
-  std::vector<T> H, R;   ///< 3 x 3 x n, SoA, for fit_rotations
-  Eigen::VectorXd y[3];  ///< the right-hand sides, permuted, solved in place
+  RowPoints X;             ///< current positions
+  std::vector<T> H, R;     ///< 3 x 3 x n, SoA, for fit_rotations
+  std::vector<double> Rd;  ///< R_i in double, row-major, 9 values per vertex
+  std::vector<double> y;   ///< the three right-hand sides, permuted and interleaved (3 values per row)
 
+  /// For every vertex S_i = sum_j w_ij (x_i - x_j)(p_i - p_j)^T and its rotation R_i, by the active kernel
+  /// table's batched axis/angle fit on each chunk of vertices (one parallel pass: S, fit, R in double).
   void local_step() {
     const std::size_t nn = std::size_t(n);
+    kernels::FitRotationsFn<T> fit;
+    if constexpr (std::is_same_v<T, float>)
+      fit = detail::active_kernels().fit_axis_angle_f;
+    else
+      fit = detail::active_kernels().fit_axis_angle_d;
     detail::parallel_ranges((nn + kGrain - 1) / kGrain, options.threads, arena.get(),
                             [&](std::size_t c0, std::size_t c1) {
-                              for (std::size_t i = c0 * kGrain; i < std::min(nn, c1 * kGrain); ++i) {
+                              const std::size_t i0 = c0 * kGrain, i1 = std::min(nn, c1 * kGrain);
+                              for (std::size_t i = i0; i < i1; ++i) {
                                 double s[9] = {0, 0, 0, 0, 0, 0, 0, 0, 0};
+                                const double* xi = X.data() + 3 * i;
                                 for (Eigen::Index e = start[i]; e < start[i + 1]; ++e) {
-                                  const auto j = nbr[std::size_t(e)];
-                                  const double we = w[std::size_t(e)];
-                                  for (int r = 0; r < 3; ++r) {
-                                    const double dx = we * (X(Eigen::Index(i), r) - X(j, r));
-                                    for (int c = 0; c < 3; ++c) s[3 * r + c] += dx * (P(Eigen::Index(i), c) - P(j, c));
-                                  }
+                                  const double* xj = X.data() + 3 * nbr[std::size_t(e)];
+                                  const double* a = we.data() + 3 * e;
+                                  for (int r = 0; r < 3; ++r)
+                                    for (int k = 0; k < 3; ++k) s[3 * r + k] += (xi[r] - xj[r]) * a[k];
                                 }
                                 for (int k = 0; k < 9; ++k) H[std::size_t(k) * nn + i] = T(s[k]);
                               }
+                              fit(H.data(), R.data(), nn, i0, i1, nullptr);  // S_i is finite: X is
+                              for (std::size_t i = i0; i < i1; ++i)
+                                for (std::size_t k = 0; k < 9; ++k) Rd[9 * i + k] = double(R[k * nn + i]);
                             });
-    fit_rotations(H.data(), R.data(), nn, RotationMethod::axis_angle, options.threads);
   }
 
-  /// R_i as a double matrix.
-  Eigen::Matrix3d rotation(Eigen::Index i) const {
-    Eigen::Matrix3d Ri;
-    for (int k = 0; k < 9; ++k) Ri(k / 3, k % 3) = double(R[std::size_t(k) * std::size_t(n) + std::size_t(i)]);
-    return Ri;
-  }
-
+  /// b_i = sum_j (w_ij / 2)(R_i + R_j)(p_i - p_j) = (R_i c_i + sum_j R_j w_ij (p_i - p_j)) / 2, plus w_ij x_j
+  /// for each held neighbour; then L_ff x = b by the factor (forward, diagonal, backward substitution on the
+  /// three interleaved right-hand sides at once).
   void global_step() {
     const std::size_t nf = free_vertices.size();
+    auto rotate_add = [](const double* Rm, const double* v, double(&b)[3]) {
+      for (int r = 0; r < 3; ++r) b[r] += 0.5 * (Rm[3 * r] * v[0] + Rm[3 * r + 1] * v[1] + Rm[3 * r + 2] * v[2]);
+    };
     detail::parallel_ranges((nf + kGrain - 1) / kGrain, options.threads, arena.get(),
                             [&](std::size_t c0, std::size_t c1) {
                               for (std::size_t f = c0 * kGrain; f < std::min(nf, c1 * kGrain); ++f) {
-                                const Eigen::Index i = free_vertices[f];
-                                const Eigen::Matrix3d Ri = rotation(i);
-                                Vec3d bi = Vec3d::Zero();
-                                for (Eigen::Index e = start[std::size_t(i)]; e < start[std::size_t(i) + 1]; ++e) {
-                                  const Eigen::Index j = nbr[std::size_t(e)];
-                                  const double we = w[std::size_t(e)];
-                                  bi += (0.5 * we) * ((Ri + rotation(j)) * (P.row(i) - P.row(j)).transpose());
-                                  if (row[std::size_t(j)] < 0) bi += we * X.row(j).transpose();  // held: to the right
+                                const auto i = std::size_t(free_vertices[f]);
+                                double b[3] = {0, 0, 0};
+                                rotate_add(Rd.data() + 9 * i, c.data() + 3 * i, b);
+                                for (Eigen::Index e = start[i]; e < start[i + 1]; ++e) {
+                                  const auto j = std::size_t(nbr[std::size_t(e)]);
+                                  rotate_add(Rd.data() + 9 * j, we.data() + 3 * e, b);
+                                  if (row[j] < 0)  // held: to the right-hand side
+                                    for (int k = 0; k < 3; ++k) b[k] += w[std::size_t(e)] * X(Eigen::Index(j), k);
                                 }
-                                // Permuted on the way in: y = P b.
-                                for (int c = 0; c < 3; ++c) y[c](perm[f]) = bi[c];
+                                for (int k = 0; k < 3; ++k) y[3 * std::size_t(perm[f]) + std::size_t(k)] = b[k];
                               }
                             });
-    auto solve = [&](int c) {
-      ldlt.matrixL().solveInPlace(y[c]);
-      y[c].array() /= D.array();
-      ldlt.matrixU().solveInPlace(y[c]);
-    };
-    if (options.threads == 1) {
-      for (int c = 0; c < 3; ++c) solve(c);
-    } else {
-      auto all = [&] { tbb::parallel_invoke([&] { solve(0); }, [&] { solve(1); }, [&] { solve(2); }); };
-      if (arena)
-        arena->execute(all);
-      else
-        all();
+    const std::size_t m = D.size();
+    const auto& L = ldlt.matrixL().nestedExpression();
+    const int *Lp = L.outerIndexPtr(), *Li = L.innerIndexPtr();
+    const double* Lx = L.valuePtr();
+    // Each column's three values are held in registers (the compiler cannot know that the rows below never
+    // alias them): L z = y (unit lower), z /= D, L^T x = z.
+    for (std::size_t col = 0; col < m; ++col) {
+      const double z0 = y[3 * col], z1 = y[3 * col + 1], z2 = y[3 * col + 2];
+      for (int p = Lp[col]; p < Lp[col + 1]; ++p) {
+        double* t = y.data() + 3 * std::size_t(Li[p]);
+        t[0] -= Lx[p] * z0, t[1] -= Lx[p] * z1, t[2] -= Lx[p] * z2;
+      }
+    }
+    for (std::size_t r = 0; r < m; ++r)
+      for (std::size_t k = 0; k < 3; ++k) y[3 * r + k] /= D[r];
+    for (std::size_t col = m; col-- > 0;) {
+      double x0 = y[3 * col], x1 = y[3 * col + 1], x2 = y[3 * col + 2];
+      for (int p = Lp[col]; p < Lp[col + 1]; ++p) {
+        const double* t = y.data() + 3 * std::size_t(Li[p]);
+        x0 -= Lx[p] * t[0], x1 -= Lx[p] * t[1], x2 -= Lx[p] * t[2];
+      }
+      y[3 * col] = x0, y[3 * col + 1] = x1, y[3 * col + 2] = x2;
     }
     for (std::size_t f = 0; f < nf; ++f)
-      for (int c = 0; c < 3; ++c) X(free_vertices[f], c) = y[c](perm[f]);
+      for (int k = 0; k < 3; ++k) X(free_vertices[f], k) = y[3 * std::size_t(perm[f]) + std::size_t(k)];
   }
 };
 
@@ -200,6 +224,15 @@ ArapRefiner<T>::ArapRefiner(const Points<T>& rest, const Triangles& triangles,
   for (const auto& e : directed) ++m.start[std::size_t(e.first.first) + 1];
   for (std::size_t i = 0; i < nn; ++i) m.start[i + 1] += m.start[i];
   for (const auto& e : directed) m.nbr.push_back(e.first.second), m.w.push_back(e.second);
+  m.we.assign(3 * m.nbr.size(), 0.0);
+  m.c.assign(3 * nn, 0.0);
+  for (std::size_t i = 0; i < nn; ++i)
+    for (Eigen::Index e = m.start[i]; e < m.start[i + 1]; ++e)
+      for (int k = 0; k < 3; ++k) {
+        const double v = m.w[std::size_t(e)] * (m.P(Eigen::Index(i), k) - m.P(m.nbr[std::size_t(e)], k));
+        m.we[3 * std::size_t(e) + std::size_t(k)] = v;
+        m.c[3 * i + std::size_t(k)] += v;
+      }
 
   // Constrained vertices; components without one are held at the start position.
   std::vector<char> is_constrained(nn, 0);
@@ -240,14 +273,16 @@ ArapRefiner<T>::ArapRefiner(const Points<T>& rest, const Triangles& triangles,
   m.ldlt.compute(L);
   if (m.ldlt.info() != Eigen::Success)
     throw std::invalid_argument("ArapRefiner: the cotangent Laplacian could not be factorised");
-  m.D = m.ldlt.vectorD();
+  const Eigen::VectorXd d = m.ldlt.vectorD();
+  m.D.assign(d.data(), d.data() + d.size());
   m.perm.resize(std::size_t(nf));
   for (Eigen::Index f = 0; f < nf; ++f) m.perm[std::size_t(f)] = m.ldlt.permutationP().indices()(f);
 
   m.X.resize(m.n, 3);
   m.H.assign(9 * nn, T(0));
   m.R.assign(9 * nn, T(0));
-  for (auto& v : m.y) v.resize(nf);
+  m.Rd.assign(9 * nn, 0.0);
+  m.y.assign(3 * std::size_t(nf), 0.0);
 }
 
 template <class T>
@@ -272,7 +307,7 @@ void ArapRefiner<T>::refine(const Points<T>& start, const Points<T>& targets, in
                                 ")");
   if (!start.allFinite() || !targets.allFinite())
     throw std::invalid_argument("ArapRefiner::refine: non-finite coordinate in start or targets");
-  m.X = start.template cast<double>();
+  m.X = start.template cast<double>();  // row-major copy
   for (std::size_t k = 0; k < m.constrained.size(); ++k)
     m.X.row(m.constrained[k]) = targets.row(Eigen::Index(k)).template cast<double>();
   for (int it = 0; it < iterations; ++it) {
@@ -318,14 +353,13 @@ template <class T>
 std::size_t ArapRefiner<T>::memory_bytes() const {
   if (!impl_) return 0;
   const Impl& m = *impl_;
-  const std::size_t factor =
-      std::size_t(m.ldlt.matrixL().nestedExpression().nonZeros()) * (sizeof(double) + sizeof(int)) +
-      std::size_t(m.ldlt.vectorD().size()) * (sizeof(double) + 3 * sizeof(int));
-  return factor + m.P.size() * sizeof(double) + m.X.size() * sizeof(double) +
-         (m.start.size() + m.nbr.size() + m.row.size() + m.free_vertices.size()) * sizeof(Eigen::Index) +
-         m.w.size() * sizeof(double) + (m.H.size() + m.R.size()) * sizeof(T) +
-         3 * std::size_t(m.y[0].size()) * sizeof(double) + m.perm.size() * sizeof(int) +
-         std::size_t(m.D.size()) * sizeof(double);
+  const auto bytes = [](const auto& v) { return v.size() * sizeof(v[0]); };
+  const auto& L = m.ldlt.matrixL().nestedExpression();
+  // The factor: L, its diagonal (twice: Eigen's and the copy) and its two permutations (about one more D).
+  return std::size_t(L.nonZeros()) * (sizeof(double) + sizeof(int)) + std::size_t(L.outerSize() + 1) * sizeof(int) +
+         3 * bytes(m.D) + bytes(m.perm) + bytes(m.start) + bytes(m.nbr) + bytes(m.w) + bytes(m.we) + bytes(m.c) +
+         bytes(m.row) + bytes(m.free_vertices) + bytes(m.H) + bytes(m.R) + bytes(m.Rd) + bytes(m.y) +
+         std::size_t(m.P.size() + m.X.size()) * sizeof(double);
 }
 
 template class ArapRefiner<float>;

@@ -1,7 +1,5 @@
 #include "validation.hpp"
 
-#include <Eigen/SVD>
-
 #include <algorithm>
 #include <array>
 #include <cmath>
@@ -82,27 +80,6 @@ void check_moved(const Handles<T>& moved, const Handles<T>& rest) {
 }
 
 template <class T>
-void check_affine_rank(const std::vector<Vec3d>& P) {
-  const std::size_t J = P.size();
-  if (J < 4)
-    throw std::invalid_argument(
-        "Deformer: the affine transform needs handles spanning 3D (at least four non-coplanar "
-        "points, segment end points included); got " +
-        std::to_string(J));
-  Vec3d mean = Vec3d::Zero();
-  for (const Vec3d& p : P) mean += p;
-  mean /= double(J);
-  Eigen::Matrix<double, Eigen::Dynamic, 3> M(static_cast<Eigen::Index>(J), 3);
-  for (std::size_t j = 0; j < J; ++j) M.row(static_cast<Eigen::Index>(j)) = (P[j] - mean).transpose();
-  const Vec3d sv = Eigen::JacobiSVD<Eigen::Matrix<double, Eigen::Dynamic, 3>>(M).singularValues();
-  const double tol = double(std::max<std::size_t>(J, 3)) * double(std::numeric_limits<T>::epsilon()) * sv[0];
-  if (!(sv[2] > tol))
-    throw std::invalid_argument("Deformer: the affine transform needs handles spanning 3D, but the handle points are " +
-                                std::string(sv[1] > tol ? "coplanar" : "collinear") + " (singular values " +
-                                num(sv[0]) + ", " + num(sv[1]) + ", " + num(sv[2]) + ")");
-}
-
-template <class T>
 CoincidentPairs coincident_points(const Points<T>& p) {
   std::vector<Eigen::Index> order(static_cast<std::size_t>(p.rows()));
   for (std::size_t i = 0; i < order.size(); ++i) order[i] = static_cast<Eigen::Index>(i);
@@ -135,7 +112,6 @@ void check_coincident(const Handles<T>& moved, const CoincidentPairs& pairs) {
   template void check_points<T>(const Points<T>&, const char*, const char*, T); \
   template void check_handles<T>(const Handles<T>&, const char*, T);            \
   template void check_moved<T>(const Handles<T>&, const Handles<T>&);           \
-  template void check_affine_rank<T>(const std::vector<Vec3d>&);                \
   template CoincidentPairs coincident_points<T>(const Points<T>&);              \
   template void check_coincident<T>(const Handles<T>&, const CoincidentPairs&);
 MLSDEFORM_VALIDATION(float)

@@ -106,4 +106,14 @@ Matrix3<T> fit_rotation_svd(const Matrix3<T>& H) {
   return U * Vector3<T>(T(1), T(1), d).asDiagonal() * V.transpose();
 }
 
+// Instantiated once per type in baselines_float.cpp and baselines_double.cpp (Eigen's dense solvers are the
+// slowest code of the library to compile).
+#define MLSDEFORM_BASELINES(EXTERN, T)                                           \
+  EXTERN template Matrix3<T> fit_rotation_horn_quaternion<T>(const Matrix3<T>&); \
+  EXTERN template Matrix3<T> fit_rotation_horn_matrix<T>(const Matrix3<T>&);     \
+  EXTERN template Matrix3<T> fit_rotation_kanatani<T>(const Matrix3<T>&);        \
+  EXTERN template Matrix3<T> fit_rotation_svd<T>(const Matrix3<T>&);
+MLSDEFORM_BASELINES(extern, float)
+MLSDEFORM_BASELINES(extern, double)
+
 }  // namespace mlsdeform::detail

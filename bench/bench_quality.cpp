@@ -1,0 +1,345 @@
+// bench_quality: how rigid the deformed surface is, not how fast the rotations are. On the same meshes and
+// handles it runs MLS (rigid, u = 2), MLS followed by k surface-ARAP iterations (mlsdeform::ArapRefiner
+// through Deformer's arap_iterations) and, where CMake found CGAL, CGAL's Surface_mesh_deformation
+// (ORIGINAL_ARAP) with its default 5 iterations and until converged, and prints one markdown table per scene:
+//
+//   tool | ms per frame | rigidity median / p95 | edge ratio p1 / p99 | flipped
+//
+// The measures are tests/support/quality.hpp's: local rigidity per vertex (RMS relative error of its
+// one-ring edges after their best rotation; 0 = locally rigid), deformed / rest edge length over all edges,
+// and triangles whose deformed normal points against their rest normal turned by the ring rotations of at
+// least two of their corners. Quantiles interpolate between ranks.
+//
+// ms per frame: the median over repeated calls (at least 3, and at least --min-time seconds in all) of one
+// frame from the rest pose with the scene's targets, after one untimed warm-up call: everything that depends
+// on the rest pose only (MLS weights, the ARAP and CGAL factorisations) is set up before and not timed.
+// mlsdeform runs on --threads threads (0: all cores); CGAL's deformation runs on one.
+//
+// A plain program rather than Google Benchmark: each row needs its result measured once and one time, not a
+// timing loop per benchmark. Usage:
+//   bench_quality [--threads N] [--min-time S] [--precision float|double] [--json FILE]
+#include "common.hpp"
+#include "meshes.hpp"
+#include "quality.hpp"
+
+#ifdef MLSDEFORM_HAVE_CGAL
+#include "quality_cgal.hpp"
+
+#include <CGAL/version.h>
+#endif
+
+#include <mlsdeform/batch.hpp>
+#include <mlsdeform/deformer.hpp>
+
+#include <Eigen/Geometry>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <fstream>
+#include <functional>
+#include <numbers>
+#include <optional>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+namespace {
+
+using mlsdeform::Handles;
+using mlsdeform::Points;
+using mlsdeform::Triangles;
+using mlsdeform::testing::PointsD;
+using mlsdeform::testing::ShapeQuality;
+
+struct Settings {
+  int threads = 0;
+  double min_time = 0.5;
+  bool use_double = false;
+  std::string json;
+};
+
+// A triangle mesh with point handles at some of its vertices, each moved to its target.
+struct QualityScene {
+  std::string name, description;
+  PointsD rest;
+  Triangles triangles;
+  std::vector<Eigen::Index> handles;  // vertex indices
+  PointsD targets;                    // targets.row(k) for handles[k]
+};
+
+struct Row {
+  std::string tool;
+  double ms = 0;
+  ShapeQuality quality;
+};
+
+PointsD rows_of(const PointsD& p, const std::vector<Eigen::Index>& idx) {
+  PointsD q(static_cast<Eigen::Index>(idx.size()), 3);
+  for (std::size_t k = 0; k < idx.size(); ++k) q.row(static_cast<Eigen::Index>(k)) = p.row(idx[k]);
+  return q;
+}
+
+// (a) data/human_man.obj bending forward: the navel and both feet (toes, heels) held where they are, the head
+// and both hands moved (data/human_bend.json's last frame, with the left foot's segment as two points).
+QualityScene human_scene() {
+  QualityScene s;
+  const std::string path = mlsdeform::testing::bundled_mesh("human_man.obj");
+  s.rest = mlsdeform::testing::read_obj_vertices(path);
+  s.triangles = mlsdeform::testing::read_obj_triangles(path);
+  s.handles = {1337, 3215, 3386, 6618, 6786, 411, 5906, 2445};
+  s.targets.resize(8, 3);
+  s.targets << 0.007005, 1.053843, 0.171833,  // navel
+      0.078112, 0.019384, 0.180523,           // right toes
+      0.095968, 0.039844, -0.085711,          // right heel
+      -0.086231, 0.01583, 0.179475,           // left toes
+      -0.098815, 0.041748, -0.090276,         // left heel
+      0.00213, 1.38829, 0.68933,              // top of the head
+      -0.3, 0.55, 0.45,                       // left hand
+      0.3, 0.55, 0.45;                        // right hand
+  s.name = "human";
+  s.description =
+      "data/human_man.obj bending forward, hands to the knees: navel and feet fixed, head and hands "
+      "moved (8 point handles at vertices 1337, 3215, 3386, 6618, 6786, 411, 5906, 2445)";
+  return s;
+}
+
+// (b) The paper's Bar (Table 2: 16 x 16 x 88 unit cells, 6,146 surface vertices), both end caps' vertices as
+// handles, the cap at z = 88 turned 135 degrees about the bar's axis. Short of 180 degrees, where the middle
+// of the bar sees its two ends' rotations cancel and the best rotation there is not unique.
+QualityScene bar_scene() {
+  constexpr int a = 16, b = 16, c = 88;
+  constexpr double degrees = 135;
+  QualityScene s;
+  s.rest = mlsdeform::testing::box_surface(a, b, c);
+  s.triangles = mlsdeform::testing::box_surface_triangles(a, b, c);
+  std::vector<Eigen::Index> top;
+  for (Eigen::Index i = 0; i < s.rest.rows(); ++i) {
+    if (s.rest(i, 2) == 0) s.handles.push_back(i);
+    if (s.rest(i, 2) == c) top.push_back(i);
+  }
+  const auto fixed = static_cast<Eigen::Index>(s.handles.size());
+  s.handles.insert(s.handles.end(), top.begin(), top.end());
+  s.targets = rows_of(s.rest, s.handles);
+  const Eigen::Matrix3d R =
+      Eigen::AngleAxisd(degrees * std::numbers::pi / 180, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+  const Eigen::Vector3d axis(a / 2.0, b / 2.0, 0);
+  for (Eigen::Index k = fixed; k < s.targets.rows(); ++k)
+    s.targets.row(k) = (R * (s.targets.row(k).transpose() - axis) + axis).transpose();
+  s.name = "bar";
+  s.description = "box surface 16 x 16 x 88 (the paper's Bar), " + std::to_string(s.handles.size()) +
+                  " point handles (both end caps' vertices), the cap at z = 88 twisted 135 degrees about the axis";
+  return s;
+}
+
+// (c) ../shared/data/meshes/fish.obj (Keenan Crane's Blub): the mouth and the top of the back held, the two
+// tips of the tail fin turned 45 degrees about the vertical (y) axis through the tail's narrowest section
+// (x = 3.34, z = -1.0): a tail flick that bends the fish where it is thinnest.
+std::optional<QualityScene> fish_scene() {
+  const std::string path = mlsdeform::testing::shared_mesh("fish.obj");
+  if (path.empty()) return std::nullopt;
+  QualityScene s;
+  s.rest = mlsdeform::testing::read_obj_vertices(path);
+  s.triangles = mlsdeform::testing::read_obj_triangles(path);
+  if (s.rest.rows() != 10786)
+    throw std::runtime_error(path + ": expected the 10,786-vertex fish, got " + std::to_string(s.rest.rows()));
+  s.handles = {9329, 2932, 8815, 9563};  // mouth (largest z), top of the back (largest y), tail tips (upper, lower)
+  s.targets = rows_of(s.rest, s.handles);
+  const Eigen::Matrix3d R = Eigen::AngleAxisd(std::numbers::pi / 4, Eigen::Vector3d::UnitY()).toRotationMatrix();
+  const Eigen::Vector3d pivot(3.34, 0, -1.0);
+  for (Eigen::Index k = 2; k < 4; ++k)
+    s.targets.row(k) = (R * (s.targets.row(k).transpose() - pivot) + pivot).transpose();
+  s.name = "fish";
+  s.description =
+      "../shared/data/meshes/fish.obj, tail flicked 45 degrees: mouth (vertex 9329) and back (2932) "
+      "fixed, tail-fin tips (8815, 9563) turned about the vertical axis through the tail's waist";
+  return s;
+}
+
+// The median of the times of `frame` (ms): one untimed warm-up call, then at least 3 calls and at least
+// `min_time` seconds.
+double ms_per_frame(const std::function<void()>& frame, double min_time) {
+  using Clock = std::chrono::steady_clock;
+  frame();
+  std::vector<double> ms;
+  double total = 0;
+  while (ms.size() < 3 || total < min_time) {
+    const auto t0 = Clock::now();
+    frame();
+    const double s = std::chrono::duration<double>(Clock::now() - t0).count();
+    ms.push_back(1e3 * s);
+    total += s;
+  }
+  return mlsdeform::testing::quantile(ms, 0.5);
+}
+
+// Every handle vertex must end at its target (MLS interpolates its handles, ARAP and CGAL hold them): a
+// row that does not is a broken run, not a quality figure.
+void check_handles(const QualityScene& s, const std::string& tool, const PointsD& x) {
+  const double size = (s.rest.colwise().maxCoeff() - s.rest.colwise().minCoeff()).norm();
+  for (std::size_t k = 0; k < s.handles.size(); ++k) {
+    const double err = (x.row(s.handles[k]) - s.targets.row(static_cast<Eigen::Index>(k))).norm();
+    // float coordinates carry ~1e-7 relative rounding; 1e-4 of the model's size is far above that and far
+    // below any deformation shown here.
+    if (!(err <= 1e-4 * size))
+      throw std::runtime_error(s.name + ", " + tool + ": handle at vertex " + std::to_string(s.handles[k]) + " ends " +
+                               std::to_string(err) + " from its target");
+  }
+}
+
+template <class T>
+std::vector<Row> mls_rows(const QualityScene& s, const Settings& set) {
+  std::vector<Row> rows;
+  const Points<T> rest = s.rest.cast<T>();
+  Handles<T> rest_handles, moved;
+  rest_handles.points = rows_of(s.rest, s.handles).cast<T>();
+  moved.points = s.targets.cast<T>();
+  mlsdeform::Options o;  // rigid, u = 2
+  o.threads = set.threads;
+  Points<T> out;
+  auto add = [&](const std::string& tool, const mlsdeform::Deformer<T>& d) {
+    Row r;
+    r.tool = tool;
+    r.ms = ms_per_frame([&] { d.deform(moved, out); }, set.min_time);
+    const PointsD x = out.template cast<double>();
+    check_handles(s, tool, x);
+    r.quality = mlsdeform::testing::shape_quality(s.rest, x, s.triangles);
+    rows.push_back(std::move(r));
+  };
+  add("MLS (rigid, u = 2)", mlsdeform::Deformer<T>(rest, rest_handles, o));
+  // The handles sit on vertices, so ARAP holds exactly those vertices, at their targets (where MLS puts them).
+  for (const int k : {1, 2, 5, 10}) {
+    o.arap_iterations = k;
+    add("MLS + " + std::to_string(k) + " ARAP", mlsdeform::Deformer<T>(rest, s.triangles, rest_handles, o));
+  }
+  return rows;
+}
+
+#ifdef MLSDEFORM_HAVE_CGAL
+std::vector<Row> cgal_rows(const QualityScene& s, const Settings& set) {
+  std::vector<Row> rows;
+  bench::CgalArap cgal(s.rest, s.triangles, s.handles);
+  if (cgal.refused_faces() > 0)
+    std::printf("(CGAL's Surface_mesh refused %lld non-manifold faces of %s)\n",
+                static_cast<long long>(cgal.refused_faces()), s.name.c_str());
+  PointsD out;
+  auto add = [&](const std::string& tool, unsigned iterations, double tolerance) {
+    Row r;
+    r.tool = tool;
+    r.ms = ms_per_frame([&] { cgal.deform(s.targets, iterations, tolerance, out); }, set.min_time);
+    check_handles(s, tool, out);
+    r.quality = mlsdeform::testing::shape_quality(s.rest, out, s.triangles);
+    rows.push_back(std::move(r));
+  };
+  // CGAL's defaults: 5 iterations, stopping early at a relative energy change below 1e-4.
+  add("CGAL ARAP, default (5 it.)", 5, 1e-4);
+  // Until the relative energy change falls below 1e-6, at most 500 iterations. CGAL tests the change only
+  // before its last iteration, so a run of all 500 stopped at the cap, not converged.
+  constexpr unsigned cap = 500;
+  const unsigned ran = cgal.iterations_run(s.targets, cap, 1e-6);
+  const std::string label = ran == 0     ? "CGAL ARAP, to 1e-6 or 500 it. (count unknown)"
+                            : ran == cap ? "CGAL ARAP, 500 it. (cap: energy change still > 1e-6)"
+                                         : "CGAL ARAP, converged to 1e-6 (" + std::to_string(ran) + " it.)";
+  add(label, cap, 1e-6);
+  return rows;
+}
+#endif
+
+void print_table(const QualityScene& s, const std::vector<Row>& rows) {
+  std::printf("\n### %s\n\n%s: %lld vertices, %lld triangles.\n\n", s.name.c_str(), s.description.c_str(),
+              static_cast<long long>(s.rest.rows()), static_cast<long long>(s.triangles.rows()));
+  std::printf("| tool | ms per frame | rigidity median / p95 | edge ratio p1 / p99 | flipped |\n");
+  std::printf("|---|---:|---:|---:|---:|\n");
+  for (const Row& r : rows) {
+    using mlsdeform::testing::quantile;
+    std::printf(r.ms < 100 ? "| %s | %.3g | %.4f / %.4f | %.3f / %.3f | %lld |\n"
+                           : "| %s | %.0f | %.4f / %.4f | %.3f / %.3f | %lld |\n",
+                r.tool.c_str(), r.ms, quantile(r.quality.rigidity, 0.5), quantile(r.quality.rigidity, 0.95),
+                quantile(r.quality.edge_ratio, 0.01), quantile(r.quality.edge_ratio, 0.99),
+                static_cast<long long>(r.quality.flipped));
+  }
+  std::fflush(stdout);
+}
+
+std::string json_row(const QualityScene& s, const Row& r) {
+  using mlsdeform::testing::quantile;
+  char buf[512];
+  std::snprintf(buf, sizeof buf,
+                "{\"scene\": \"%s\", \"tool\": \"%s\", \"ms_per_frame\": %.6g, \"rigidity_median\": %.6g, "
+                "\"rigidity_p95\": %.6g, \"edge_ratio_p1\": %.6g, \"edge_ratio_p99\": %.6g, \"flipped\": %lld, "
+                "\"triangles\": %lld}",
+                s.name.c_str(), r.tool.c_str(), r.ms, quantile(r.quality.rigidity, 0.5),
+                quantile(r.quality.rigidity, 0.95), quantile(r.quality.edge_ratio, 0.01),
+                quantile(r.quality.edge_ratio, 0.99), static_cast<long long>(r.quality.flipped),
+                static_cast<long long>(r.quality.triangles));
+  return buf;
+}
+
+int run(const Settings& set) {
+  std::printf("bench_quality: CPU %s (%s), library ISA %s, %d threads (0 = all %d cores; CGAL: 1), %s\n",
+              bench::cpu_model().c_str(), bench::cpu_isa().c_str(),
+              std::string(mlsdeform::to_string(mlsdeform::active_isa())).c_str(), set.threads,
+              bench::hardware_threads(), set.use_double ? "double" : "float");
+#ifdef MLSDEFORM_HAVE_CGAL
+  std::printf("CGAL %s: Surface_mesh_deformation, ORIGINAL_ARAP, whole mesh as region of interest\n", CGAL_VERSION_STR);
+#else
+  std::printf("CGAL not found: skipped\n");
+#endif
+  std::vector<QualityScene> scenes;
+  scenes.push_back(human_scene());
+  scenes.push_back(bar_scene());
+  if (auto fish = fish_scene())
+    scenes.push_back(std::move(*fish));
+  else
+    std::printf("fish: %s/fish.obj not found: skipped\n", mlsdeform::testing::mesh_dir().c_str());
+
+  std::vector<std::string> json;
+  for (const QualityScene& s : scenes) {
+    std::vector<Row> rows = set.use_double ? mls_rows<double>(s, set) : mls_rows<float>(s, set);
+#ifdef MLSDEFORM_HAVE_CGAL
+    for (Row& r : cgal_rows(s, set)) rows.push_back(std::move(r));
+#endif
+    print_table(s, rows);
+    for (const Row& r : rows) json.push_back(json_row(s, r));
+  }
+  if (!set.json.empty()) {
+    std::ofstream out(set.json);
+    out << "[\n";
+    for (std::size_t i = 0; i < json.size(); ++i) out << "  " << json[i] << (i + 1 < json.size() ? ",\n" : "\n");
+    out << "]\n";
+    if (!out) throw std::runtime_error("cannot write " + set.json);
+  }
+  return 0;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  Settings set;
+  for (int i = 1; i < argc; ++i) {
+    const std::string a = argv[i];
+    const bool has_value = i + 1 < argc;
+    if (a == "--threads" && has_value) {
+      set.threads = std::atoi(argv[++i]);
+    } else if (a == "--min-time" && has_value) {
+      set.min_time = std::atof(argv[++i]);
+    } else if (a == "--precision" && has_value &&
+               (std::string(argv[i + 1]) == "float" || std::string(argv[i + 1]) == "double")) {
+      set.use_double = std::string(argv[++i]) == "double";
+    } else if (a == "--json" && has_value) {
+      set.json = argv[++i];
+    } else {
+      std::fprintf(stderr, "usage: %s [--threads N] [--min-time S] [--precision float|double] [--json FILE]\n",
+                   argv[0]);
+      return 2;
+    }
+  }
+  try {
+    return run(set);
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "bench_quality: %s\n", e.what());
+    return 1;
+  }
+}

@@ -1,0 +1,38 @@
+// check_affine_rank (validation.hpp), apart from the other checks: Eigen's dynamic-size SVD is slow to compile.
+#include "validation.hpp"
+
+#include <Eigen/SVD>
+
+#include <algorithm>
+#include <stdexcept>
+#include <string>
+
+namespace mlsdeform::detail {
+
+using Vec3d = Eigen::Vector3d;
+
+template <class T>
+void check_affine_rank(const std::vector<Vec3d>& P) {
+  const std::size_t J = P.size();
+  if (J < 4)
+    throw std::invalid_argument(
+        "Deformer: the affine transform needs handles spanning 3D (at least four non-coplanar "
+        "points, segment end points included); got " +
+        std::to_string(J));
+  Vec3d mean = Vec3d::Zero();
+  for (const Vec3d& p : P) mean += p;
+  mean /= double(J);
+  Eigen::Matrix<double, Eigen::Dynamic, 3> M(static_cast<Eigen::Index>(J), 3);
+  for (std::size_t j = 0; j < J; ++j) M.row(static_cast<Eigen::Index>(j)) = (P[j] - mean).transpose();
+  const Vec3d sv = Eigen::JacobiSVD<Eigen::Matrix<double, Eigen::Dynamic, 3>>(M).singularValues();
+  const double tol = double(std::max<std::size_t>(J, 3)) * double(std::numeric_limits<T>::epsilon()) * sv[0];
+  if (!(sv[2] > tol))
+    throw std::invalid_argument("Deformer: the affine transform needs handles spanning 3D, but the handle points are " +
+                                std::string(sv[1] > tol ? "coplanar" : "collinear") + " (singular values " +
+                                num(sv[0]) + ", " + num(sv[1]) + ", " + num(sv[2]) + ")");
+}
+
+template void check_affine_rank<float>(const std::vector<Vec3d>&);
+template void check_affine_rank<double>(const std::vector<Vec3d>&);
+
+}  // namespace mlsdeform::detail

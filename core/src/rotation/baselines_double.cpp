@@ -1,0 +1,7 @@
+#include "baselines.hpp"
+
+namespace mlsdeform::detail {
+
+MLSDEFORM_BASELINES(, double)
+
+}  // namespace mlsdeform::detail
