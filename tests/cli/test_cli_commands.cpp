@@ -327,11 +327,14 @@ TEST_CASE("demo runs with no arguments and writes what it says", "[cli][commands
     CHECK(r.out.find(name) != std::string::npos);
   CHECK(r.out.find("scalar f/s") != std::string::npos);
   CHECK(r.out.find("simd f/s") != std::string::npos);
-  for (const char* file : {"human_bent.obj", "bar_twisted.ply", "cylinder_rotated.off", "bar_bent_segments.ply.gz"}) {
+  CHECK(r.out.find("human + 10 ARAP iterations") != std::string::npos);
+  for (const char* file : {"human_bent.obj", "human_bent_arap.obj", "bar_twisted.ply", "cylinder_rotated.off",
+                           "bar_bent_segments.ply.gz"}) {
     INFO(file);
     CHECK(std::filesystem::exists(dir.path() / "demo-out" / file));
   }
   CHECK(read_mesh(out + "/human_bent.obj").vertex_count() == 6890);
+  CHECK(read_mesh(out + "/human_bent_arap.obj").vertex_count() == 6890);
   CHECK(read_mesh(out + "/bar_twisted.ply").vertex_count() == 6146);
   CHECK(read_mesh(out + "/cylinder_rotated.off").vertex_count() == 1058);
 }
@@ -345,7 +348,12 @@ TEST_CASE("demo and figures draw their images (where python3-matplotlib is insta
     return;
   }
   REQUIRE(r.exit_code == 0);
-  const std::string png = cli_test::read_text(dir / "figs/fig5.png");
+  std::string png = cli_test::read_text(dir / "figs/fig5.png");
+  REQUIRE(png.size() > 8);
+  CHECK(png.substr(1, 3) == "PNG");
+  r = cli_test::run(program, {"figures", "--only", "arap", "--out-dir", dir / "figs"});
+  REQUIRE(r.exit_code == 0);
+  png = cli_test::read_text(dir / "figs/arap.png");
   REQUIRE(png.size() > 8);
   CHECK(png.substr(1, 3) == "PNG");
   r = cli_test::run(program, {"demo", "--frames", "1", "--out-dir", dir / "demo"});
@@ -356,7 +364,7 @@ TEST_CASE("demo and figures draw their images (where python3-matplotlib is insta
   }
   r = cli_test::run(program, {"figures", "--only", "2"});
   CHECK(r.exit_code == 2);
-  CHECK(r.err == "mlsdeform: error: --only: no figure '2' (choose from 1, 3, 4, 5)\n");
+  CHECK(r.err == "mlsdeform: error: --only: no figure '2' (choose from 1, 3, 4, 5, arap)\n");
 }
 
 TEST_CASE("deform: handles the library refuses end with exit 2, one line and no file", "[cli][commands][errors]") {

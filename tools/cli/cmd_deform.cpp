@@ -27,6 +27,9 @@ int deform(const DeformArgs& a) {
   const Isa isa = checked_active_isa();
   check_output_format(a.out);
   const Mesh mesh = read_mesh(a.mesh, a.max_input_bytes);
+  const bool arap = a.options.arap_iterations > 0;
+  if (arap && mesh.face_count() == 0)
+    throw InputError(a.mesh, "--arap needs a surface, and the mesh has no faces (a point cloud?)");
   const HandlesFile handles = read_handles(a.handles);
 
   const std::size_t frame_count = handles.animated() ? handles.frames.size() : 1;
@@ -40,7 +43,10 @@ int deform(const DeformArgs& a) {
   auto t0 = Clock::now();
   std::optional<Deformer<T>> deformer;
   try {
-    deformer.emplace(rest, resolved.rest, a.options);
+    if (arap)
+      deformer.emplace(rest, fan_triangles(mesh, a.mesh), resolved.rest, a.options);
+    else
+      deformer.emplace(rest, resolved.rest, a.options);
   } catch (const std::invalid_argument& e) {  // e.g. affine handles that do not span 3D
     throw InputError(a.handles, e.what());
   }
@@ -57,11 +63,13 @@ int deform(const DeformArgs& a) {
                 handles.animated() ? (", " + std::to_string(frame_count) + " frames").c_str() : "");
     char threads[32];
     std::snprintf(threads, sizeof threads, a.options.threads > 0 ? "%d threads" : "all cores", a.options.threads);
-    std::printf("deformer: %s, u = %g, %s, %s, %s backend, %s; set-up %.2f ms, %.1f MiB\n", name(a.options.transform),
+    const std::string then_arap =
+        arap ? ", then " + std::to_string(a.options.arap_iterations) + " ARAP iterations" : "";
+    std::printf("deformer: %s, u = %g, %s, %s, %s backend, %s%s; set-up %.2f ms, %.1f MiB\n", name(a.options.transform),
                 a.options.weight_exponent, std::string(to_string(a.options.method)).c_str(),
                 std::is_same_v<T, float> ? "float" : "double",
                 a.options.backend == Backend::simd ? ("simd (" + std::string(to_string(isa)) + ")").c_str() : "scalar",
-                threads, setup_ms, double(deformer->memory_bytes()) / (1 << 20));
+                threads, then_arap.c_str(), setup_ms, double(deformer->memory_bytes()) / (1 << 20));
   }
 
   Mesh result = mesh;

@@ -1,11 +1,14 @@
-// `mlsdeform figures`: the paper's Fig. 1, 3, 4 and 5 redrawn from our deformer, as PNG files (by default in
-// the source tree's docs/figures/, which README.md shows).
+// `mlsdeform figures`: the paper's Fig. 1, 3, 4 and 5 redrawn from our deformer, and MLS against MLS + ARAP
+// (arap.png), as PNG files (by default in the source tree's docs/figures/, which README.md shows).
 #include "commands.hpp"
 #include "error.hpp"
 #include "mesh.hpp"
 #include "render.hpp"
 #include "scenes.hpp"
 
+#include <mlsdeform/arap.hpp>
+
+#include <algorithm>
 #include <chrono>
 #include <cstdio>
 #include <filesystem>
@@ -147,19 +150,63 @@ Figure figure_5() {
   return fig;
 }
 
+// Not in the paper: MLS alone and MLS followed by surface-ARAP iterations (Sorkine & Alexa 2007,
+// Options::arap_iterations) on one handle set. The panel titles give each result's ARAP energy E, which the
+// iterations lower.
+Figure figure_arap(const Mesh& human) {
+  Figure fig;
+  fig.title = "MLS, then surface-ARAP iterations (Sorkine & Alexa 2007)";
+  fig.caption =
+      "data/human_man.obj, 8 point handles (red: their targets): navel, toes and heels fixed, the head and the hands "
+      "moved; rigid, u = 2. E: the ARAP energy over the one-rings (clamped cotangent weights, the rest pose as "
+      "reference).";
+  fig.cols = 3;
+  fig.panel_width = 3.4;
+  fig.panel_height = 4.0;
+  Scene s = human_arap_scene(human);
+  const Points<double> rest = to_points(s.mesh);
+  std::vector<Eigen::Index> pinned;
+  for (Eigen::Index k = 0; k < s.rest.point_count(); ++k) {
+    Eigen::Index nearest = 0;
+    (rest.rowwise() - s.rest.points.row(k)).rowwise().squaredNorm().minCoeff(&nearest);
+    pinned.push_back(nearest);
+  }
+  const ArapRefiner<double> energy(rest, fan_triangles(s.mesh, s.name), pinned);
+  for (const int iterations : {0, 2, 10}) {
+    s.options.arap_iterations = iterations;
+    const Points<double> x = run_scene<double>(s, Backend::simd).result;
+    char title[96];
+    if (iterations == 0)
+      std::snprintf(title, sizeof title, "MLS, E = %.4f", energy.energy(x));
+    else
+      std::snprintf(title, sizeof title, "MLS + %d ARAP, E = %.4f", iterations, energy.energy(x));
+    Panel p;
+    p.title = title;
+    p.meshes.push_back({with_vertices(s.mesh, x)});
+    add_handles(p, s.frames.back(), true);
+    p.elev = 8;
+    p.azim = -30;
+    fig.panels.push_back(p);
+  }
+  return fig;
+}
+
 }  // namespace
 
 int run_figures(const FiguresArgs& a) {
-  std::set<int> wanted;
+  // Figure names for --only, and each one's file: the paper's figures by number, then ours.
+  const std::vector<std::pair<std::string, std::string>> known = {
+      {"1", "fig1.png"}, {"3", "fig3.png"}, {"4", "fig4.png"}, {"5", "fig5.png"}, {"arap", "arap.png"}};
+  std::set<std::string> wanted;
   if (a.only.empty()) {
-    wanted = {1, 3, 4, 5};
+    for (const auto& [name, file] : known) wanted.insert(name);
   } else {
     std::stringstream ss(a.only);
     std::string item;
     while (std::getline(ss, item, ',')) {
-      if (item != "1" && item != "3" && item != "4" && item != "5")
-        throw InputError("--only", "no figure '" + item + "' (choose from 1, 3, 4, 5)");
-      wanted.insert(std::stoi(item));
+      if (std::none_of(known.begin(), known.end(), [&](const auto& k) { return k.first == item; }))
+        throw InputError("--only", "no figure '" + item + "' (choose from 1, 3, 4, 5, arap)");
+      wanted.insert(item);
     }
   }
   std::string why;
@@ -169,20 +216,23 @@ int run_figures(const FiguresArgs& a) {
   fs::create_directories(out_dir, ec);
   if (ec || !fs::is_directory(out_dir)) throw InputError(out_dir, "cannot create the output folder: " + ec.message());
 
-  for (int f : wanted) {
+  for (const auto& [f, file] : known) {
+    if (!wanted.count(f)) continue;
     const auto t0 = std::chrono::steady_clock::now();
+    const auto human = [&] { return read_mesh((fs::path(data_dir(a.data_dir)) / "human_man.obj").string()); };
     Figure fig;
-    if (f == 1) {
-      const fs::path human = fs::path(data_dir(a.data_dir)) / "human_man.obj";
-      fig = figure_1(read_mesh(human.string()));
-    } else if (f == 3) {
+    if (f == "1") {
+      fig = figure_1(human());
+    } else if (f == "3") {
       fig = figure_3();
-    } else if (f == 4) {
+    } else if (f == "4") {
       fig = figure_4();
-    } else {
+    } else if (f == "5") {
       fig = figure_5();
+    } else {
+      fig = figure_arap(human());
     }
-    const std::string png = (fs::path(out_dir) / ("fig" + std::to_string(f) + ".png")).string();
+    const std::string png = (fs::path(out_dir) / file).string();
     render(fig, png, a.keep_spec);
     std::printf("%s (%.1f s)\n", png.c_str(),
                 std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());

@@ -10,6 +10,8 @@
 
 #include <CLI/CLI.hpp>
 
+#include <algorithm>
+#include <charconv>
 #include <cmath>
 #include <cstdio>
 #include <utility>
@@ -38,6 +40,18 @@ const CLI::Validator exponent_check(
       return "the weight exponent u must be a number >= 1, got '" + s + "'";
     },
     "U >= 1");
+
+// A whole decimal count >= 0 that fits in an int: "2", not "2.5", "-1", "+2" or "0x10" (CLI11's own int
+// conversion reads "0x10" as 16 and "010" as 8).
+const CLI::Validator iterations_check(
+    [](std::string& s) -> std::string {
+      int n = 0;
+      const auto [end, ec] = std::from_chars(s.data(), s.data() + s.size(), n);
+      const bool digits = !s.empty() && std::all_of(s.begin(), s.end(), [](char c) { return c >= '0' && c <= '9'; });
+      if (digits && ec == std::errc() && end == s.data() + s.size()) return {};
+      return "the ARAP iteration count must be a whole number >= 0, got '" + s + "'";
+    },
+    "N >= 0");
 
 // An option taking one of a few names ("rigid", "similarity", ...) into an enum. (Strings and IsMember rather
 // than CLI11's enum transformer: its --help shows the enums' numbers.)
@@ -107,6 +121,7 @@ int run(int argc, char** argv) {
       "Examples:\n"
       "  mlsdeform demo                                   deform the bundled meshes, print frame rates\n"
       "  mlsdeform deform -m in.obj -H handles.json -o out.ply\n"
+      "  mlsdeform deform -m in.obj -H handles.json -o out.ply --arap 10   MLS, then 10 ARAP iterations\n"
       "  mlsdeform figures                                redraw the paper's figures in docs/figures/\n"
       "Run 'mlsdeform SUBCOMMAND --help' for a subcommand's options. Exit status: 0 done, 2 bad input or usage,\n"
       "1 internal error, 128 + N interrupted by signal N (the outputs of the run removed).");
@@ -124,6 +139,12 @@ int run(int argc, char** argv) {
                        "; with frames, one file per frame: OUT_0000.EXT, OUT_0001.EXT, ...")
       ->required();
   add_common_deformer_options(deform, d.options, d.precision);
+  deform
+      ->add_option("--arap", d.options.arap_iterations,
+                   "surface-ARAP iterations after MLS (Sorkine & Alexa 2007) on the mesh's faces, polygons fanned "
+                   "into triangles; handle vertices stay where MLS puts them. 0: MLS alone (the paper)")
+      ->check(iterations_check)
+      ->default_str("0");
   deform
       ->add_option_function<std::size_t>(
           "--max-input-mib", [&d](std::size_t mib) { d.max_input_bytes = mib << 20; },
@@ -162,9 +183,11 @@ int run(int argc, char** argv) {
 
   FiguresArgs fig_args;
   auto* figures =
-      app.add_subcommand("figures", "Redraw the paper's Fig. 1, 3, 4 and 5 as PNG images (with python3-matplotlib).");
+      app.add_subcommand("figures",
+                         "Redraw the paper's Fig. 1, 3, 4 and 5, and MLS against MLS + ARAP (arap.png), as PNG images "
+                         "(with python3-matplotlib).");
   figures->add_option("--out-dir,-o", fig_args.out_dir, "folder for the images")->default_str(default_figures_dir());
-  figures->add_option("--only", fig_args.only, "comma-separated figure numbers, e.g. 1,5 (default: all)");
+  figures->add_option("--only", fig_args.only, "comma-separated figures: 1, 3, 4, 5, arap (default: all)");
   figures->add_option("--data-dir", fig_args.data_dir,
                       "folder with the bundled meshes (default: the source tree's data/)");
   figures->add_flag("--keep-spec", fig_args.keep_spec, "also keep each figure's JSON description next to its PNG");

@@ -3,6 +3,7 @@
 
 #include "file_io.hpp"
 
+#include <mlsdeform/arap.hpp>
 #include <mlsdeform/types.hpp>
 
 #include <cstdint>
@@ -33,6 +34,9 @@ PointsRowMajor<float> vertex_normals(const Mesh& mesh);
 
 /// Triangles of a fan triangulation of each polygon (for renderers), as vertex index triples.
 std::vector<std::uint32_t> triangulate(const Mesh& mesh);
+/// The same fans as the library's Triangles (m x 3, int), for the surface-ARAP refinement. Throws InputError
+/// naming `path` if a vertex index does not fit in an int (more than 2^31 - 1 vertices).
+Triangles fan_triangles(const Mesh& mesh, const std::string& path);
 
 /// Formats by file name: .obj, .off, .ply (ASCII, binary little- or big-endian), each optionally
 /// gzip-compressed (.gz). Read by the strict parsers of mesh_read.cpp and written here, with numbers as the

@@ -11,6 +11,7 @@
 #include <charconv>
 #include <cmath>
 #include <cstring>
+#include <limits>
 
 namespace mlsdeform::cli {
 namespace {
@@ -205,6 +206,16 @@ std::vector<std::uint32_t> triangulate(const Mesh& mesh) {
     for (auto c = mesh.face_start[f] + 1; c + 1 < mesh.face_start[f + 1]; ++c)
       t.insert(t.end(), {mesh.face_indices[mesh.face_start[f]], mesh.face_indices[c], mesh.face_indices[c + 1]});
   return t;
+}
+
+Triangles fan_triangles(const Mesh& mesh, const std::string& path) {
+  if (mesh.vertex_count() > std::numeric_limits<int>::max())
+    throw InputError(path, "too many vertices for --arap (" + std::to_string(mesh.vertex_count()) +
+                               "; its triangles index vertices by int)");
+  const std::vector<std::uint32_t> t = triangulate(mesh);
+  Triangles tris(Eigen::Index(t.size() / 3), 3);
+  for (std::size_t i = 0; i < t.size(); ++i) tris(Eigen::Index(i / 3), Eigen::Index(i % 3)) = int(t[i]);
+  return tris;
 }
 
 std::string writable_formats() {

@@ -179,6 +179,37 @@ Scene human_bend_scene(const Mesh& human, int frames, double degrees, Transform 
   return s;
 }
 
+Scene human_arap_scene(const Mesh& human) {
+  struct Pin {
+    Eigen::Index vertex;
+    Eigen::Vector3d target;
+  };
+  // The first five stay at their rest positions (these are those positions); the last three move.
+  const Pin pins[] = {{1337, {0.007005, 1.053843, 0.171833}},
+                      {3215, {0.078112, 0.019384, 0.180523}},
+                      {3386, {0.095968, 0.039844, -0.085711}},
+                      {6618, {-0.086231, 0.01583, 0.179475}},
+                      {6786, {-0.098815, 0.041748, -0.090276}},
+                      {411, {0.00213, 1.38829, 0.68933}},
+                      {5906, {-0.3, 0.55, 0.45}},
+                      {2445, {0.3, 0.55, 0.45}}};
+  Scene s;
+  s.name = "human_arap";
+  s.mesh = human;
+  const Points<double> v = to_points(human);
+  std::vector<Eigen::Index> at;
+  Points<double> q(Eigen::Index(std::size(pins)), 3);
+  for (const Pin& p : pins) {
+    if (p.vertex >= v.rows()) throw std::invalid_argument("human_arap_scene: not the bundled human (too few vertices)");
+    q.row(Eigen::Index(at.size())) = p.target.transpose();
+    at.push_back(p.vertex);
+  }
+  s.rest = points_only(rows_of(v, at));
+  s.frames.push_back(points_only(q));
+  s.description = "human (data/human_man.obj) bent forward by 8 point handles (data/human_bend.json's last frame)";
+  return s;
+}
+
 Scene bar_twist_scene(int steps, double degrees) {
   Scene s;
   s.name = "bar_twist";
@@ -368,7 +399,9 @@ SceneRun run_scene(const Scene& scene, Backend backend, int threads) {
 
   Points<T> previous = to_points(scene.mesh).cast<T>(), out(previous.rows(), 3);
   auto t0 = Clock::now();
-  Deformer<T> deformer(previous, cast<T>(scene.rest), options);
+  Deformer<T> deformer = options.arap_iterations > 0 ? Deformer<T>(previous, fan_triangles(scene.mesh, scene.name),
+                                                                   cast<T>(scene.rest), options)
+                                                     : Deformer<T>(previous, cast<T>(scene.rest), options);
   run.setup_seconds = seconds_since(t0);
   // One untimed frame first: the first call pays for page faults on `out` and for starting TBB's workers.
   if (!frames.empty()) deformer.deform(frames[0], out);

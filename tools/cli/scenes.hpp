@@ -35,6 +35,10 @@ struct Scene {
 /// forward about the waist by up to `degrees` and the hands brought down to the knees over `frames` frames, the
 /// paper's "bend at the waist" (Sec. 7).
 Scene human_bend_scene(const Mesh& human, int frames, double degrees = 60, Transform transform = Transform::rigid);
+/// The ARAP figure on the bundled human: 8 point handles at vertices (data/human_bend.json's last frame, its
+/// left-foot segment as two points): navel, toes and heels fixed, the head moved forward and down, the hands
+/// brought from the T pose down in front of the knees. One frame; set `options.arap_iterations` for MLS + ARAP.
+Scene human_arap_scene(const Mesh& human);
 /// Fig. 3: Table 2's bar (6146 vertices, 256 handles: the two outer rings at each end), its top end twisted
 /// about the bar's axis by `steps` successive torsions of `degrees / steps` each.
 Scene bar_twist_scene(int steps, double degrees = 180);
@@ -57,7 +61,8 @@ struct SceneRun {
   double frames_per_second() const;
 };
 
-/// Runs every frame of `scene` with precision T and the given backend and thread count (0: all cores).
+/// Runs every frame of `scene` with precision T and the given backend and thread count (0: all cores). With
+/// `scene.options.arap_iterations` > 0 the deformer gets the mesh's faces (fanned into triangles).
 template <class T>
 SceneRun run_scene(const Scene& scene, Backend backend, int threads = 0);
 

@@ -1,0 +1,135 @@
+// End-to-end tests of `mlsdeform deform --arap N`: surface-ARAP iterations after MLS on the mesh's faces.
+// What the program promises: the option changes the result, handle vertices stay on their targets, the
+// faces written are the input's (the triangulation is internal), a mesh without faces is refused (exit code
+// 2, one line naming the file, nothing written), and N must be a whole number >= 0.
+#include "cli_test_util.hpp"
+
+#include "mesh.hpp"
+#include "scenes.hpp"
+
+#include <catch2/catch.hpp>
+
+#include <cmath>
+
+using namespace mlsdeform;
+using namespace mlsdeform::cli;
+using cli_test::ScratchDir;
+using cli_test::write_text;
+
+namespace {
+
+const std::string program = MLSDEFORM_CLI;
+
+// A 0.5 x 3 x 0.5 bar of quads (2 x 12 x 2 cells, 106 vertices), its four bottom corners fixed and its four
+// top corners moved sideways and down: a bend that MLS leaves smooth and ARAP changes.
+struct BarCase {
+  ScratchDir dir;
+  std::string mesh = dir / "bar.obj", handles = dir / "bend.json";
+  std::vector<Eigen::Index> fixed, moved;
+  Eigen::RowVector3f offset{1.0f, -0.5f, 0.0f};
+  std::string points;  // the handles file's "points" array
+  BarCase() {
+    const Mesh bar = make_bar(2, 12, 2, 0.5, 3.0);
+    write_mesh(bar, mesh);
+    for (Eigen::Index i = 0; i < bar.vertex_count(); ++i) {
+      const auto p = bar.vertices.row(i);
+      if (std::abs(p(0)) != 0.25f || std::abs(p(2)) != 0.25f) continue;  // corners only
+      if (p(1) == 0.0f) fixed.push_back(i);
+      if (p(1) == 3.0f) moved.push_back(i);
+    }
+    points = "[";
+    for (auto i : fixed) points += R"({"vertex": )" + std::to_string(i) + "}, ";
+    for (std::size_t k = 0; k < moved.size(); ++k)
+      points += R"({"vertex": )" + std::to_string(moved[k]) + R"(, "offset": [1, -0.5, 0]})" +
+                (k + 1 < moved.size() ? ", " : "]");
+    write_text(handles, R"({"points": )" + points + "}");
+  }
+  cli_test::Result deform(const std::string& out, const std::vector<std::string>& extra) const {
+    std::vector<std::string> args{"deform", "-m", mesh, "-H", handles, "-o", out, "-q"};
+    args.insert(args.end(), extra.begin(), extra.end());
+    return cli_test::run(program, args);
+  }
+};
+
+}  // namespace
+
+TEST_CASE("deform --arap: changes the result, keeps handles on their targets and the faces as read", "[cli][arap]") {
+  BarCase c;
+  REQUIRE(c.fixed.size() == 4);
+  REQUIRE(c.moved.size() == 4);
+  const Mesh rest = read_mesh(c.mesh);
+  for (const char* precision : {"float", "double"}) {
+    INFO(precision);
+    const std::string mls = c.dir / (std::string("mls_") + precision + ".ply"),
+                      arap = c.dir / (std::string("arap_") + precision + ".ply");
+    auto r = c.deform(mls, {"--arap", "0", "--precision", precision});
+    INFO(r.err);
+    REQUIRE(r.exit_code == 0);
+    r = c.deform(arap, {"--arap", "2", "--precision", precision});
+    INFO(r.err);
+    REQUIRE(r.exit_code == 0);
+    CHECK(r.out.empty());  // -q
+    const Mesh a = read_mesh(mls), b = read_mesh(arap);
+    REQUIRE(b.vertex_count() == rest.vertex_count());
+    CHECK(b.face_start == rest.face_start);  // quads stay quads: the fans are only the refiner's
+    CHECK(b.face_indices == rest.face_indices);
+    // The bend moves the top by about 1.1; two iterations move the bar's middle by a visible fraction of that.
+    CHECK((a.vertices - b.vertices).rowwise().norm().maxCoeff() > 1e-2f);
+    // Each handle sits on a vertex, which the refiner holds at MLS's result there: the target. The written
+    // coordinates are floats, and the targets are O(1): a few float eps.
+    for (auto i : c.fixed) CHECK((b.vertices.row(i) - rest.vertices.row(i)).norm() < 1e-5f);
+    for (auto i : c.moved) CHECK((b.vertices.row(i) - rest.vertices.row(i) - c.offset).norm() < 1e-5f);
+  }
+  // An animation runs the iterations on every frame.
+  write_text(c.dir / "anim.json", R"({"points": )" + c.points + R"(, "frames": [{}, {}]})");
+  const auto r = cli_test::run(
+      program, {"deform", "-m", c.mesh, "-H", c.dir / "anim.json", "-o", c.dir / "anim.obj", "--arap", "3"});
+  INFO(r.out << r.err);
+  REQUIRE(r.exit_code == 0);
+  CHECK(r.out.find("then 3 ARAP iterations") != std::string::npos);
+  CHECK(read_mesh(c.dir / "anim_0001.obj").vertex_count() == rest.vertex_count());
+}
+
+TEST_CASE("deform --arap: a mesh without faces is refused, with --arap 0 it is deformed", "[cli][arap][errors]") {
+  ScratchDir dir;
+  const std::string handles = dir / "h.json", out = dir / "out.ply";
+  write_text(handles, R"({"points": [{"vertex": 0}, {"vertex": 1}, {"vertex": 2, "offset": [0, 0, 0.5]}]})");
+  const std::string points = "0 0 0\n1 0 0\n1 1 0\n0 1 0\n";
+  // Vertices only; OBJ points and lines, which the reader drops; a PLY point cloud.
+  write_text(dir / "cloud.obj", "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\n");
+  write_text(dir / "lines.obj", "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\np 1 2\nl 1 2 3 4\n");
+  write_text(dir / "cloud.ply",
+             "ply\nformat ascii 1.0\nelement vertex 4\nproperty float x\nproperty float y\nproperty float z\n"
+             "end_header\n" +
+                 points);
+  write_text(dir / "cloud.off", "OFF\n4 0 0\n" + points);
+  for (const char* name : {"cloud.obj", "lines.obj", "cloud.ply", "cloud.off"}) {
+    const std::string mesh = dir / name;
+    auto r = cli_test::run(program, {"deform", "-m", mesh, "-H", handles, "-o", out, "--arap", "2"});
+    INFO(name << ": " << r.err);
+    CHECK(r.exit_code == 2);
+    CHECK(r.err ==
+          "mlsdeform: error: " + mesh + ": --arap needs a surface, and the mesh has no faces (a point cloud?)\n");
+    CHECK(!std::filesystem::exists(out));
+    r = cli_test::run(program, {"deform", "-m", mesh, "-H", handles, "-o", out, "--arap", "0", "-q", "--force"});
+    CHECK(r.exit_code == 0);
+    CHECK(std::filesystem::exists(out));
+    std::filesystem::remove(out);
+  }
+}
+
+TEST_CASE("deform --arap: the count must be a whole number >= 0", "[cli][arap][errors]") {
+  BarCase c;
+  const std::string out = c.dir / "out.obj";
+  for (const char* n : {"-1", "1.5", "2.0", "two", "", "+2", "0x10", "1e1", "99999999999"}) {
+    const auto r = c.deform(out, {"--arap", n});
+    INFO("--arap '" << n << "': " << r.err);
+    CHECK(r.exit_code == 2);
+    CHECK(r.err.rfind("mlsdeform: error: ", 0) == 0);
+    CHECK(r.err.find("--arap") != std::string::npos);
+    CHECK(cli_test::line_count(r.err) == 1);
+    CHECK(!std::filesystem::exists(out));
+  }
+  const auto r = cli_test::run(program, {"deform", "--help"});
+  CHECK(r.out.find("--arap") != std::string::npos);
+}
