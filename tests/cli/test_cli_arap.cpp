@@ -133,3 +133,29 @@ TEST_CASE("deform --arap: the count must be a whole number >= 0", "[cli][arap][e
   const auto r = cli_test::run(program, {"deform", "--help"});
   CHECK(r.out.find("--arap") != std::string::npos);
 }
+
+TEST_CASE("deform --centroids rbf: the RBF centroids change the result, handles stay on their targets", "[cli][rbf]") {
+  BarCase c;
+  const Mesh rest = read_mesh(c.mesh);
+  // One top corner moved, the other seven held: not an affine move of the handles (for one, the MLS and
+  // RBF centroids would agree: both reproduce affine maps).
+  std::string points = "[";
+  for (auto i : c.fixed) points += R"({"vertex": )" + std::to_string(i) + "}, ";
+  for (std::size_t k = 0; k < c.moved.size(); ++k)
+    points += R"({"vertex": )" + std::to_string(c.moved[k]) + (k == 0 ? R"(, "offset": [1, -0.5, 0]})" : "}") +
+              (k + 1 < c.moved.size() ? ", " : "]");
+  write_text(c.handles, R"({"points": )" + points + "}");
+  auto r = c.deform(c.dir / "mls.ply", {"--centroids", "mls"});
+  INFO(r.err);
+  REQUIRE(r.exit_code == 0);
+  r = c.deform(c.dir / "rbf.ply", {"--centroids", "rbf"});
+  INFO(r.err);
+  REQUIRE(r.exit_code == 0);
+  const Mesh a = read_mesh(c.dir / "mls.ply"), b = read_mesh(c.dir / "rbf.ply");
+  CHECK((a.vertices - b.vertices).rowwise().norm().maxCoeff() > 1e-3f);
+  // Vertices on handles take their targets exactly in float; written as floats.
+  for (auto i : c.fixed) CHECK(b.vertices.row(i) == rest.vertices.row(i));
+  r = c.deform(c.dir / "bad.ply", {"--centroids", "spline"});
+  CHECK(r.exit_code == 2);
+  CHECK(r.err.find("--centroids") != std::string::npos);
+}

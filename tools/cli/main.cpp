@@ -105,6 +105,9 @@ void add_common_deformer_options(CLI::App* c, Options& o, Precision& precision) 
       c, "--segment-weight", o.segment_weight,
       {{"constant", SegmentWeight::paper_constant}, {"exact", SegmentWeight::exact_integral}},
       "segment handles: constant d^-u along a segment (the paper's Sec. 6.2) or the exact integral");
+  add_choice<Centroids>(c, "--centroids", o.centroids, {{"mls", Centroids::mls}, {"rbf", Centroids::rbf}},
+                        "q*: the weighted centroid of the targets (mls, eq. 2) or the RBF interpolant of the handles "
+                        "at p* (rbf, the paper's Sec. 7-8; precomputed weights only)");
 }
 
 int run(int argc, char** argv) {
