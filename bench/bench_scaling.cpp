@@ -7,6 +7,9 @@
 //                                          remeshed by O. Stein, 3 Loop subdivisions; public domain)
 //   scaling/handles/<storage>/k:<k>        time per frame vs handle count, k = 1 .. 1024, 10^4 vertices
 //   scaling/threads/<storage>/n:<n>/threads:<t>  1 and all threads, 10 handles
+//   scaling/centroids/<mls|rbf>/n:<n>      Centroids::mls against Centroids::rbf (the paper's Sec. 7-8),
+//                                          precomputed, 10 handles, all cores; rbf checked against
+//                                          rbf_centroid_reference (tests/support/mls_reference.hpp)
 // Counters: ms_per_frame, fps, memory_bytes (Deformer::memory_bytes(), the precomputation's footprint),
 // ns_per_vertex_handle. Each benchmark first checks 2,000 evenly spread vertices (all when fewer) of one
 // frame against the reference in double (tests/support/mls_reference.hpp).
@@ -30,7 +33,7 @@ constexpr Eigen::Index kCheckedRows = 2000;
 struct Prepared {
   bench::Scene scene;
   std::vector<Eigen::Index> rows;
-  bench::SampledReference ref;
+  bench::SampledReference ref, rbf_ref;
 };
 
 /// Scenes by key, built on first use and kept (the largest holds 10^6 vertices: 24 MB in double).
@@ -45,6 +48,10 @@ const Prepared& prepared(const std::string& key, Eigen::Index n, Eigen::Index k)
     slot->scene = testing::twisted_mesh_scene(key, std::move(v), k, 11 + static_cast<std::uint64_t>(k));
     slot->rows = bench::check_rows(slot->scene.vertices.rows(), kCheckedRows);
     slot->ref = bench::scene_reference<T>(slot->scene, slot->rows);
+    slot->rbf_ref =
+        testing::rbf_centroid_reference(slot->ref, slot->scene.vertices.cast<T>().template cast<double>(),
+                                        slot->scene.rest.points.cast<T>().template cast<double>(),
+                                        slot->scene.moved.points.cast<T>().template cast<double>(), slot->rows);
   }
   return *slot;
 }
@@ -52,20 +59,21 @@ const Prepared& prepared(const std::string& key, Eigen::Index n, Eigen::Index k)
 const char* storage_name(WeightStorage s) { return s == WeightStorage::precomputed ? "precomputed" : "on_the_fly"; }
 
 void bm(benchmark::State& state, const std::string& key, Eigen::Index n, Eigen::Index k, WeightStorage storage,
-        int threads) {
+        int threads, mlsdeform::Centroids centroids) {
   const Prepared& p = prepared(key, n, k);
-  bench::run_deformer<T>(state, p.scene, p.ref, p.rows,
-                         bench::deformer_options(mlsdeform::Backend::simd, threads, storage));
+  mlsdeform::Options o = bench::deformer_options(mlsdeform::Backend::simd, threads, storage);
+  o.centroids = centroids;
+  bench::run_deformer<T>(state, p.scene, centroids == mlsdeform::Centroids::rbf ? p.rbf_ref : p.ref, p.rows, o);
   const double pairs = static_cast<double>(p.scene.vertices.rows()) * static_cast<double>(k);
   state.counters["ns_per_vertex_handle"] = bench::ns_per(pairs);
   state.counters["requested_precomputed"] = storage == WeightStorage::precomputed ? 1 : 0;
 }
 
 void add(const std::string& name, const std::string& key, Eigen::Index n, Eigen::Index k, WeightStorage storage,
-         int threads) {
+         int threads, mlsdeform::Centroids centroids = mlsdeform::Centroids::mls) {
   // One thread: the thread's CPU time (robust to other processes on a shared machine); more: wall-clock.
   auto* b = benchmark::RegisterBenchmark(name.c_str(), [=](benchmark::State& s) {
-              bm(s, key, n, k, storage, threads);
+              bm(s, key, n, k, storage, threads, centroids);
             })->Unit(benchmark::kMillisecond);
   if (threads != 1) b->UseRealTime();
 }
@@ -88,6 +96,10 @@ int main(int argc, char** argv) {
         add("scaling/threads/" + s + "/n:" + std::to_string(n) + "/threads:" + std::to_string(t),
             "box" + std::to_string(n), n, 10, st, t);
   }
+  for (Eigen::Index n : {Eigen::Index(10000), Eigen::Index(100000), Eigen::Index(1000000)})
+    for (auto [c, cn] : {std::pair{mlsdeform::Centroids::mls, "mls"}, std::pair{mlsdeform::Centroids::rbf, "rbf"}})
+      add(std::string("scaling/centroids/") + cn + "/n:" + std::to_string(n), "box" + std::to_string(n), n, 10,
+          WeightStorage::precomputed, 0, c);
   bench::add_context(std::string(mlsdeform::to_string(mlsdeform::active_isa())) + " (Deformer, Backend::simd; float)",
                      "all (" + std::to_string(all) + ") unless the name ends threads:N");
   return bench::run_benchmarks(argc, argv);

@@ -4,6 +4,7 @@
 #include "scenes.hpp"  // scene_size
 
 #include <Eigen/Eigenvalues>
+#include <Eigen/LU>
 #include <Eigen/SVD>
 
 #include <algorithm>
@@ -263,12 +264,54 @@ SampledReference sampled_reference(const Points<double>& vertices, const Points<
   return r;
 }
 
+SampledReference rbf_centroid_reference(const SampledReference& mls, const Points<double>& vertices,
+                                        const Points<double>& p, const Points<double>& q,
+                                        const std::vector<Eigen::Index>& rows) {
+  SampledReference r = mls;
+  const Eigen::Index J = p.rows(), size = J + 4;
+  const Vec3d mean = p.colwise().mean().transpose();
+  Eigen::MatrixXd M = Eigen::MatrixXd::Zero(size, size);
+  for (Eigen::Index i = 0; i < J; ++i) {
+    for (Eigen::Index j = 0; j < J; ++j) M(i, j) = std::pow((p.row(i) - p.row(j)).norm(), 3);
+    M(i, J) = M(J, i) = 1;
+    for (int c = 0; c < 3; ++c) M(i, J + 1 + c) = M(J + 1 + c, i) = p(i, c) - mean[c];
+  }
+  const Eigen::FullPivLU<Eigen::MatrixXd> lu(M);
+  const auto sv = Eigen::JacobiSVD<Eigen::MatrixXd>(M).singularValues();
+  const double kappa = sv(0) / sv(size - 1), Q = q.cwiseAbs().maxCoeff();
+  r.rbf_unit.assign(rows.size(), 0);
+  r.rbf_abs.assign(rows.size(), 0);
+  for (std::size_t s = 0; s < rows.size(); ++s) {
+    if (mls.kappa[s] == 0) continue;  // on a handle: the target, as with MLS
+    const Vec3d v = vertices.row(rows[s]).transpose();
+    Vec3d ps = Vec3d::Zero(), qs = Vec3d::Zero();
+    double W = 0;
+    for (Eigen::Index j = 0; j < J; ++j) {
+      const double w = 1 / (p.row(j).transpose() - v).squaredNorm();
+      ps += w * p.row(j).transpose(), qs += w * q.row(j).transpose(), W += w;
+    }
+    ps /= W, qs /= W;
+    Eigen::VectorXd rhs(size);
+    for (Eigen::Index j = 0; j < J; ++j) rhs(j) = std::pow((ps - p.row(j).transpose()).norm(), 3);
+    rhs(J) = 1;
+    rhs.tail(3) = ps - mean;
+    const Eigen::VectorXd beta = lu.solve(rhs);
+    const Vec3d g = q.transpose() * beta.head(J);
+    r.out.row(static_cast<Eigen::Index>(s)) += (g - qs).transpose();
+    const double B = beta.head(J).cwiseAbs().sum();
+    r.rbf_unit[s] = double(J + 2) * B * Q;
+    r.rbf_abs[s] = double(J + 4) * std::numeric_limits<double>::epsilon() * kappa * B * Q;
+  }
+  return r;
+}
+
 double deform_tolerance(const SampledReference& r, std::size_t s, double eps) {
   constexpr double c = 32;
+  const double rbf = r.rbf_unit.empty() ? 0.0 : eps * r.rbf_unit[s] + r.rbf_abs[s];
   if (r.kappa[s] == 0) return c * eps * r.diameter;  // on a handle
   if (!std::isfinite(r.kappa[s]) || !std::isfinite(r.sum_scale[s])) return std::numeric_limits<double>::infinity();
   const double turn = (c + static_cast<double>(r.handles)) * eps * r.sum_scale[s] * (2 + std::sqrt(3.0) * r.kappa[s]);
-  return c * eps * r.diameter + std::min(turn, 2.0) * r.arm[s];
+  return c * eps * r.diameter + std::min(turn, 2.0) * r.arm[s] + rbf;
 }
 
 std::vector<Eigen::Index> check_rows(Eigen::Index n, Eigen::Index max_rows) {

@@ -93,10 +93,24 @@ struct SampledReference {
   std::vector<double> arm;        ///< |v - p*|
   double diameter = 0;            ///< of the rest vertices' bounding box
   Eigen::Index handles = 0;
+  /// Centroids::rbf (rbf_centroid_reference): per sample, the RBF centroid's own error bound relative to
+  /// eps(T) (times eps(T)) and in absolute terms (eps(double) kappa(M) part); empty for MLS centroids.
+  std::vector<double> rbf_unit, rbf_abs;
 };
 
 SampledReference sampled_reference(const Points<double>& vertices, const Points<double>& p, const Points<double>& q,
                                    const std::vector<Eigen::Index>& rows, double u = 2.0);
+
+/// The same reference with Centroids::rbf: v' = g(p*) + R vhat (R, vhat as with MLS centroids), g the
+/// triharmonic RBF interpolant of the handles (r^3 plus a linear polynomial, the library's choice), solved
+/// here directly in double with a full-pivoting LU, independently of core/src/deformer/rbf_centroids.cpp.
+/// The library forms q* = sum_j beta_j q_j from weights beta(p*) computed in double ((J + 4) eps(double)
+/// kappa(M) relative) and rounded to T, then summed in T ((J + 2) roundings): its q* is within
+/// eps(T) (J + 2) B Q + (J + 4) eps(double) kappa(M) B Q of g(p*), B = sum_j |beta_j|, Q = max |q_j|; that is
+/// added to the tolerance (rbf_unit, rbf_abs). Point handles spanning 3D, u = 2.
+SampledReference rbf_centroid_reference(const SampledReference& mls, const Points<double>& vertices,
+                                        const Points<double>& p, const Points<double>& q,
+                                        const std::vector<Eigen::Index>& rows);
 
 /// How far a float or double deformation may be from the reference at sample s (see above).
 double deform_tolerance(const SampledReference& r, std::size_t s, double eps);
