@@ -146,7 +146,7 @@ class PyDeformer {
              const std::string& transform, double exponent, const std::string& method,
              const std::string& segment_weight, int threads, const std::string& weight_storage,
              const std::string& backend, std::size_t budget_bytes, const py::object& dtype, const py::object& faces,
-             int arap_iterations) {
+             int arap_iterations, const std::string& centroids) {
     Options o;
     o.transform = parse_transform(transform);
     o.weight_exponent = exponent;
@@ -162,6 +162,7 @@ class PyDeformer {
     o.backend = parse_enum<Backend>(backend, "backend", {{"simd", Backend::simd}, {"scalar", Backend::scalar}});
     o.precompute_budget_bytes = budget_bytes;
     o.arap_iterations = arap_iterations;
+    o.centroids = parse_enum<Centroids>(centroids, "centroids", {{"mls", Centroids::mls}, {"rbf", Centroids::rbf}});
     bool single = false;
     if (!dtype.is_none()) {
       const py::dtype dt = py::dtype::from_args(dtype);
@@ -494,16 +495,16 @@ PYBIND11_MODULE(_mlsdeform, m) {
   py::class_<PyDeformer>(m, "Deformer", "A deformation session; see mlsdeform.Deformer in the Python package.")
       .def(py::init<const py::object&, const py::object&, const py::object&, const std::string&, double,
                     const std::string&, const std::string&, int, const std::string&, const std::string&, std::size_t,
-                    const py::object&, const py::object&, int>(),
+                    const py::object&, const py::object&, int, const std::string&>(),
            py::arg("vertices"), py::kw_only(), py::arg("points") = py::none(), py::arg("segments") = py::none(),
            py::arg("transform") = "rigid", py::arg("exponent") = 2.0, py::arg("method") = "axis_angle",
            py::arg("segment_weight") = "paper_constant", py::arg("threads") = 0,
            py::arg("weight_storage") = "automatic", py::arg("backend") = "simd",
            py::arg("precompute_budget_bytes") = std::size_t(32) << 20, py::arg("dtype") = py::none(),
-           py::arg("faces") = py::none(), py::arg("arap_iterations") = 0,
+           py::arg("faces") = py::none(), py::arg("arap_iterations") = 0, py::arg("centroids") = "mls",
            R"(Deformer(vertices, *, points=None, segments=None, transform="rigid", exponent=2.0,
 method="axis_angle", segment_weight="paper_constant", threads=0, weight_storage="automatic",
-backend="simd", precompute_budget_bytes=32 MiB, dtype=None, faces=None, arap_iterations=0)
+backend="simd", precompute_budget_bytes=32 MiB, dtype=None, faces=None, arap_iterations=0, centroids="mls")
 
 A deformation session (paper Sec. 5): precomputes what depends on the rest pose only.
 vertices: (n, 3) rest positions; float32 arrays make a float32 session, anything else float64 (or force
@@ -513,7 +514,8 @@ method: "axis_angle" (the paper's) | "horn_quaternion" | "horn_matrix" | "kanata
 segment_weight: "paper_constant" | "exact_integral"; threads: 0 = all cores; weight_storage:
 "automatic" | "precomputed" | "on_the_fly"; faces: (m, 3) vertex indices of the mesh's triangles, needed for
 arap_iterations > 0: that many surface-ARAP iterations after MLS (each handle's nearest vertex held where MLS
-put it). Raises ValueError on bad input (the library's message).)")
+put it); centroids: "mls" (eq. 2) | "rbf" (q* = g(p*), the RBF interpolant of the handles: the paper's
+Sec. 7-8). Raises ValueError on bad input (the library's message).)")
       .def("deform", &PyDeformer::deform, py::kw_only(), py::arg("points") = py::none(),
            py::arg("segments") = py::none(), py::arg("out") = py::none(),
            R"(deform(*, points=None, segments=None, out=None) -> (n, 3) array

@@ -401,3 +401,20 @@ def test_arap_iterations_with_faces():
     with pytest.raises(ValueError, match="outside"):
         mlsdeform.Deformer(V, points=P, faces=F + len(V), arap_iterations=2)
 
+
+def test_rbf_centroids():
+    g = rng()
+    V, P, _, _ = scene(g, n=300, k=7)
+    Q = P.copy()
+    Q[0] += 0.7
+    mls = mlsdeform.Deformer(V, points=P).deform(points=Q)
+    rbf = mlsdeform.Deformer(V, points=P, centroids="rbf").deform(points=Q)
+    assert not np.allclose(mls, rbf)
+    # Nothing moved: RBF centroids reproduce affine maps, so the rest pose comes back to rounding: the
+    # centroid weights carry (J + 4) eps kappa(M) sum|beta| |q| (docs/api.md), with kappa(M) = 122 for these 7
+    # handles and sum|beta|, |q| of order 1: about 3e-13, far below 1e-11 (an error in g would be O(0.1)).
+    same = mlsdeform.Deformer(V, points=P, centroids="rbf").deform(points=P)
+    assert np.abs(same - V).max() < 1e-11
+    with pytest.raises(ValueError, match="centroids"):
+        mlsdeform.Deformer(V, points=P, centroids="spline")
+
