@@ -96,6 +96,20 @@ TEMPLATE_TEST_CASE("deform and fit_rotations allocate nothing in steady state", 
         d.set_point_target(2, Vector3<T>(T(0.5), T(0.5), T(0.5)));
         CHECK(allocations_during([&] { d.deform(out); }) == 0);
       }
+  // A region (Options::region): the kernels' output and the targets with the ring's fixed handles are the
+  // session's scratch, sized at construction.
+  for (Backend backend : {Backend::simd, Backend::scalar}) {
+    Options o;
+    o.backend = backend;
+    o.threads = 1;
+    for (Eigen::Index i = 0; i < v.rows(); i += 3) o.region.push_back(i);
+    Deformer<T> d(v, rest, o);
+    Points<T> out;
+    CHECK(allocations_during([&] { d.deform(moved, out); }) > 0);
+    CHECK(allocations_during([&] { d.deform(moved, out); }) == 0);
+    PointsRowMajor<T> buffer(v.rows(), 3);
+    CHECK(allocations_during([&] { d.deform(moved, InterleavedView<T>(buffer.data(), buffer.rows(), 3)); }) == 0);
+  }
   std::vector<T> H(9 * 1000), R(9 * 1000);
   for (T& h : H) h = u(rng);
   for (RotationMethod m : all_rotation_methods) {

@@ -39,14 +39,19 @@ int deform(const DeformArgs& a) {
   for (const auto& o : outputs) check_output_path(o, a.force);  // before any work: fail fast, write nothing
 
   const ResolvedHandles<T> resolved = resolve_handles<T>(handles, mesh.vertices);
+  if (arap && !resolved.region.empty())
+    throw InputError(a.handles, "a region and --arap cannot be combined (give one or the other)", "/region");
+  Options options = a.options;
+  options.region = resolved.region;
   const Points<T> rest = mesh.vertices.cast<T>();
   auto t0 = Clock::now();
   std::optional<Deformer<T>> deformer;
   try {
-    if (arap)
-      deformer.emplace(rest, fan_triangles(mesh, a.mesh), resolved.rest, a.options);
+    // With a region, the faces give its border ring (a point cloud: the nearest vertices, Options::region).
+    if (arap || (!options.region.empty() && mesh.face_count() > 0))
+      deformer.emplace(rest, fan_triangles(mesh, a.mesh), resolved.rest, options);
     else
-      deformer.emplace(rest, resolved.rest, a.options);
+      deformer.emplace(rest, resolved.rest, options);
   } catch (const std::invalid_argument& e) {  // e.g. affine handles that do not span 3D
     throw InputError(a.handles, e.what());
   }
@@ -58,9 +63,14 @@ int deform(const DeformArgs& a) {
                 mesh.dropped_primitives
                     ? (" (" + std::to_string(mesh.dropped_primitives) + " points/lines dropped)").c_str()
                     : "");
-    std::printf("%s: %zu point and %zu segment handles%s\n", a.handles.c_str(), handles.points.size(),
+    std::printf("%s: %zu point and %zu segment handles%s%s\n", a.handles.c_str(), handles.points.size(),
                 handles.segments.size(),
-                handles.animated() ? (", " + std::to_string(frame_count) + " frames").c_str() : "");
+                handles.animated() ? (", " + std::to_string(frame_count) + " frames").c_str() : "",
+                options.region.empty()
+                    ? ""
+                    : (", a region of " + std::to_string(options.region.size()) + " vertices (the " +
+                       std::to_string(mesh.vertex_count() - Eigen::Index(options.region.size())) + " others stay)")
+                          .c_str());
     char threads[32];
     std::snprintf(threads, sizeof threads, a.options.threads > 0 ? "%d threads" : "all cores", a.options.threads);
     const std::string then_arap =

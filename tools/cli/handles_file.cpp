@@ -9,6 +9,7 @@
 #include <limits>
 #include <set>
 #include <string>
+#include <unordered_map>
 #include <vector>
 
 namespace mlsdeform::cli {
@@ -223,7 +224,7 @@ HandlesFile parse_handles(std::string_view text, const std::string& file) {
     throw InputError(file, "the key \"" + duplicate + "\" appears twice in one object (keys must be unique)");
   const Node root{doc, "", file};
   root.require_object("an object with \"points\" and/or \"segments\"");
-  root.only_keys({"points", "segments", "frames", "comment"});
+  root.only_keys({"points", "segments", "frames", "region", "comment"});
   HandlesFile h;
   h.file = file;
   if (root.has("points")) {
@@ -238,6 +239,20 @@ HandlesFile parse_handles(std::string_view text, const std::string& file) {
   }
   if (h.points.empty() && h.segments.empty())
     root.fail("no handles (give at least one entry in \"points\" or \"segments\")");
+  if (root.has("region")) {
+    const Node region = root["region"];
+    region.require_array("an array of vertex indices");
+    if (region.v.empty()) region.fail("no vertices (leave \"region\" out to deform the whole mesh)");
+    std::unordered_map<std::uint64_t, std::size_t> first;
+    for (std::size_t i = 0; i < region.v.size(); ++i) {
+      const std::uint64_t v = region.at(i).index();
+      const auto [it, inserted] = first.emplace(v, i);
+      if (!inserted)
+        region.at(i).fail("vertex " + std::to_string(v) + " is listed twice (first at /region/" +
+                          std::to_string(it->second) + ")");
+      h.region.push_back(v);
+    }
+  }
   if (root.has("frames")) {
     const Node frames = root["frames"];
     frames.require_array("an array of frames");
@@ -319,6 +334,11 @@ ResolvedHandles<T> resolve_handles(const HandlesFile& h, const PointsRowMajor<fl
     set_row(r.rest.segment_b, i, convert(seg_b[i], where));
     if (r.rest.segment_a.row(Eigen::Index(i)) == r.rest.segment_b.row(Eigen::Index(i)))
       throw InputError(h.file, "zero-length segment (its two ends coincide)", where);
+  }
+
+  for (std::size_t i = 0; i < h.region.size(); ++i) {
+    vertex(h.region[i], "/region/" + std::to_string(i));  // in range, or InputError
+    r.region.push_back(Eigen::Index(h.region[i]));
   }
 
   // A frame: each handle's entry, or its own target when the frame has none.

@@ -52,6 +52,8 @@ struct HandlesFile {
   std::vector<PointHandleSpec> points;
   std::vector<SegmentHandleSpec> segments;
   std::vector<FrameSpec> frames;  ///< empty unless the file has "frames"
+  /// "region": the vertices that may move (Options::region), each once; empty: the whole mesh.
+  std::vector<std::uint64_t> region;
   bool animated() const { return !frames.empty(); }
 };
 
@@ -65,10 +67,13 @@ struct ResolvedHandles {
   Handles<T> rest;
   /// One per output: the file's frames, or the handles' own targets when it has none.
   std::vector<Handles<T>> frames;
+  /// The file's "region", checked against the mesh (Options::region).
+  std::vector<Eigen::Index> region;
 };
 
 /// Looks up vertex indices in `vertices` (n x 3) and converts to T. Throws InputError (with the JSON path) on an
-/// index out of range, a coordinate that is not finite in T, or a zero-length rest segment.
+/// index out of range (of a handle or of the region), a coordinate that is not finite in T, or a zero-length rest
+/// segment.
 template <class T>
 ResolvedHandles<T> resolve_handles(const HandlesFile& handles, const PointsRowMajor<float>& vertices);
 

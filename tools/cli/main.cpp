@@ -164,7 +164,8 @@ int run(int argc, char** argv) {
       "   \"frames\":   [{\"points\": [[0, 1.1, 0], null], \"segments\": [null]}]}\n"
       "A handle is placed by a 0-based vertex index (in the file's vertex order) or a rest position; it moves to an\n"
       "absolute \"target\" or by an \"offset\", else it stays. Each frame gives one entry per handle (null: its own\n"
-      "target). Outputs are written all or nothing (temporary file, then rename); existing files need --force.");
+      "target). An optional \"region\": [i, j, ...] lists the only vertices that may move (the others are written\n"
+      "as read). Outputs are written all or nothing (temporary file, then rename); existing files need --force.");
 
   DemoArgs demo_args;
   auto* demo = app.add_subcommand("demo",

@@ -83,6 +83,14 @@ struct Options {
   /// locally rigid (docs/api.md, "ARAP refinement").
   int arap_iterations = 0;
   Centroids centroids = Centroids::mls;
+  /// A region of interest: the vertices (0-based, any order, each once) that may move; every other vertex
+  /// keeps its rest position bitwise, and only the region's vertices cost time per frame. Empty (default):
+  /// the whole model. The outside vertices next to the region (sharing a triangle with a region vertex, or
+  /// without triangles among the 8 nearest vertices of one) are held as fixed point handles at their rest
+  /// positions, so that the result is continuous across the region's border; targets() and the handle
+  /// counts stay the caller's. Not with arap_iterations > 0 (std::invalid_argument). docs/api.md, "Region of
+  /// interest".
+  std::vector<Eigen::Index> region;
 };
 
 /// A deformation session (Sec. 5): the constructor precomputes everything that depends only on the rest
@@ -94,7 +102,8 @@ class Deformer {
  public:
   /// Throws std::invalid_argument (message naming the problem) on: no handles, non-finite coordinates,
   /// mismatched segment end-point counts, weight_exponent < 1 or non-finite, a zero-length segment, or an
-  /// affine transform whose handles do not span 3D (fewer than four non-coplanar points).
+  /// affine transform whose handles do not span 3D (fewer than four non-coplanar points), a region index out
+  /// of range or repeated.
   Deformer(const Points<T>& rest_vertices, const Handles<T>& rest_handles, const Options& options = {});
   /// The same over a triangle mesh, so that options.arap_iterations > 0 can refine MLS's result (without
   /// triangles that option throws std::invalid_argument). Also throws on a triangle index out of range.
@@ -109,8 +118,8 @@ class Deformer {
   /// Deform with the given moved handles (same counts as the rest handles; point handles that share a rest
   /// position must share their target too, since a vertex there cannot follow both). Writes `out` (resized
   /// only if its size is wrong); allocates nothing once `out` has its size. On invalid input throws
-  /// std::invalid_argument and leaves `out` untouched. With arap_iterations > 0, concurrent calls on one
-  /// session take turns (the refinement's scratch belongs to the session).
+  /// std::invalid_argument and leaves `out` untouched. With arap_iterations > 0 or a region, concurrent calls
+  /// on one session take turns (the refinement's or the region's scratch belongs to the session).
   void deform(const Handles<T>& moved_handles, Points<T>& out) const;
   /// The same, writing interleaved xyz (e.g. a mapped vertex buffer of vertex_count() * 3 values).
   void deform(const Handles<T>& moved_handles, InterleavedView<T> out) const;

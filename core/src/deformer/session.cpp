@@ -4,13 +4,16 @@
 #include "../parallel.hpp"
 #include "arap_stage.hpp"
 #include "precompute.hpp"
+#include "region.hpp"
 #include "validation.hpp"
 
 #include <mlsdeform/deformer.hpp>
 
 #include <memory>
+#include <mutex>
 #include <stdexcept>
 #include <string>
+#include <tuple>
 #include <type_traits>
 #include <utility>
 
@@ -48,6 +51,38 @@ struct Deformer<T>::Impl {
   std::unique_ptr<tbb::task_arena> arena;
   Triangles triangles;                         ///< the rest mesh, when given
   std::unique_ptr<detail::ArapStage<T>> arap;  ///< when options.arap_iterations > 0
+  /// When options.region is not empty: `data` then covers the region's vertices only, and its pseudo-handles
+  /// are the caller's followed by the ring's fixed points.
+  std::unique_ptr<detail::RegionStage<T>> region;
+
+  /// The session data and the region stage for a rest pose (nothing of *this is changed).
+  static std::pair<detail::DeformerData<T>, std::unique_ptr<detail::RegionStage<T>>> build(
+      const Points<T>& rest_vertices, const Triangles& triangles, const Handles<T>& rest_handles, const Options& o,
+      tbb::task_arena* arena) {
+    if (o.region.empty()) {
+      detail::DeformerData<T> data = detail::precompute(rest_vertices, rest_handles, o, arena);
+      detail::check_triangles(triangles, rest_vertices.rows());
+      return {std::move(data), nullptr};
+    }
+    detail::check_options(o);
+    detail::check_triangles(triangles, rest_vertices.rows());
+    auto region = detail::RegionStage<T>::make(rest_vertices, triangles, rest_handles, o);
+    detail::DeformerData<T> data = detail::precompute(region->rest_inside, region->rest_handles, o, arena);
+    return {std::move(data), std::move(region)};
+  }
+
+  /// The whole model's vertex count.
+  std::size_t vertices() const { return region ? std::size_t(region->n) : data.n; }
+
+  /// One frame into `out` (vertex v, coordinate c at out[c * cstride + v * vstride]): over the whole model,
+  /// or over the region, scattered, with the other vertices at rest.
+  void frame(const Handles<T>& moved, T* out, std::size_t vstride, std::size_t cstride) const {
+    if (!region) return run(moved, out, vstride, cstride);
+    const std::lock_guard<std::mutex> lock(region->mutex);
+    region->set_targets(moved);
+    run(region->moved, region->compact.data(), 1, data.n);
+    region->scatter(out, vstride, cstride);
+  }
 
   /// The kernel for this session's settings: the active ISA's, or the scalar reference's for Backend::scalar,
   /// Isa::scalar, or a rotation method without a SIMD kernel (kanatani, horn_matrix, svd).
@@ -111,8 +146,8 @@ Deformer<T>::Deformer(const Points<T>& rest_vertices, const Triangles& triangles
   detail::check_options(options);
   impl_->options = options;
   impl_->arena = detail::make_arena(options.threads);
-  impl_->data = detail::precompute(rest_vertices, rest_handles, options, impl_->arena.get());
-  detail::check_triangles(triangles, rest_vertices.rows());
+  std::tie(impl_->data, impl_->region) =
+      Impl::build(rest_vertices, triangles, rest_handles, options, impl_->arena.get());
   if (options.arap_iterations > 0)
     impl_->arap = detail::ArapStage<T>::make(rest_vertices, triangles, rest_handles, options);
   impl_->triangles = triangles;
@@ -144,9 +179,9 @@ template <class T>
 void Deformer<T>::deform(const Handles<T>& moved_handles, Points<T>& out) const {
   detail::check_moved(moved_handles, impl().rest);
   detail::check_coincident(moved_handles, impl().coincident);
-  const auto n = static_cast<Eigen::Index>(impl().data.n);
+  const auto n = static_cast<Eigen::Index>(impl().vertices());
   if (out.rows() != n) out.resize(n, 3);
-  if (!impl().arap) return impl().run(moved_handles, out.data(), 1, static_cast<std::size_t>(n));
+  if (!impl().arap) return impl().frame(moved_handles, out.data(), 1, static_cast<std::size_t>(n));
   detail::ArapStage<T>& arap = *impl().arap;
   const std::lock_guard<std::mutex> lock(arap.mutex);
   impl().run(moved_handles, arap.mls.data(), 1, static_cast<std::size_t>(n));  // out untouched on a throw
@@ -158,10 +193,10 @@ template <class T>
 void Deformer<T>::deform(const Handles<T>& moved_handles, InterleavedView<T> out) const {
   detail::check_moved(moved_handles, impl().rest);
   detail::check_coincident(moved_handles, impl().coincident);
-  if (out.rows() != static_cast<Eigen::Index>(impl().data.n))
+  if (out.rows() != static_cast<Eigen::Index>(impl().vertices()))
     throw std::invalid_argument("Deformer: the interleaved output has " + std::to_string(out.rows()) +
-                                " rows but the model has " + std::to_string(impl().data.n) + " vertices");
-  if (!impl().arap) return impl().run(moved_handles, out.data(), 3, 1);
+                                " rows but the model has " + std::to_string(impl().vertices()) + " vertices");
+  if (!impl().arap) return impl().frame(moved_handles, out.data(), 3, 1);
   detail::ArapStage<T>& arap = *impl().arap;
   const std::lock_guard<std::mutex> lock(arap.mutex);
   impl().run(moved_handles, arap.mls.data(), 1, static_cast<std::size_t>(impl().data.n));
@@ -209,8 +244,7 @@ void Deformer<T>::deform(InterleavedView<T> out) const {
 template <class T>
 void Deformer<T>::reset_rest_pose(const Points<T>& rest_vertices, const Handles<T>& rest_handles) {
   // Strong guarantee: build everything first, then commit with non-throwing moves.
-  detail::DeformerData<T> data = detail::precompute(rest_vertices, rest_handles, impl().options, impl().arena.get());
-  detail::check_triangles(impl().triangles, rest_vertices.rows());
+  auto [data, region] = Impl::build(rest_vertices, impl().triangles, rest_handles, impl().options, impl().arena.get());
   std::unique_ptr<detail::ArapStage<T>> arap;
   if (impl().options.arap_iterations > 0)
     arap = detail::ArapStage<T>::make(rest_vertices, impl().triangles, rest_handles, impl().options);
@@ -218,6 +252,7 @@ void Deformer<T>::reset_rest_pose(const Points<T>& rest_vertices, const Handles<
   auto coincident = detail::coincident_points(rest_handles.points);
   impl().data = std::move(data);
   impl().arap = std::move(arap);
+  impl().region = std::move(region);
   impl().rest = std::move(rest);
   impl().targets = std::move(targets);
   impl().coincident = std::move(coincident);
@@ -225,7 +260,7 @@ void Deformer<T>::reset_rest_pose(const Points<T>& rest_vertices, const Handles<
 
 template <class T>
 Eigen::Index Deformer<T>::vertex_count() const {
-  return static_cast<Eigen::Index>(impl().data.n);
+  return static_cast<Eigen::Index>(impl().vertices());
 }
 
 template <class T>
@@ -241,7 +276,7 @@ std::size_t Deformer<T>::memory_bytes() const {
     return static_cast<std::size_t>(h.points.size() + h.segment_a.size() + h.segment_b.size());
   };
   return impl().data.bytes() + (handle_values(impl().rest) + handle_values(impl().targets)) * sizeof(T) +
-         (impl().arap ? impl().arap->refiner.memory_bytes() : 0);
+         (impl().arap ? impl().arap->refiner.memory_bytes() : 0) + (impl().region ? impl().region->bytes() : 0);
 }
 
 template <class T>

@@ -42,6 +42,9 @@ void check_options(const Options& o) {
                                 ")");
   if (o.threads < 0)
     throw std::invalid_argument("Deformer: threads must be >= 0 (got " + std::to_string(o.threads) + ")");
+  if (!o.region.empty() && o.arap_iterations > 0)
+    throw std::invalid_argument(
+        "Deformer: a region (Options::region) with arap_iterations > 0 is not supported; use one or the other");
 }
 
 template <class T>
