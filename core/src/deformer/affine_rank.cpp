@@ -1,4 +1,5 @@
-// check_affine_rank (validation.hpp), apart from the other checks: Eigen's dynamic-size SVD is slow to compile.
+// check_affine_rank and singular_values (validation.hpp), apart from the other checks: Eigen's dynamic-size SVD
+// is slow to compile, and this is its one instantiation.
 #include "validation.hpp"
 
 #include <Eigen/SVD>
@@ -24,12 +25,18 @@ void check_affine_rank(const std::vector<Vec3d>& P) {
   mean /= double(J);
   Eigen::Matrix<double, Eigen::Dynamic, 3> M(static_cast<Eigen::Index>(J), 3);
   for (std::size_t j = 0; j < J; ++j) M.row(static_cast<Eigen::Index>(j)) = (P[j] - mean).transpose();
-  const Vec3d sv = Eigen::JacobiSVD<Eigen::Matrix<double, Eigen::Dynamic, 3>>(M).singularValues();
+  const Vec3d sv = singular_values(M);
   const double tol = double(std::max<std::size_t>(J, 3)) * double(std::numeric_limits<T>::epsilon()) * sv[0];
   if (!(sv[2] > tol))
     throw std::invalid_argument("Deformer: the affine transform needs handles spanning 3D, but the handle points are " +
                                 std::string(sv[1] > tol ? "coplanar" : "collinear") + " (singular values " +
                                 num(sv[0]) + ", " + num(sv[1]) + ", " + num(sv[2]) + ")");
+}
+
+Eigen::Vector3d singular_values(const Eigen::Matrix<double, Eigen::Dynamic, 3>& X, Eigen::Matrix3d* V) {
+  const Eigen::JacobiSVD<Eigen::Matrix<double, Eigen::Dynamic, 3>> svd(X, V ? Eigen::ComputeFullV : 0);
+  if (V) *V = svd.matrixV();
+  return svd.singularValues();
 }
 
 template void check_affine_rank<float>(const std::vector<Vec3d>&);

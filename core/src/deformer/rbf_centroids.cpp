@@ -1,6 +1,6 @@
 #include "rbf_centroids.hpp"
 
-#include <Eigen/SVD>
+#include "validation.hpp"
 
 #include <algorithm>
 #include <array>
@@ -26,12 +26,12 @@ RbfCentroids::RbfCentroids(const std::vector<Eigen::Vector3d>& P) {
   // The span of the centred centres: singular directions above the usual rank tolerance.
   Eigen::Matrix<double, Eigen::Dynamic, 3> X(m, 3);
   for (Eigen::Index i = 0; i < m; ++i) X.row(i) = (centres_[std::size_t(i)] - mean_).transpose();
-  const Eigen::JacobiSVD<Eigen::Matrix<double, Eigen::Dynamic, 3>> svd(X, Eigen::ComputeFullV);
-  const double tol =
-      double(std::max<Eigen::Index>(m, 3)) * std::numeric_limits<double>::epsilon() * svd.singularValues()(0);
+  Eigen::Matrix3d V;
+  const Eigen::Vector3d sv = singular_values(X, &V);
+  const double tol = double(std::max<Eigen::Index>(m, 3)) * std::numeric_limits<double>::epsilon() * sv(0);
   Eigen::Index rank = 0;
-  while (rank < 3 && svd.singularValues()(rank) > tol) ++rank;
-  basis_ = svd.matrixV().leftCols(rank);
+  while (rank < 3 && sv(rank) > tol) ++rank;
+  basis_ = V.leftCols(rank);
   const Eigen::Index size = m + 1 + rank;
   Eigen::MatrixXd M = Eigen::MatrixXd::Zero(size, size);
   for (Eigen::Index i = 0; i < m; ++i) {

@@ -43,6 +43,10 @@ void check_moved(const Handles<T>& moved, const Handles<T>& rest);
 template <class T>
 void check_affine_rank(const std::vector<Eigen::Vector3d>& P);
 
+/// The singular values (descending) and, if V is not null, the right singular vectors of an m x 3 matrix:
+/// one instantiation of Eigen's dynamic-size SVD for the library (affine_rank.cpp), which is slow to compile.
+Eigen::Vector3d singular_values(const Eigen::Matrix<double, Eigen::Dynamic, 3>& X, Eigen::Matrix3d* V = nullptr);
+
 /// Pairs (i, j), i < j, of point handles at the same rest position. A vertex there is snapped to one of them,
 /// while the map's limit at that position is the mean of their targets: such pairs must keep equal targets.
 using CoincidentPairs = std::vector<std::pair<Eigen::Index, Eigen::Index>>;
