@@ -5,9 +5,12 @@
     python3 tools/figures.py --check       # exit 0 if matplotlib is usable here
 
 The spec: {"title", "caption", "rows", "cols", "panel_size": [w, h] inches, "dpi", "shared_bounds", "output",
-"panels": [{"title", "view": {"elev", "azim"}, "meshes": [{"vertices": flat xyz, "triangles": flat ijk, "color",
-"alpha"}], "points": [{"xyz", "color", "size", "marker", "label"}], "segments": [{"a", "b", "color", "width",
-"arrow", "label"}]}]}. Models are y-up; matplotlib's 3D axes are z-up, so (x, y, z) is drawn at (x, -z, y).
+"panels": [{"title", "view": {"elev", "azim"}, "row_span", "meshes": [{"vertices": flat xyz, "triangles": flat ijk,
+"color", "alpha", optional "triangle_colors"}], "points": [{"xyz", "color", "size", "marker", "label"}],
+"segments": [{"a", "b", "color", "width", "arrow", "label"}], optional "plot": {"xlabel", "ylabel", "log_x",
+"series": [{"label", "color", "x", "y"}]}}]}: a panel with "plot" is a 2D chart; panels fill the grid's free
+cells row by row, each "row_span" rows tall. Models are y-up; matplotlib's 3D axes are z-up, so (x, y, z) is
+drawn at (x, -z, y).
 
 Meshes are shaded per triangle (two-sided Lambert with a headlight-like key light), drawn with an
 orthographic camera; handles are drawn on top of the mesh so they are never hidden.
@@ -70,9 +73,35 @@ def draw(spec):
         hi = np.max([e[1] for e in extents if e is not None], axis=0)
         extents = [(lo, hi)] * len(extents)
 
+    # Each panel's cell: the first free one, row by row; a panel "row_span" rows tall takes the cells below too.
+    grid = fig.add_gridspec(rows, cols)
+    taken = set()
+    cells = []
+    for panel in spec["panels"]:
+        r, c = next((r, c) for r in range(rows) for c in range(cols) if (r, c) not in taken)
+        span = max(1, min(panel.get("row_span", 1), rows - r))
+        taken.update((r + k, c) for k in range(span))
+        cells.append(grid[r:r + span, c])
+
     legend = {}
+    charts = []
     for i, panel in enumerate(spec["panels"]):
-        ax = fig.add_subplot(rows, cols, i + 1, projection="3d")
+        if panel.get("plot"):
+            plot = panel["plot"]
+            ax = fig.add_subplot(cells[i])
+            for sr in plot["series"]:
+                ax.plot(sr["x"], sr["y"], color=sr.get("color", [0.1, 0.3, 0.9]), lw=1.6, label=sr.get("label"))
+            if plot.get("log_x"):
+                ax.set_xscale("log")
+            ax.set_xlabel(plot.get("xlabel", ""), fontsize=9)
+            ax.set_ylabel(plot.get("ylabel", ""), fontsize=9)
+            ax.tick_params(labelsize=8)
+            ax.grid(True, which="both", lw=0.3, color="0.85")
+            ax.legend(fontsize=8, frameon=False, loc="upper left")
+            ax.set_title(panel.get("title", ""), fontsize=10)
+            charts.append(ax)
+            continue
+        ax = fig.add_subplot(cells[i], projection="3d")
         ax.computed_zorder = False  # our order: meshes first, then handles on top
         view = panel.get("view", {})
         elev, azim = view.get("elev", 12), view.get("azim", -65)
@@ -92,8 +121,8 @@ def draw(spec):
             length = np.linalg.norm(n, axis=1)
             n = n / np.where(length > 0, length, 1.0)[:, None]
             shade = 0.35 + 0.65 * np.abs(n @ light)
-            base = np.asarray(m.get("color", [0.78, 0.8, 0.86]))
-            colors = np.clip(shade[:, None] * base[None, :], 0, 1)
+            base = np.asarray(m.get("triangle_colors") or m.get("color", [0.78, 0.8, 0.86]), dtype=float).reshape(-1, 3)
+            colors = np.clip(shade[:, None] * base, 0, 1)
             alpha = m.get("alpha", 1.0)
             colors = np.concatenate([colors, np.full((len(colors), 1), alpha)], axis=1)
             pc = Poly3DCollection(tri, facecolors=colors, edgecolors="none", linewidths=0, zorder=1)
@@ -148,6 +177,9 @@ def draw(spec):
         fig.text(0.5, 0.01, spec["caption"], ha="center", va="bottom", fontsize=8, wrap=True, color="0.25")
         bottom += 0.35 / fig.get_figheight()
     fig.subplots_adjust(left=0, right=1, bottom=bottom, top=top, wspace=0, hspace=0.02)
+    for ax in charts:  # room for the tick labels and axis titles inside the chart's cell
+        p = ax.get_position()
+        ax.set_position([p.x0 + 0.24 * p.width, p.y0 + 0.22 * p.height, 0.7 * p.width, 0.6 * p.height])
 
     out = spec["output"]
     tmp = os.path.join(os.path.dirname(out) or ".", "." + os.path.basename(out) + ".tmp.png")

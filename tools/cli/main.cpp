@@ -188,10 +188,12 @@ int run(int argc, char** argv) {
   FiguresArgs fig_args;
   auto* figures =
       app.add_subcommand("figures",
-                         "Redraw the paper's Fig. 1, 3, 4 and 5, and MLS against MLS + ARAP (arap.png), as PNG images "
+                         "Redraw the paper's Fig. 1 to 8, and MLS against MLS + ARAP (arap.png), as PNG images "
                          "(with python3-matplotlib).");
   figures->add_option("--out-dir,-o", fig_args.out_dir, "folder for the images")->default_str(default_figures_dir());
-  figures->add_option("--only", fig_args.only, "comma-separated figures: 1, 3, 4, 5, arap (default: all)");
+  figures->add_option("--only", fig_args.only,
+                      "comma-separated figures: 1 to 8, arap (default: all; 2 needs the shared fish.obj, "
+                      "$MLSDEFORM_MESHES)");
   figures->add_option("--data-dir", fig_args.data_dir,
                       "folder with the bundled meshes (default: the source tree's data/)");
   figures->add_flag("--keep-spec", fig_args.keep_spec, "also keep each figure's JSON description next to its PNG");

@@ -14,6 +14,9 @@
 #include <cmath>
 #include <cstdlib>
 #include <filesystem>
+#include <set>
+#include <stdexcept>
+#include <utility>
 
 extern char** environ;
 
@@ -111,6 +114,28 @@ void add_moves(Panel& panel, const Handles<double>& rest, const Handles<double>&
   panel.segments.insert(panel.segments.begin(), std::move(s));
 }
 
+SegmentLayer polygon_edges(const Mesh& mesh, Color color, float width) {
+  std::set<std::pair<std::uint32_t, std::uint32_t>> edges;
+  for (std::size_t f = 0; f < mesh.face_count(); ++f) {
+    const std::uint32_t b = mesh.face_start[f], e = mesh.face_start[f + 1];
+    for (std::uint32_t i = b; i < e; ++i) {
+      const std::uint32_t u = mesh.face_indices[i], w = mesh.face_indices[i + 1 < e ? i + 1 : b];
+      edges.emplace(std::min(u, w), std::max(u, w));
+    }
+  }
+  SegmentLayer s;
+  s.color = color;
+  s.width = width;
+  s.a.resize(Eigen::Index(edges.size()), 3);
+  s.b.resize(Eigen::Index(edges.size()), 3);
+  Eigen::Index k = 0;
+  for (const auto& [u, w] : edges) {
+    s.a.row(k) = mesh.vertices.row(u).cast<double>();
+    s.b.row(k++) = mesh.vertices.row(w).cast<double>();
+  }
+  return s;
+}
+
 std::string figures_script() {
   if (const char* env = std::getenv("MLSDEFORM_FIGURES_SCRIPT"); env && *env) return env;
   return MLSDEFORM_FIGURES_SCRIPT;
@@ -184,13 +209,31 @@ void render(const Figure& fig, const std::string& png_path, bool keep_spec) {
     json jp;
     jp["title"] = p.title;
     jp["view"] = {{"elev", p.elev}, {"azim", p.azim}};
+    jp["row_span"] = p.row_span;
+    if (p.plot) {
+      json series = json::array();
+      for (const auto& c : p.plot->series)
+        series.push_back({{"label", c.label}, {"color", color(c.color)}, {"x", c.x}, {"y", c.y}});
+      jp["plot"] = {
+          {"xlabel", p.plot->xlabel}, {"ylabel", p.plot->ylabel}, {"log_x", p.plot->log_x}, {"series", series}};
+    }
     jp["meshes"] = json::array();
     for (const auto& m : p.meshes) {
       const auto tris = triangulate(m.mesh);
-      jp["meshes"].push_back({{"vertices", flat(m.mesh.vertices, quantum)},
-                              {"triangles", tris},
-                              {"color", color(m.color)},
-                              {"alpha", m.alpha}});
+      json jm = {{"vertices", flat(m.mesh.vertices, quantum)},
+                 {"triangles", tris},
+                 {"color", color(m.color)},
+                 {"alpha", m.alpha}};
+      if (!m.face_colors.empty()) {
+        if (m.face_colors.size() != m.mesh.face_count())
+          throw std::logic_error("render: face_colors must have one colour per face");
+        json tc = json::array();  // per triangle, in triangulate()'s order: a fan of k - 2 per k-gon
+        for (std::size_t f = 0; f < m.mesh.face_count(); ++f)
+          for (std::uint32_t t = 2; t < m.mesh.face_start[f + 1] - m.mesh.face_start[f]; ++t)
+            tc.push_back(color(m.face_colors[f]));
+        jm["triangle_colors"] = std::move(tc);
+      }
+      jp["meshes"].push_back(std::move(jm));
     }
     jp["points"] = json::array();
     for (const auto& l : p.points)

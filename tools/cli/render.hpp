@@ -19,6 +19,7 @@ struct MeshLayer {
   Mesh mesh;
   Color color{0.78f, 0.80f, 0.86f};
   float alpha = 1.0f;
+  std::vector<Color> face_colors{};  ///< one per face of `mesh` (a pattern that shows distortion); empty: `color`
 };
 
 /// Markers at n points (n x 3).
@@ -39,12 +40,26 @@ struct SegmentLayer {
   std::string label;
 };
 
+/// A 2D chart in place of a 3D view: one curve per series.
+struct Plot {
+  struct Series {
+    std::string label;
+    Color color{0.1f, 0.3f, 0.9f};
+    std::vector<double> x, y;
+  };
+  std::string xlabel, ylabel;
+  bool log_x = false;
+  std::vector<Series> series;
+};
+
 struct Panel {
   std::string title;
   double elev = 12, azim = -65;  ///< view direction, degrees (matplotlib's, with the model's y axis up)
   std::vector<MeshLayer> meshes;
   std::vector<PointLayer> points;
   std::vector<SegmentLayer> segments;
+  std::optional<Plot> plot;  ///< a chart instead of the 3D layers
+  int row_span = 1;          ///< rows of the grid the panel covers (panels fill the free cells row by row)
 };
 
 struct Figure {
@@ -60,6 +75,9 @@ struct Figure {
 /// Handles drawn the same way everywhere: rest positions in blue, targets in red, a grey arrow between.
 void add_handles(Panel& panel, const Handles<double>& handles, bool target, bool with_labels = true);
 void add_moves(Panel& panel, const Handles<double>& rest, const Handles<double>& target);
+/// The edges of the mesh's polygons (each once; no triangulation diagonals) as lines: a wireframe drawn over
+/// the shaded mesh, for flat models seen from one side.
+SegmentLayer polygon_edges(const Mesh& mesh, Color color = {0.2f, 0.2f, 0.25f}, float width = 0.5f);
 
 /// The python script and whether python3 with matplotlib runs here (checked once; `why_not` says what is missing).
 std::string figures_script();

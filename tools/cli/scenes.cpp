@@ -1,6 +1,7 @@
 #include "scenes.hpp"
 
 #include <Eigen/Geometry>
+#include <Eigen/QR>
 
 #include <algorithm>
 #include <chrono>
@@ -101,6 +102,19 @@ Mesh make_bar(int nx, int ny, int nz, double width, double height) {
     for (int a = 0; a < nx; ++a)
       for (int b = 0; b < ny; ++b) q(a, b, k, a + 1, b, k, a + 1, b + 1, k, a, b + 1, k);
   }
+  return m;
+}
+
+Mesh make_plane(int nx, int nz, double sx, double sz) {
+  Mesh m;
+  m.vertices.resize(Eigen::Index(nx + 1) * (nz + 1), 3);
+  for (int k = 0; k <= nz; ++k)
+    for (int i = 0; i <= nx; ++i)
+      m.vertices.row(Eigen::Index(k) * (nx + 1) + i) << float(-sx / 2 + sx * i / nx), 0.0f,
+          float(-sz / 2 + sz * k / nz);
+  const auto at = [&](int i, int k) { return std::uint32_t(k * (nx + 1) + i); };
+  for (int k = 0; k < nz; ++k)
+    for (int i = 0; i < nx; ++i) add_quad(m, at(i, k), at(i + 1, k), at(i + 1, k + 1), at(i, k + 1), {0, -1, 0});
   return m;
 }
 
@@ -344,6 +358,104 @@ Scene bar_bend_scene(int variant, int frames) {
   return s;
 }
 
+Scene fish_scene(const Mesh& fish) {
+  Scene s;
+  s.name = "fish";
+  s.mesh = fish;
+  const Points<double> v = to_points(fish);
+  if (v.rows() == 0) throw std::invalid_argument("fish_scene: empty mesh");
+  Eigen::Index mouth, tail, fin, belly;
+  v.col(2).maxCoeff(&mouth);
+  v.col(2).minCoeff(&tail);
+  v.col(1).maxCoeff(&fin);
+  v.col(1).minCoeff(&belly);
+  s.rest = points_only(rows_of(v, {mouth, tail, fin, belly}));
+  // The head and the tail turn upwards about points a third of the way in from each end, on the body's axis.
+  const double front = v.col(2).maxCoeff(), back = v.col(2).minCoeff(), length = front - back;
+  const Eigen::Vector3d centre = (v.colwise().minCoeff() + v.colwise().maxCoeff()).transpose() / 2;
+  const Eigen::Vector3d head_pivot(centre.x(), centre.y(), front - length / 3),
+      tail_pivot(centre.x(), centre.y(), back + length / 3);
+  const Eigen::Matrix3d up_front = Eigen::AngleAxisd(radians(-25), Eigen::Vector3d::UnitX()).toRotationMatrix(),
+                        up_back = Eigen::AngleAxisd(radians(40), Eigen::Vector3d::UnitX()).toRotationMatrix();
+  Points<double> q = s.rest.points;
+  q.row(0) = moved(v.row(mouth), up_front, head_pivot);
+  q.row(1) = moved(v.row(tail), up_back, tail_pivot);
+  s.frames.push_back(points_only(q));
+  s.description = "fish (fish.obj) flexed by 4 point handles";
+  return s;
+}
+
+Scene plane_translate_scene() {
+  Scene s;
+  s.name = "plane_translate";
+  constexpr int n = 32;
+  const double size = 2.0;
+  s.mesh = make_plane(n, n, size, size);
+  const Points<double> v = to_points(s.mesh);
+  std::vector<Eigen::Index> fixed, moving;
+  for (int k = 0; k <= n; ++k) {
+    fixed.push_back(Eigen::Index(k) * (n + 1));
+    fixed.push_back(Eigen::Index(k) * (n + 1) + n);
+    moving.push_back(Eigen::Index(k) * (n + 1) + n / 2);
+  }
+  std::vector<Eigen::Index> all = fixed;
+  all.insert(all.end(), moving.begin(), moving.end());
+  s.rest = points_only(rows_of(v, all));
+  Points<double> q = s.rest.points;
+  q.bottomRows(Eigen::Index(moving.size())).rowwise() += Eigen::RowVector3d(0, 0, 0.25 * size);
+  s.frames.push_back(points_only(q));
+  s.description =
+      "plane (Table 2: 1089 vertices): its middle column of handles translated along itself, the sides fixed";
+  return s;
+}
+
+Scene bar_far_scene() {
+  Scene s;
+  s.name = "bar_far";
+  constexpr int nx = 8, ny = 48, nz = 8;
+  const double w = 1.0, L = 6.0;
+  s.mesh = make_bar(nx, ny, nz, w, L);
+  std::vector<Eigen::Vector3d> ring;
+  for (int a = -1; a <= 1; ++a)
+    for (int b = -1; b <= 1; ++b)
+      if (a || b) ring.emplace_back(a * w / 2, 0, b * w / 2);
+  const double levels[4] = {0, L / 8, L - L / 8, L};
+  Points<double> p(Eigen::Index(4 * ring.size()), 3);
+  for (int l = 0; l < 4; ++l)
+    for (std::size_t i = 0; i < ring.size(); ++i)
+      p.row(Eigen::Index(l * ring.size() + i)) = (ring[i] + Eigen::Vector3d(0, levels[l], 0)).transpose();
+  s.rest = points_only(p);
+  Points<double> q = p;
+  q.bottomRows(Eigen::Index(2 * ring.size())).rowwise() += Eigen::RowVector3d(0.9 * L, -0.5 * L, 0);
+  s.frames.push_back(points_only(q));
+  s.description = "bar (1666 vertices): its upper end translated sideways and down by 1.03 bar lengths";
+  return s;
+}
+
+Scene plane_row_scene(Centroids centroids) {
+  Scene s;
+  s.name = centroids == Centroids::rbf ? "plane_row_rbf" : "plane_row";
+  constexpr int n = 32;
+  const double size = 2.0;
+  s.mesh = make_plane(n, n, size, size);
+  s.options.centroids = centroids;
+  const Points<double> v = to_points(s.mesh);
+  std::vector<Eigen::Index> fixed, row;
+  for (int k = 0; k <= n; ++k) {
+    fixed.push_back(Eigen::Index(k) * (n + 1));
+    fixed.push_back(Eigen::Index(k) * (n + 1) + n);
+  }
+  for (int k = n / 2 - 8; k <= n / 2 + 8; k += 4) row.push_back(Eigen::Index(k) * (n + 1) + n / 2);
+  std::vector<Eigen::Index> all = fixed;
+  all.insert(all.end(), row.begin(), row.end());
+  s.rest = points_only(rows_of(v, all));
+  Points<double> q = s.rest.points;
+  q.bottomRows(Eigen::Index(row.size())).rowwise() += Eigen::RowVector3d(0, 0.5 * size, 0);
+  s.frames.push_back(points_only(q));
+  s.description = "plane (Table 2: 1089 vertices): a row of 5 handles raised, the side columns fixed";
+  return s;
+}
+
 Points<double> weighted_centroids(const Points<double>& vertices, const Handles<double>& rest,
                                   const Handles<double>& moved_h, double u) {
   Points<double> out(vertices.rows(), 3);
@@ -378,6 +490,28 @@ Points<double> weighted_centroids(const Points<double>& vertices, const Handles<
       wsum += w;
     }
     if (!exact) out.row(i) = (sum / wsum).transpose();
+  }
+  return out;
+}
+
+Points<double> rbf_centroids(const Points<double>& vertices, const Handles<double>& rest,
+                             const Handles<double>& moved_h, double u) {
+  const Eigen::Index m = rest.point_count();
+  const auto phi = [](double r) { return r * r * r; };
+  Eigen::MatrixXd M = Eigen::MatrixXd::Zero(m + 4, m + 4), rhs = Eigen::MatrixXd::Zero(m + 4, 3);
+  for (Eigen::Index i = 0; i < m; ++i) {
+    for (Eigen::Index j = 0; j < m; ++j) M(i, j) = phi((rest.points.row(i) - rest.points.row(j)).norm());
+    M(i, m) = M(m, i) = 1;
+    for (int c = 0; c < 3; ++c) M(i, m + 1 + c) = M(m + 1 + c, i) = rest.points(i, c);
+    rhs.row(i) = moved_h.points.row(i);
+  }
+  const Eigen::MatrixXd coef = M.completeOrthogonalDecomposition().solve(rhs);
+  const Points<double> p_star = weighted_centroids(vertices, rest, rest, u);
+  Points<double> out(vertices.rows(), 3);
+  for (Eigen::Index v = 0; v < vertices.rows(); ++v) {
+    Eigen::RowVector3d g = coef.row(m) + p_star.row(v) * coef.bottomRows(3);
+    for (Eigen::Index j = 0; j < m; ++j) g += phi((p_star.row(v) - rest.points.row(j)).norm()) * coef.row(j);
+    out.row(v) = g;
   }
   return out;
 }

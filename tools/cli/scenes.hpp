@@ -1,5 +1,5 @@
 // mlsdeform CLI: the paper's test scenes, shared by `demo` and `figures`: the generated primitives of Sec. 5
-// (Table 2's Bar and Cylinder, with its vertex and constraint counts), the handle sets of Fig. 1, 3, 4 and 5,
+// (Table 2's Plane, Bar and Cylinder, with its vertex and constraint counts), the handle sets of Fig. 1 to 8,
 // and a runner that times Deformer::deform per frame.
 #pragma once
 
@@ -15,6 +15,9 @@ namespace mlsdeform::cli {
 /// The surface of an axis-aligned box [-w/2, w/2] x [0, h] x [-w/2, w/2] on an nx x ny x nz grid of quads, y up.
 /// Vertex count 2 (nx ny + ny nz + nz nx) + 2: 16 x 88 x 16 gives Table 2's 6146-vertex bar.
 Mesh make_bar(int nx, int ny, int nz, double width, double height);
+/// A flat sheet in the xz plane (y = 0, normals +y) of nx x nz quads, [-sx/2, sx/2] x [-sz/2, sz/2]. 32 x 32
+/// gives Table 2's 1089-vertex plane.
+Mesh make_plane(int nx, int nz, double sx, double sz);
 /// An open tube of `around` x `rings` vertices (quads), radius r, from y = 0 to y = h. 23 x 46 gives Table 2's
 /// 1058-vertex cylinder.
 Mesh make_tube(int around, int rings, double radius, double height);
@@ -49,10 +52,31 @@ Scene cylinder_scene(double u, int frames, double degrees = 120);
 /// (2) line segments (Sec. 6.2).
 Scene bar_bend_scene(int variant, int frames);
 
+/// Fig. 2 on the shared fish (fish.obj, y up, head towards +z): 4 point handles at vertices, the mouth, the
+/// tail tip, the top of the dorsal fin and the bottom of the belly; the fin and the belly stay, the head and
+/// the tail turn up (25 and 40 degrees): the fish flexes like the paper's dolphin.
+Scene fish_scene(const Mesh& fish);
+/// Fig. 6: Table 2's plane (1089 vertices), handles only translated: its two side columns of vertices fixed,
+/// the middle column moved along itself (z, in the plane) by a quarter of the plane's width.
+Scene plane_translate_scene();
+/// Fig. 7: a bar (1666 vertices) with 32 point handles (two rings of 8 at each end), its upper end carried
+/// sideways and down by more than the bar's length, without rotation; the lower end fixed.
+Scene bar_far_scene();
+/// Fig. 8: Table 2's plane with its two side columns of vertices fixed and a row of 5 points in between
+/// raised by half the plane's width (the paper's "displacing a row of control points"), with the given
+/// centroids.
+Scene plane_row_scene(Centroids centroids);
+
 /// The weighted centroids q* = sum_i w_i q_i / sum_i w_i of eq. (2) (Sec. 6.2's midpoint rule for segments,
 /// w = d^-u with d the distance to the rest handle), per vertex: what Fig. 5's lower row draws.
 Points<double> weighted_centroids(const Points<double>& vertices, const Handles<double>& rest,
                                   const Handles<double>& moved, double u);
+/// Centroids::rbf's q* = g(p*) per vertex (point handles only): p* as above over the rest handles, g the
+/// triharmonic interpolant (r^3 plus a linear polynomial) of rest -> moved. Solved here by a minimum-norm
+/// least-squares solve, for drawing: on coplanar handles the polynomial's normal part is free but p* lies in
+/// their plane, so g(p*) is the library's.
+Points<double> rbf_centroids(const Points<double>& vertices, const Handles<double>& rest, const Handles<double>& moved,
+                             double u);
 
 struct SceneRun {
   Points<double> result;              ///< the last frame
