@@ -178,6 +178,35 @@ TEST_CASE("deform: the README's example (data/human_bend.json) runs", "[cli][com
   CHECK((last.vertices.row(5906) - Eigen::RowVector3f(-0.3f, 0.55f, 0.45f)).norm() < 1e-5f);  // the left hand's target
 }
 
+TEST_CASE("deform: a handle group turns the cube's top a quarter turn about its centre", "[cli][commands][groups]") {
+  Fixture f;
+  // Bottom corners fixed; the top ones (z = 1) turned by 90 degrees about z through their centroid
+  // (0.5, 0.5, 1): (x, y) -> (1 - y, x). Handles on vertices map exactly to their targets, and a quarter
+  // turn's targets are exact.
+  cli_test::write_text(f.in + "/turn.json", R"({
+    "points": [{"vertex": 0}, {"vertex": 1}, {"vertex": 2}, {"vertex": 3},
+               {"vertex": 4}, {"vertex": 5}, {"vertex": 6}, {"vertex": 7}],
+    "groups": [{"points": [4, 5, 6, 7], "rotate": {"axis": [0, 0, 1], "degrees": 90}}]})");
+  const std::string o = f.out + "/turn.obj";
+  const auto r = cli_test::run(program, {"deform", "-m", f.in + "/cube.obj", "-H", f.in + "/turn.json", "-o", o});
+  INFO(r.out << r.err);
+  REQUIRE(r.exit_code == 0);
+  const Mesh result = read_mesh(o);
+  CHECK(result.vertices.row(0) == Eigen::RowVector3f(0, 0, 0));
+  CHECK(result.vertices.row(4) == Eigen::RowVector3f(1, 0, 1));
+  CHECK(result.vertices.row(5) == Eigen::RowVector3f(1, 1, 1));
+  CHECK(result.vertices.row(6) == Eigen::RowVector3f(0, 1, 1));
+  CHECK(result.vertices.row(7) == Eigen::RowVector3f(0, 0, 1));
+
+  cli_test::write_text(f.in + "/twice.json", R"({"points": [{"vertex": 0}, {"vertex": 6}],
+    "groups": [{"points": [0, 1], "translate": [0, 0, 1]}, {"points": [1]}]})");
+  std::filesystem::remove(o);
+  require_bad_input(f, {"deform", "-m", f.in + "/cube.obj", "-H", f.in + "/twice.json", "-o", o},
+                    f.in +
+                        "/twice.json: /groups/1/points/0: point handle 1 is already in a group (at "
+                        "/groups/0/points/1); a handle can be in one group only");
+}
+
 TEST_CASE("deform: existing outputs need --force", "[cli][commands][errors]") {
   Fixture f;
   const std::string m = f.in + "/cube.obj", h = f.in + "/shear.json", o = f.out + "/a.obj";

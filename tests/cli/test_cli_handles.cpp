@@ -96,7 +96,7 @@ TEST_CASE("bad handles files: one line with the file, the JSON path and the prob
   require_error("{}", "h.json: /: no handles (give at least one entry in \"points\" or \"segments\")");
   require_error("{\"points\": []}", "h.json: /: no handles (give at least one entry in \"points\" or \"segments\")");
   require_error("{\"point\": []}",
-                "h.json: /point: unknown key (expected \"points\", \"segments\", \"frames\", \"region\", \"comment\")");
+                "h.json: /point: unknown key (expected \"points\", \"segments\", \"groups\", \"frames\", \"region\", \"comment\")");
   require_error("{\"points\": {}}", "h.json: /points: expected an array of point handles, found object");
   require_error(
       "{\"points\": [{\"vertex\": 0, \"tagret\": [0, 0, 0]}]}",
@@ -161,4 +161,126 @@ TEST_CASE("duplicate keys in a handles file are refused, at any depth", "[cli][h
   // The same key in different objects is fine.
   const HandlesFile h = parse_handles(R"({"points": [{"vertex": 0}, {"vertex": 1}]})", "h.json");
   CHECK(h.points.size() == 2);
+}
+
+TEST_CASE("groups: members go to their rest positions under the group's rigid motion", "[cli][handles][groups]") {
+  // Vertices 0 to 3 of four_vertices(); point 3 has its own offset, overridden by its group.
+  const HandlesFile h = parse_handles(R"({
+      "points": [{"vertex": 0}, {"vertex": 1}, {"vertex": 2}, {"vertex": 3, "offset": [5, 5, 5]}],
+      "segments": [{"vertices": [1, 2]}],
+      "groups": [
+        {"points": [1, 2], "segments": [0], "rotate": {"axis": [0, 0, 2], "degrees": 90, "pivot": [0, 0, 0]},
+         "translate": [0, 0, 1], "name": "quarter turn about z, then up"},
+        {"points": [3], "translate": [1, 0, 0]},
+        {"points": [0], "rotate": {"axis": [0, 0, 1], "degrees": 180}}
+      ]})",
+                                      "h.json");
+  REQUIRE(h.groups.size() == 3);
+  const auto r = resolve_handles<double>(h, four_vertices());
+  REQUIRE(r.frames.size() == 1);
+  const auto& q = r.frames[0];
+  // A quarter turn is exact: (x, y, z) -> (-y, x, z), then + (0, 0, 1).
+  CHECK(q.points.row(1) == Eigen::RowVector3d(0, 1, 1));
+  CHECK(q.points.row(2) == Eigen::RowVector3d(-1, 0, 1));
+  CHECK(q.segment_a.row(0) == Eigen::RowVector3d(0, 1, 1));
+  CHECK(q.segment_b.row(0) == Eigen::RowVector3d(-1, 0, 1));
+  CHECK(q.points.row(3) == Eigen::RowVector3d(1, 0, 1));  // the group's motion, not the handle's own offset
+  CHECK(q.points.row(0) == Eigen::RowVector3d(0, 0, 0));  // a turn about its own centroid: itself
+  CHECK(r.rest.points.row(3) == Eigen::RowVector3d(0, 0, 1));
+}
+
+TEST_CASE("groups: the default pivot is the group's rest centroid", "[cli][handles][groups]") {
+  // Points at (1, 0, 0) and (0, 1, 0), segment (0, 0, 0)-(0, 0, 1): centroid (1, 1, 1) / 4.
+  const HandlesFile h = parse_handles(R"({
+      "points": [{"vertex": 1}, {"vertex": 2}], "segments": [{"vertices": [0, 3]}],
+      "groups": [{"points": [0, 1], "segments": [0], "rotate": {"axis": [1, 1, 1], "degrees": 120}}]})",
+                                      "h.json");
+  const auto r = resolve_handles<double>(h, four_vertices());
+  // 120 degrees about (1, 1, 1) cycles x -> y -> z, and fixes the centroid on that axis.
+  const auto& q = r.frames[0];
+  CHECK((q.points.row(0) - Eigen::RowVector3d(0, 1, 0)).norm() < 1e-15);
+  CHECK((q.points.row(1) - Eigen::RowVector3d(0, 0, 1)).norm() < 1e-15);
+  CHECK((q.segment_a.row(0) - Eigen::RowVector3d(0, 0, 0)).norm() < 1e-15);
+  CHECK((q.segment_b.row(0) - Eigen::RowVector3d(1, 0, 0)).norm() < 1e-15);
+}
+
+TEST_CASE("groups in frames: one entry per group, null keeps the group's own motion", "[cli][handles][groups]") {
+  const HandlesFile h = parse_handles(R"({
+      "points": [{"vertex": 0}, {"vertex": 1}, {"vertex": 2}],
+      "groups": [{"points": [1, 2], "translate": [0, 0, 1]}],
+      "frames": [
+        {"groups": [null]},
+        {"groups": [{"rotate": {"axis": [0, 0, 1], "degrees": -90, "pivot": [0, 0, 0]}}]},
+        {"points": [[1, 1, 1], [7, 7, 7], null], "groups": [{}]},
+        {}
+      ]})",
+                                      "h.json");
+  const auto r = resolve_handles<float>(h, four_vertices());
+  REQUIRE(r.frames.size() == 4);
+  CHECK(r.frames[0].points.row(1) == Eigen::RowVector3f(1, 0, 1));
+  CHECK(r.frames[1].points.row(1) == Eigen::RowVector3f(0, -1, 0));  // -90 degrees: (x, y) -> (y, -x)
+  CHECK(r.frames[1].points.row(2) == Eigen::RowVector3f(1, 0, 0));
+  CHECK(r.frames[2].points.row(0) == Eigen::RowVector3f(1, 1, 1));  // not in a group: the frame's entry
+  CHECK(r.frames[2].points.row(1) == Eigen::RowVector3f(1, 0, 0));  // {}: the group at rest, over the entry
+  CHECK(r.frames[3].points.row(2) == Eigen::RowVector3f(0, 1, 1));  // no "groups": the group's own motion
+}
+
+TEST_CASE("bad groups: one line with the file, the JSON path and the problem", "[cli][handles][groups][errors]") {
+  const std::string handles = R"("points": [{"vertex": 0}, {"vertex": 1}], "segments": [{"vertices": [2, 3]}], )";
+  auto file = [&](const std::string& rest) { return "{" + handles + rest + "}"; };
+  require_error(file(R"("groups": {})"), "h.json: /groups: expected an array of handle groups, found object");
+  require_error(file(R"("groups": [[0]])"),
+                "h.json: /groups/0: expected a handle group {\"points\": [...], \"segments\": [...], \"rotate\": "
+                "{...}, \"translate\": [...]}, found array");
+  require_error(file(R"("groups": [{"points": [0], "rotation": {}}])"),
+                "h.json: /groups/0/rotation: unknown key (expected \"points\", \"segments\", \"rotate\", "
+                "\"translate\", \"name\")");
+  require_error(
+      file(R"("groups": [{"points": [0], "rotate": {"axis": [0, 0, 1], "degrees": 9, "centre": [0, 0, 0]}}])"),
+      "h.json: /groups/0/rotate/centre: unknown key (expected \"axis\", \"degrees\", \"pivot\")");
+  require_error(file(R"("groups": [{}])"),
+                "h.json: /groups/0: empty group (give handle indices in \"points\" or \"segments\")");
+  require_error(file(R"("groups": [{"points": [2]}])"),
+                "h.json: /groups/0/points/0: point handle 2 out of range (the file has 2 point handles, 0 to 1)");
+  require_error(file(R"("groups": [{"segments": [0, 1]}])"),
+                "h.json: /groups/0/segments/1: segment handle 1 out of range (the file has 1 segment handles, 0 to 0)");
+  require_error(file(R"("groups": [{"points": [-1]}])"),
+                "h.json: /groups/0/points/0: point handle index -1 is negative");
+  require_error(file(R"("groups": [{"points": [0.5]}])"),
+                "h.json: /groups/0/points/0: expected a point handle index (an integer from 0), found 0.5");
+  require_error(file(R"("groups": [{"points": [0]}, {"points": [1, 0]}])"),
+                "h.json: /groups/1/points/1: point handle 0 is already in a group (at /groups/0/points/0); a handle "
+                "can be in one group only");
+  require_error(file(R"("groups": [{"segments": [0, 0]}])"),
+                "h.json: /groups/0/segments/1: segment handle 0 is already in a group (at /groups/0/segments/0); a "
+                "handle can be in one group only");
+  require_error(file(R"("groups": [{"points": [0], "rotate": {"axis": [0, 0, 0], "degrees": 30}}])"),
+                "h.json: /groups/0/rotate/axis: zero axis (a rotation needs a direction)");
+  require_error(file(R"("groups": [{"points": [0], "rotate": {"degrees": 30}}])"),
+                "h.json: /groups/0/rotate: missing \"axis\"");
+  require_error(file(R"("groups": [{"points": [0], "rotate": {"axis": [1, 0, 0]}}])"),
+                "h.json: /groups/0/rotate: missing \"degrees\"");
+  require_error(file(R"("groups": [{"points": [0], "rotate": {"axis": [1, 0, 0], "degrees": "30"}}])"),
+                "h.json: /groups/0/rotate/degrees: expected a number, found string");
+  require_error(file(R"("groups": [{"points": [0], "translate": [0, 1e999, 0]}])"),
+                "h.json: invalid JSON: number overflow parsing '1e999'");
+  require_error(file(R"("groups": [{"points": [0], "translate": [0, 1e300, 0]}])"),
+                "h.json: /groups/0: coordinates too large for --precision float");
+  require_error(file(R"("groups": [{"points": [0], "rotate": {"axis": [1, 0, 0], "degrees": 90, "pivot": [0, 0]}}])"),
+                "h.json: /groups/0/rotate/pivot: expected a position [x, y, z], found an array of 2");
+  // Frames.
+  require_error(file(R"("groups": [{"points": [0]}], "frames": [{"groups": []}])"),
+                "h.json: /frames/0/groups: 0 entries, expected 1 (one per group)");
+  require_error(file(R"("frames": [{"groups": [null]}])"),
+                "h.json: /frames/0/groups: 1 entries, expected 0 (one per group)");
+  require_error(file(R"("groups": [{"points": [0]}], "frames": [{"groups": [{"points": [1]}]}])"),
+                "h.json: /frames/0/groups/0/points: unknown key (expected \"rotate\", \"translate\")");
+  require_error(file(R"("groups": [{"points": [0]}], "frames": [{"groups": [[0, 0, 1]]}])"),
+                "h.json: /frames/0/groups/0: expected null or a motion {\"rotate\": {...}, \"translate\": [dx, dy, "
+                "dz]}, found array");
+  require_error(
+      file(R"("groups": [{"points": [0]}], "frames": [{"groups": [{"rotate": {"axis": [0, 0, 0], "degrees": 1}}]}])"),
+      "h.json: /frames/0/groups/0/rotate/axis: zero axis (a rotation needs a direction)");
+  require_error(file(R"("groups": [{"points": [0]}], "frames": [{"groups": [{"translate": [1e300, 0, 0]}]}])"),
+                "h.json: /frames/0/groups/0: coordinates too large for --precision float");
 }

@@ -4,6 +4,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include <array>
 #include <cmath>
 #include <initializer_list>
 #include <limits>
@@ -72,10 +73,11 @@ struct Node {
            (v.is_array() ? "an array of " + std::to_string(v.size()) : std::string(v.type_name())));
     return {at(0).vec3(), at(1).vec3()};
   }
-  std::uint64_t index() const {
+  std::uint64_t index(const char* what = "vertex") const {
     if (v.is_number_unsigned()) return v.get<std::uint64_t>();
-    if (v.is_number_integer()) fail("vertex index " + std::to_string(v.get<std::int64_t>()) + " is negative");
-    fail(std::string("expected a vertex index (an integer from 0), found ") +
+    if (v.is_number_integer())
+      fail(std::string(what) + " index " + std::to_string(v.get<std::int64_t>()) + " is negative");
+    fail(std::string("expected a ") + what + " index (an integer from 0), found " +
          (v.is_number() ? v.dump() : v.type_name()));
   }
 };
@@ -172,6 +174,73 @@ std::vector<std::optional<Target>> parse_frame_list(const Node& frame, const cha
   return out;
 }
 
+// A group's or a frame's motion: {"rotate": {"axis": [x, y, z], "degrees": a, "pivot": [x, y, z]},
+// "translate": [dx, dy, dz]}, each part optional (neither: the group stays at rest).
+Motion parse_motion(const Node& n) {
+  Motion m;
+  m.path = n.path;
+  if (n.has("rotate")) {
+    const Node r = n["rotate"];
+    r.require_object("a rotation {\"axis\": [x, y, z], \"degrees\": a, \"pivot\": [x, y, z]}");
+    r.only_keys({"axis", "degrees", "pivot"});
+    if (!r.has("axis") || !r.has("degrees")) r.fail(r.has("axis") ? "missing \"degrees\"" : "missing \"axis\"");
+    const Eigen::Vector3d axis = r["axis"].vec3();
+    // Scaled by its largest component first, so that neither tiny nor huge axes over- or underflow.
+    const double big = axis.cwiseAbs().maxCoeff();
+    if (big == 0) r["axis"].fail("zero axis (a rotation needs a direction)");
+    m.axis = (axis / big).normalized();
+    m.degrees = r["degrees"].number();
+    if (r.has("pivot")) m.pivot = r["pivot"].vec3();
+  }
+  if (n.has("translate")) m.translate = n["translate"].vec3();
+  return m;
+}
+
+// "points" / "segments" of a group: indices of handles, each in one group only (`owner` holds the path where
+// each handle was listed, empty if nowhere yet).
+std::vector<std::size_t> parse_members(const Node& group, const char* key, std::vector<std::string>& owner) {
+  std::vector<std::size_t> out;
+  if (!group.has(key)) return out;
+  const bool points = std::string_view(key) == "points";
+  const char* kind = points ? "point handle" : "segment handle";
+  const Node list = group[key];
+  list.require_array(points ? "an array of point handle indices" : "an array of segment handle indices");
+  for (std::size_t j = 0; j < list.v.size(); ++j) {
+    const Node item = list.at(j);
+    const std::uint64_t i = item.index(kind);
+    if (i >= owner.size())
+      item.fail(std::string(kind) + " " + std::to_string(i) + " out of range (the file has " +
+                std::to_string(owner.size()) + " " + kind + "s" +
+                (owner.empty() ? std::string() : ", 0 to " + std::to_string(owner.size() - 1)) + ")");
+    if (!owner[i].empty())
+      item.fail(std::string(kind) + " " + std::to_string(i) + " is already in a group (at " + owner[i] +
+                "); a handle can be in one group only");
+    owner[i] = item.path;
+    out.push_back(std::size_t(i));
+  }
+  return out;
+}
+
+GroupSpec parse_group(const Node& n, std::vector<std::string>& point_owner, std::vector<std::string>& segment_owner) {
+  n.require_object("a handle group {\"points\": [...], \"segments\": [...], \"rotate\": {...}, \"translate\": [...]}");
+  n.only_keys({"points", "segments", "rotate", "translate", "name"});
+  GroupSpec g;
+  g.path = n.path;
+  g.points = parse_members(n, "points", point_owner);
+  g.segments = parse_members(n, "segments", segment_owner);
+  if (g.points.empty() && g.segments.empty()) n.fail("empty group (give handle indices in \"points\" or \"segments\")");
+  g.motion = parse_motion(n);
+  return g;
+}
+
+// A frame's entry for one group: null (the group's own motion) or {"rotate": ..., "translate": ...}.
+std::optional<Motion> parse_frame_motion(const Node& n) {
+  if (n.v.is_null()) return std::nullopt;
+  n.require_object("null or a motion {\"rotate\": {...}, \"translate\": [dx, dy, dz]}");
+  n.only_keys({"rotate", "translate"});
+  return parse_motion(n);
+}
+
 std::string one_line(std::string s) {
   for (auto& c : s)
     if (c == '\n' || c == '\r') c = ' ';
@@ -224,7 +293,7 @@ HandlesFile parse_handles(std::string_view text, const std::string& file) {
     throw InputError(file, "the key \"" + duplicate + "\" appears twice in one object (keys must be unique)");
   const Node root{doc, "", file};
   root.require_object("an object with \"points\" and/or \"segments\"");
-  root.only_keys({"points", "segments", "frames", "region", "comment"});
+  root.only_keys({"points", "segments", "groups", "frames", "region", "comment"});
   HandlesFile h;
   h.file = file;
   if (root.has("points")) {
@@ -253,17 +322,33 @@ HandlesFile parse_handles(std::string_view text, const std::string& file) {
       h.region.push_back(v);
     }
   }
+  if (root.has("groups")) {
+    const Node groups = root["groups"];
+    groups.require_array("an array of handle groups");
+    std::vector<std::string> point_owner(h.points.size()), segment_owner(h.segments.size());
+    for (std::size_t g = 0; g < groups.v.size(); ++g)
+      h.groups.push_back(parse_group(groups.at(g), point_owner, segment_owner));
+  }
   if (root.has("frames")) {
     const Node frames = root["frames"];
     frames.require_array("an array of frames");
     if (frames.v.empty()) frames.fail("no frames (leave \"frames\" out for a single output)");
     for (std::size_t f = 0; f < frames.v.size(); ++f) {
       const Node frame = frames.at(f);
-      frame.require_object("a frame {\"points\": [...], \"segments\": [...]}");
-      frame.only_keys({"points", "segments", "comment"});
+      frame.require_object("a frame {\"points\": [...], \"segments\": [...], \"groups\": [...]}");
+      frame.only_keys({"points", "segments", "groups", "comment"});
       FrameSpec fs;
       fs.points = parse_frame_list(frame, "points", h.points.size(), false);
       fs.segments = parse_frame_list(frame, "segments", h.segments.size(), true);
+      fs.groups.resize(h.groups.size());
+      if (frame.has("groups")) {
+        const Node list = frame["groups"];
+        list.require_array("an array with one entry per group");
+        if (list.v.size() != h.groups.size())
+          list.fail(std::to_string(list.v.size()) + " entries, expected " + std::to_string(h.groups.size()) +
+                    " (one per group)");
+        for (std::size_t g = 0; g < h.groups.size(); ++g) fs.groups[g] = parse_frame_motion(list.at(g));
+      }
       h.frames.push_back(std::move(fs));
     }
   }
@@ -292,6 +377,32 @@ struct Converter {
 template <class T>
 void set_row(Points<T>& m, std::size_t i, const Vector3<T>& v) {
   m.row(Eigen::Index(i)) = v.transpose();
+}
+
+// sin and cos of an angle in degrees, exact at multiples of 90 degrees (a quarter turn moves handles exactly).
+std::array<double, 2> sin_cos_degrees(double degrees) {
+  const double r = std::remainder(degrees, 360.0);  // exact, in [-180, 180]
+  const double q = std::nearbyint(r / 90);          // quadrant, -2 to 2
+  const double f = r - 90 * q;  // exact (Sterbenz: r and 90 q are within a factor 2 unless q = 0), |f| <= 45
+  const double s = std::sin(f * (M_PI / 180)), c = std::cos(f * (M_PI / 180));
+  switch ((int(q) + 4) % 4) {
+    case 1:
+      return {c, -s};
+    case 2:
+      return {-s, -c};
+    case 3:
+      return {-c, s};
+    default:
+      return {s, c};
+  }
+}
+
+// The rotation by `degrees` about the unit `axis` (Rodrigues: R = c I + s [a]_x + (1 - c) a a^T).
+Eigen::Matrix3d rotation(const Eigen::Vector3d& a, double degrees) {
+  const auto [s, c] = sin_cos_degrees(degrees);
+  Eigen::Matrix3d K;
+  K << 0, -a.z(), a.y(), a.z(), 0, -a.x(), -a.y(), a.x(), 0;
+  return c * Eigen::Matrix3d::Identity() + s * K + (1 - c) * a * a.transpose();
 }
 
 }  // namespace
@@ -342,8 +453,17 @@ ResolvedHandles<T> resolve_handles(const HandlesFile& h, const PointsRowMajor<fl
   }
 
   // A frame: each handle's entry, or its own target when the frame has none.
+  // Each group's rest centroid (the default pivot): the mean of its points and its segments' end points.
+  std::vector<Eigen::Vector3d> centroid;
+  for (const GroupSpec& gs : h.groups) {
+    Eigen::Vector3d sum = Eigen::Vector3d::Zero();
+    for (std::size_t i : gs.points) sum += point_rest[i];
+    for (std::size_t i : gs.segments) sum += seg_a[i] + seg_b[i];
+    centroid.push_back(sum / double(gs.points.size() + 2 * gs.segments.size()));
+  }
+
   auto moved = [&](const std::vector<std::optional<Target>>* fp, const std::vector<std::optional<Target>>* fs,
-                   const std::string& frame_path) {
+                   const std::vector<std::optional<Motion>>* fg, const std::string& frame_path) {
     Handles<T> m;
     m.points.resize(Eigen::Index(k), 3);
     m.segment_a.resize(Eigen::Index(s), 3);
@@ -372,14 +492,28 @@ ResolvedHandles<T> resolve_handles(const HandlesFile& h, const PointsRowMajor<fl
       set_row(m.segment_a, i, convert(a, path));
       set_row(m.segment_b, i, convert(b, path));
     }
+    // Groups, after the handles' own targets: their members go to their rest positions under the motion.
+    for (std::size_t g = 0; g < h.groups.size(); ++g) {
+      const GroupSpec& gs = h.groups[g];
+      const Motion& mo = fg && (*fg)[g] ? *(*fg)[g] : gs.motion;
+      const Eigen::Matrix3d R = rotation(mo.axis, mo.degrees);
+      const Eigen::Vector3d c = mo.pivot ? *mo.pivot : centroid[g];
+      const auto image = [&](const Eigen::Vector3d& x) -> Eigen::Vector3d { return R * (x - c) + c + mo.translate; };
+      for (std::size_t i : gs.points) set_row(m.points, i, convert(image(point_rest[i]), mo.path));
+      for (std::size_t i : gs.segments) {
+        set_row(m.segment_a, i, convert(image(seg_a[i]), mo.path));
+        set_row(m.segment_b, i, convert(image(seg_b[i]), mo.path));
+      }
+    }
     return m;
   };
   if (h.frames.empty()) {
-    r.frames.push_back(moved(nullptr, nullptr, {}));
+    r.frames.push_back(moved(nullptr, nullptr, nullptr, {}));
   } else {
     r.frames.reserve(h.frames.size());
     for (std::size_t f = 0; f < h.frames.size(); ++f)
-      r.frames.push_back(moved(&h.frames[f].points, &h.frames[f].segments, "/frames/" + std::to_string(f)));
+      r.frames.push_back(
+          moved(&h.frames[f].points, &h.frames[f].segments, &h.frames[f].groups, "/frames/" + std::to_string(f)));
   }
   return r;
 }

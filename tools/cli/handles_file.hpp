@@ -42,15 +42,35 @@ struct SegmentHandleSpec {
   std::string path;
 };
 
-/// One frame of an animation: a target per handle, or none (std::nullopt: the handle's own target).
+/// A rigid motion of a handle group: x -> R (x - pivot) + pivot + translate, R the rotation by `degrees`
+/// about `axis` (right-handed; identity when the group has no "rotate").
+struct Motion {
+  Eigen::Vector3d axis = Eigen::Vector3d::UnitZ();  ///< unit length
+  double degrees = 0;
+  std::optional<Eigen::Vector3d> pivot;  ///< none: the group's rest centroid
+  Eigen::Vector3d translate = Eigen::Vector3d::Zero();
+  std::string path;  ///< JSON path, for messages
+};
+
+/// Handles moved as one rigid body; each handle is in at most one group.
+struct GroupSpec {
+  std::vector<std::size_t> points, segments;  ///< indices into HandlesFile::points, ::segments
+  Motion motion;
+  std::string path;
+};
+
+/// One frame of an animation: a target per handle, or none (std::nullopt: the handle's own target), and a
+/// motion per group, or none (the group's own).
 struct FrameSpec {
   std::vector<std::optional<Target>> points, segments;
+  std::vector<std::optional<Motion>> groups;
 };
 
 struct HandlesFile {
   std::string file;  ///< name used in messages
   std::vector<PointHandleSpec> points;
   std::vector<SegmentHandleSpec> segments;
+  std::vector<GroupSpec> groups;  ///< applied after the handles' own targets, overriding them
   std::vector<FrameSpec> frames;  ///< empty unless the file has "frames"
   /// "region": the vertices that may move (Options::region), each once; empty: the whole mesh.
   std::vector<std::uint64_t> region;

@@ -8,6 +8,7 @@
 
 #include <cstddef>
 #include <memory>
+#include <span>
 #include <string_view>
 #include <vector>
 
@@ -128,6 +129,17 @@ class Deformer {
   /// handles); move some of them and deform() with no handle argument.
   void set_point_target(Eigen::Index i, const Vector3<T>& target);
   void set_segment_target(Eigen::Index i, const Vector3<T>& a, const Vector3<T>& b);
+  /// Moves a group of handles as one rigid body: the targets of the point handles `point_indices` and the
+  /// segment handles `segment_indices` (an index may repeat) become their REST positions under
+  /// x -> R (x - pivot) + pivot + t; other targets are kept. Computed in T, coordinate i of the image as
+  /// (((R_i0 d_0 + R_i1 d_1) + R_i2 d_2) + pivot_i) + t_i with d = x - pivot, so a group of one handle sets
+  /// bitwise what set_point_target / set_segment_target would set from that expression. Throws, changing
+  /// nothing: std::out_of_range for an index out of range; std::invalid_argument if R has a non-finite entry,
+  /// is not orthonormal to 64 eps(T) (largest entry of |R^T R - I|, computed in T; fit_rotation's own bound)
+  /// or is a reflection, if t or pivot is not finite, or if an image has a non-finite coordinate or one
+  /// beyond max(T)/64.
+  void transform_handles(std::span<const Eigen::Index> point_indices, std::span<const Eigen::Index> segment_indices,
+                         const Matrix3<T>& R, const Vector3<T>& t, const Vector3<T>& pivot);
   const Handles<T>& targets() const;
   void deform(Points<T>& out) const;
   /// The same, writing interleaved xyz (vertex_count() rows; std::invalid_argument otherwise).

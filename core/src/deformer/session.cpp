@@ -40,6 +40,16 @@ Vector3<T> target_centre(const Handles<T>& q) {
   return Vector3<T>(sx * inv, sy * inv, sz * inv);
 }
 
+/// The image of x under x -> R (x - pivot) + pivot + t, in T and in the order deformer.hpp documents
+/// (transform_handles).
+template <class T>
+Vector3<T> rigid_image(const Vector3<T>& x, const Matrix3<T>& R, const Vector3<T>& t, const Vector3<T>& pivot) {
+  const Vector3<T> d = x - pivot;
+  Vector3<T> y;
+  for (int i = 0; i < 3; ++i) y[i] = (((R(i, 0) * d[0] + R(i, 1) * d[1]) + R(i, 2) * d[2]) + pivot[i]) + t[i];
+  return y;
+}
+
 }  // namespace detail
 
 template <class T>
@@ -224,6 +234,39 @@ void Deformer<T>::set_segment_target(Eigen::Index i, const Vector3<T>& a, const 
     throw std::invalid_argument("Deformer::set_segment_target: non-finite or too large coordinate");
   impl().targets.segment_a.row(i) = a.transpose();
   impl().targets.segment_b.row(i) = b.transpose();
+}
+
+template <class T>
+void Deformer<T>::transform_handles(std::span<const Eigen::Index> point_indices,
+                                    std::span<const Eigen::Index> segment_indices, const Matrix3<T>& R,
+                                    const Vector3<T>& t, const Vector3<T>& pivot) {
+  static constexpr const char* what = "Deformer::transform_handles";
+  Handles<T>& q = impl().targets;
+  const Handles<T>& p = impl().rest;
+  const auto check_index = [](Eigen::Index i, Eigen::Index count, const char* kind) {
+    if (i < 0 || i >= count)
+      throw std::out_of_range(std::string(what) + ": " + kind + " index " + std::to_string(i) + " but " +
+                              std::to_string(count) + " " + kind + " handles");
+  };
+  for (const Eigen::Index i : point_indices) check_index(i, p.points.rows(), "point");
+  for (const Eigen::Index i : segment_indices) check_index(i, p.segment_a.rows(), "segment");
+  detail::check_rigid_motion(R, t, pivot, what);
+  const auto image = [&](const Points<T>& m, Eigen::Index i) {
+    const Vector3<T> y = detail::rigid_image<T>(m.row(i).transpose(), R, t, pivot);
+    if (!y.allFinite() || y.cwiseAbs().maxCoeff() > detail::coordinate_limit<T>())
+      throw std::invalid_argument(std::string(what) + ": the image of " + (&m == &p.points ? "point" : "segment") +
+                                  " handle " + std::to_string(i) + " has a non-finite or too large coordinate");
+    return y;
+  };
+  // Every image is checked before any target changes (strong guarantee), then computed again to be stored:
+  // the same operations give the same bits, and nothing is allocated.
+  for (const Eigen::Index i : point_indices) image(p.points, i);
+  for (const Eigen::Index i : segment_indices) image(p.segment_a, i), image(p.segment_b, i);
+  for (const Eigen::Index i : point_indices) q.points.row(i) = image(p.points, i).transpose();
+  for (const Eigen::Index i : segment_indices) {
+    q.segment_a.row(i) = image(p.segment_a, i).transpose();
+    q.segment_b.row(i) = image(p.segment_b, i).transpose();
+  }
 }
 
 template <class T>

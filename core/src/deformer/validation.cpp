@@ -1,5 +1,7 @@
 #include "validation.hpp"
 
+#include <Eigen/LU>
+
 #include <algorithm>
 #include <array>
 #include <cmath>
@@ -113,12 +115,38 @@ void check_coincident(const Handles<T>& moved, const CoincidentPairs& pairs) {
                                   "); a vertex there cannot follow both");
 }
 
+template <class T>
+T orthonormality_error(const Matrix3<T>& R) {
+  T worst = 0;
+  for (int i = 0; i < 3; ++i)
+    for (int j = 0; j < 3; ++j) {
+      const T e = (R(0, i) * R(0, j) + R(1, i) * R(1, j)) + R(2, i) * R(2, j) - T(i == j ? 1 : 0);
+      worst = std::max(worst, std::abs(e));
+    }
+  return worst;
+}
+
+template <class T>
+void check_rigid_motion(const Matrix3<T>& R, const Vector3<T>& t, const Vector3<T>& pivot, const char* what) {
+  if (!R.allFinite()) throw std::invalid_argument(std::string(what) + ": the rotation has a non-finite entry");
+  const T e = orthonormality_error(R);
+  if (!(e <= rotation_tolerance<T>()))
+    throw std::invalid_argument(std::string(what) + ": not a rotation (largest entry of |R^T R - I| is " +
+                                num(double(e)) + ", tolerance " + num(double(rotation_tolerance<T>())) + ")");
+  if (!(R.determinant() > 0))
+    throw std::invalid_argument(std::string(what) + ": not a rotation (det R < 0: a reflection)");
+  if (!t.allFinite()) throw std::invalid_argument(std::string(what) + ": non-finite translation");
+  if (!pivot.allFinite()) throw std::invalid_argument(std::string(what) + ": non-finite pivot");
+}
+
 #define MLSDEFORM_VALIDATION(T)                                                 \
   template void check_points<T>(const Points<T>&, const char*, const char*, T); \
   template void check_handles<T>(const Handles<T>&, const char*, T);            \
   template void check_moved<T>(const Handles<T>&, const Handles<T>&);           \
   template CoincidentPairs coincident_points<T>(const Points<T>&);              \
-  template void check_coincident<T>(const Handles<T>&, const CoincidentPairs&);
+  template void check_coincident<T>(const Handles<T>&, const CoincidentPairs&); \
+  template T orthonormality_error<T>(const Matrix3<T>&);                        \
+  template void check_rigid_motion<T>(const Matrix3<T>&, const Vector3<T>&, const Vector3<T>&, const char*);
 MLSDEFORM_VALIDATION(float)
 MLSDEFORM_VALIDATION(double)
 #undef MLSDEFORM_VALIDATION

@@ -47,6 +47,31 @@ void check_affine_rank(const std::vector<Eigen::Vector3d>& P);
 /// one instantiation of Eigen's dynamic-size SVD for the library (affine_rank.cpp), which is slow to compile.
 Eigen::Vector3d singular_values(const Eigen::Matrix<double, Eigen::Dynamic, 3>& X, Eigen::Matrix3d* V = nullptr);
 
+/// The tolerance on R of a rigid motion (Deformer::transform_handles): the largest entry of |R^T R - I|,
+/// evaluated in T, may be at most 64 eps(T), the bound fit_rotation guarantees for its own results
+/// (tests/support/accuracy_bounds.hpp, c_o), so that every rotation the library returns is accepted. An R
+/// whose entries are each within c eps of those of an exact rotation Q (R = Q + E) has
+/// (R^T R - I)_ij = sum_k (Q_ki E_kj + E_ki Q_kj) + O(eps^2), at most 2 sqrt(3) c eps since a column of Q is a
+/// unit vector (sum_k |Q_ki| <= sqrt(3)); evaluating the three products, their sum and the subtraction of I in
+/// T adds at most gamma_4 (sum_k |R_ki R_kj| + 1) <= 4 eps. 64 eps thus accepts every R within 17 eps per
+/// entry of a rotation. Measured (tests/test_handle_groups.cpp): Eigen's AngleAxis and Quaternion matrices
+/// reach 8 eps, a product of two 10 eps, fit_rotation 17 eps (kanatani, svd; rank-deficient H). An accepted R
+/// changes lengths by at most 32 eps relative (|R x|^2 = x^T R^T R x), far below a handle's own rounding in
+/// a deformation; a matrix scaled by 1 + 33 eps, or any reflection, is refused.
+template <class T>
+constexpr T rotation_tolerance() {
+  return 64 * std::numeric_limits<T>::epsilon();
+}
+
+/// The largest entry of |R^T R - I|, evaluated in T (rotation_tolerance).
+template <class T>
+T orthonormality_error(const Matrix3<T>& R);
+
+/// The rigid motion x -> R (x - pivot) + pivot + t of Deformer::transform_handles: R finite, orthonormal
+/// (rotation_tolerance) and proper (det R > 0: not a reflection), t and pivot finite. `what` names the caller.
+template <class T>
+void check_rigid_motion(const Matrix3<T>& R, const Vector3<T>& t, const Vector3<T>& pivot, const char* what);
+
 /// Pairs (i, j), i < j, of point handles at the same rest position. A vertex there is snapped to one of them,
 /// while the map's limit at that position is the mean of their targets: such pairs must keep equal targets.
 using CoincidentPairs = std::vector<std::pair<Eigen::Index, Eigen::Index>>;
