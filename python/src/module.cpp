@@ -146,7 +146,7 @@ class PyDeformer {
              const std::string& transform, double exponent, const std::string& method,
              const std::string& segment_weight, int threads, const std::string& weight_storage,
              const std::string& backend, std::size_t budget_bytes, const py::object& dtype, const py::object& faces,
-             int arap_iterations, const std::string& centroids) {
+             int arap_iterations, const std::string& centroids, const py::object& region) {
     Options o;
     o.transform = parse_transform(transform);
     o.weight_exponent = exponent;
@@ -163,6 +163,10 @@ class PyDeformer {
     o.precompute_budget_bytes = budget_bytes;
     o.arap_iterations = arap_iterations;
     o.centroids = parse_enum<Centroids>(centroids, "centroids", {{"mls", Centroids::mls}, {"rbf", Centroids::rbf}});
+    if (!region.is_none()) {
+      o.region = to_indices(region, "region");
+      if (o.region.empty()) throw py::value_error("region: no vertices (pass None to deform the whole model)");
+    }
     bool single = false;
     if (!dtype.is_none()) {
       const py::dtype dt = py::dtype::from_args(dtype);
@@ -199,6 +203,19 @@ class PyDeformer {
     visit([&](auto& d) {
       using T = typename Scalar<decltype(d)>::type;
       d.set_segment_target(i, vector3<T>(a, "a"), vector3<T>(b, "b"));
+    });
+  }
+  void transform_handles(const py::object& points, const py::object& segments, const py::object& rotation,
+                         const py::object& translation, const py::object& pivot) {
+    const std::vector<Eigen::Index> pi = points.is_none() ? std::vector<Eigen::Index>() : to_indices(points, "points");
+    const std::vector<Eigen::Index> si =
+        segments.is_none() ? std::vector<Eigen::Index>() : to_indices(segments, "segments");
+    visit([&](auto& d) {
+      using T = typename Scalar<decltype(d)>::type;
+      const Matrix3<T> R = rotation.is_none() ? Matrix3<T>::Identity() : matrix3<T>(rotation, "rotation");
+      const Vector3<T> t = translation.is_none() ? Vector3<T>::Zero() : vector3<T>(translation, "translation");
+      const Vector3<T> c = pivot.is_none() ? Vector3<T>::Zero() : vector3<T>(pivot, "pivot");
+      d.transform_handles(pi, si, R, t, c);
     });
   }
   py::dict targets() const {
@@ -250,6 +267,34 @@ class PyDeformer {
     }
     if (a.size() != 3) throw py::value_error(std::string(name) + ": expected 3 numbers, got shape " + shape_of(a));
     return Vector3<T>(a.data()[0], a.data()[1], a.data()[2]);
+  }
+
+  template <class T>
+  static Matrix3<T> matrix3(const py::object& obj, const char* name) {
+    Array<T> a;
+    try {
+      a = Array<T>::ensure(obj);
+    } catch (const py::error_already_set&) {
+    }
+    if (!a) {
+      PyErr_Clear();
+      throw py::type_error(std::string(name) + ": expected a 3 x 3 array");
+    }
+    if (a.ndim() != 2 || a.shape(0) != 3 || a.shape(1) != 3)
+      throw py::value_error(std::string(name) + ": expected shape (3, 3), got " + shape_of(a));
+    Matrix3<T> m;
+    for (int i = 0; i < 3; ++i)
+      for (int j = 0; j < 3; ++j) m(i, j) = a.data()[3 * i + j];
+    return m;
+  }
+
+  /// A 1-D sequence of integer indices (region=, transform_handles): range checks are the library's.
+  static std::vector<Eigen::Index> to_indices(const py::object& obj, const char* name) {
+    const py::array a = py::array::ensure(obj);
+    if (!a || a.ndim() != 1 || (a.size() > 0 && a.dtype().kind() != 'i' && a.dtype().kind() != 'u'))
+      throw py::type_error(std::string(name) + ": expected a 1-D sequence of integer indices");
+    const auto ints = py::array_t<long long, py::array::c_style | py::array::forcecast>::ensure(a);
+    return std::vector<Eigen::Index>(ints.data(), ints.data() + ints.size());
   }
 
   /// faces: None or an (m, 3) array of integer vertex indices.
@@ -495,16 +540,18 @@ PYBIND11_MODULE(_mlsdeform, m) {
   py::class_<PyDeformer>(m, "Deformer", "A deformation session; see mlsdeform.Deformer in the Python package.")
       .def(py::init<const py::object&, const py::object&, const py::object&, const std::string&, double,
                     const std::string&, const std::string&, int, const std::string&, const std::string&, std::size_t,
-                    const py::object&, const py::object&, int, const std::string&>(),
+                    const py::object&, const py::object&, int, const std::string&, const py::object&>(),
            py::arg("vertices"), py::kw_only(), py::arg("points") = py::none(), py::arg("segments") = py::none(),
            py::arg("transform") = "rigid", py::arg("exponent") = 2.0, py::arg("method") = "axis_angle",
            py::arg("segment_weight") = "paper_constant", py::arg("threads") = 0,
            py::arg("weight_storage") = "automatic", py::arg("backend") = "simd",
            py::arg("precompute_budget_bytes") = std::size_t(32) << 20, py::arg("dtype") = py::none(),
            py::arg("faces") = py::none(), py::arg("arap_iterations") = 0, py::arg("centroids") = "mls",
+           py::arg("region") = py::none(),
            R"(Deformer(vertices, *, points=None, segments=None, transform="rigid", exponent=2.0,
 method="axis_angle", segment_weight="paper_constant", threads=0, weight_storage="automatic",
-backend="simd", precompute_budget_bytes=32 MiB, dtype=None, faces=None, arap_iterations=0, centroids="mls")
+backend="simd", precompute_budget_bytes=32 MiB, dtype=None, faces=None, arap_iterations=0, centroids="mls",
+region=None)
 
 A deformation session (paper Sec. 5): precomputes what depends on the rest pose only.
 vertices: (n, 3) rest positions; float32 arrays make a float32 session, anything else float64 (or force
@@ -515,7 +562,9 @@ segment_weight: "paper_constant" | "exact_integral"; threads: 0 = all cores; wei
 "automatic" | "precomputed" | "on_the_fly"; faces: (m, 3) vertex indices of the mesh's triangles, needed for
 arap_iterations > 0: that many surface-ARAP iterations after MLS (each handle's nearest vertex held where MLS
 put it); centroids: "mls" (eq. 2) | "rbf" (q* = g(p*), the RBF interpolant of the handles: the paper's
-Sec. 7-8). Raises ValueError on bad input (the library's message).)")
+Sec. 7-8); region: None (the whole model) or the indices of the vertices that may move (the others stay
+bitwise at rest; their neighbours next to the region are held, so the result stays continuous; not with
+arap_iterations). Raises ValueError on bad input (the library's message).)")
       .def("deform", &PyDeformer::deform, py::kw_only(), py::arg("points") = py::none(),
            py::arg("segments") = py::none(), py::arg("out") = py::none(),
            R"(deform(*, points=None, segments=None, out=None) -> (n, 3) array
@@ -529,6 +578,16 @@ writes nothing.)")
            "Move point handle i's target (3 numbers) for later deform() calls; IndexError if out of range.")
       .def("set_segment_target", &PyDeformer::set_segment_target, py::arg("i"), py::arg("a"), py::arg("b"),
            "Move segment handle i's target end points a, b for later deform() calls.")
+      .def("transform_handles", &PyDeformer::transform_handles, py::kw_only(), py::arg("points") = py::none(),
+           py::arg("segments") = py::none(), py::arg("rotation") = py::none(), py::arg("translation") = py::none(),
+           py::arg("pivot") = py::none(),
+           R"(transform_handles(*, points=None, segments=None, rotation=None, translation=None, pivot=None)
+
+Move a group of handles as one rigid body: the targets of the point handles `points` and the segment
+handles `segments` (integer indices) become their REST positions under x -> R (x - pivot) + pivot + t.
+rotation: a proper 3 x 3 rotation (default the identity), orthonormal to 64 eps of the session's dtype;
+translation, pivot: 3 numbers (default zero). Other targets are kept. IndexError for an index out of range,
+ValueError for a reflection, a non-orthonormal or non-finite matrix; on error no target changes.)")
       .def_property_readonly("targets", &PyDeformer::targets,
                              "The current targets: {'points': (k, 3), 'segments': ((s, 3), (s, 3))} (copies).")
       .def_property_readonly("vertex_count", &PyDeformer::vertex_count, "Number of vertices n.")

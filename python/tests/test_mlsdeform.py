@@ -418,3 +418,47 @@ def test_rbf_centroids():
     with pytest.raises(ValueError, match="centroids"):
         mlsdeform.Deformer(V, points=P, centroids="spline")
 
+
+
+def test_transform_handles():
+    g = rng()
+    V, P, A, B = scene(g, k=5, s=1)
+    R = random_rotation(g)
+    t, c = np.array([0.2, -0.1, 0.3]), np.array([0.5, 0.0, -0.2])
+    d = mlsdeform.Deformer(V, points=P, segments=(A, B))
+    # Every handle in one group: the targets are the rest handles under x -> R (x - c) + c + t, and so is
+    # the whole mesh (MLS reproduces a rigid motion). Rounding: each coordinate is 3 products and 5 sums of
+    # terms below 4 in magnitude, within 8 * 4 eps = 7.1e-15 of exact on either side (library and numpy),
+    # so they differ by at most 1.5e-14 < 2e-14. The deformed vertices add the MLS fit's own rounding, a few hundred eps for 6 spread
+    # handles (the rigid-reproduction tests in C++ measure below 100 eps), inside 1e-12 = 4500 eps.
+    d.transform_handles(points=range(5), segments=[0], rotation=R, translation=t, pivot=c)
+    move = lambda X: (X - c) @ R.T + c + t
+    assert np.allclose(d.targets["points"], move(P), rtol=0, atol=2e-14)
+    assert np.allclose(d.targets["segments"][0], move(A), rtol=0, atol=2e-14)
+    assert np.allclose(d.deform(), move(V), rtol=0, atol=1e-12)
+    # Refused motions change nothing: a reflection, an index out of range, a wrong shape.
+    before = d.targets
+    with pytest.raises(ValueError, match="reflection"):
+        d.transform_handles(points=[0], rotation=-np.eye(3))
+    with pytest.raises(IndexError, match="point index 7"):
+        d.transform_handles(points=[0, 7], rotation=R)
+    with pytest.raises(ValueError, match=r"shape \(3, 3\)"):
+        d.transform_handles(points=[0], rotation=np.eye(2))
+    with pytest.raises(TypeError, match="integer indices"):
+        d.transform_handles(points=[0.5])
+    assert np.array_equal(d.targets["points"], before["points"])
+
+
+def test_region():
+    g = rng()
+    V, P, _, _ = scene(g, n=300, k=6)
+    region = np.flatnonzero(V[:, 0] > 0)
+    d = mlsdeform.Deformer(V, points=P, region=region)
+    X = d.deform(points=P + [0, 0.2, 0])
+    outside = np.setdiff1d(np.arange(len(V)), region)
+    assert np.array_equal(X[outside], V[outside])          # bitwise at rest
+    assert not np.array_equal(X[region], V[region])
+    with pytest.raises(ValueError, match="no vertices"):
+        mlsdeform.Deformer(V, points=P, region=[])
+    with pytest.raises(ValueError, match="vertex 300"):
+        mlsdeform.Deformer(V, points=P, region=[0, 300])
