@@ -33,8 +33,8 @@ using PointsD = Eigen::Matrix<double, Eigen::Dynamic, 3>;
 using RowPoints = Eigen::Matrix<double, Eigen::Dynamic, 3, Eigen::RowMajor>;
 
 /// Vertices per task of the local step and the right-hand side (each vertex's work is its own: any cut gives
-/// the same bits).
-constexpr std::size_t kGrain = 1024;
+/// the same bits); small enough that a mesh of a few thousand vertices still splits evenly over the threads.
+constexpr std::size_t kGrain = 256;
 
 /// cot of the angle at c in the triangle (a, b, c), or 0 for a degenerate triangle (the sine below
 /// 2^-40 of |u| |v|: the cotangent would be rounding noise, and huge).
