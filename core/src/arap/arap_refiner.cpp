@@ -111,14 +111,19 @@ struct ArapRefiner<T>::Impl {
                             [&](std::size_t c0, std::size_t c1) {
                               const std::size_t i0 = c0 * kGrain, i1 = std::min(nn, c1 * kGrain);
                               for (std::size_t i = i0; i < i1; ++i) {
-                                double s[9] = {0, 0, 0, 0, 0, 0, 0, 0, 0};
+                                // Nine named sums: an array here is packed into pairs and shuffled by the
+                                // compiler, slower than the plain scalar code.
+                                double s0 = 0, s1 = 0, s2 = 0, s3 = 0, s4 = 0, s5 = 0, s6 = 0, s7 = 0, s8 = 0;
                                 const double* xi = X.data() + 3 * i;
                                 for (Eigen::Index e = start[i]; e < start[i + 1]; ++e) {
                                   const double* xj = X.data() + 3 * nbr[std::size_t(e)];
                                   const double* a = we.data() + 3 * e;
-                                  for (int r = 0; r < 3; ++r)
-                                    for (int k = 0; k < 3; ++k) s[3 * r + k] += (xi[r] - xj[r]) * a[k];
+                                  const double d0 = xi[0] - xj[0], d1 = xi[1] - xj[1], d2 = xi[2] - xj[2];
+                                  s0 += d0 * a[0], s1 += d0 * a[1], s2 += d0 * a[2];
+                                  s3 += d1 * a[0], s4 += d1 * a[1], s5 += d1 * a[2];
+                                  s6 += d2 * a[0], s7 += d2 * a[1], s8 += d2 * a[2];
                                 }
+                                const double s[9] = {s0, s1, s2, s3, s4, s5, s6, s7, s8};
                                 for (int k = 0; k < 9; ++k) H[std::size_t(k) * nn + i] = T(s[k]);
                               }
                               fit(H.data(), R.data(), nn, i0, i1, nullptr);  // S_i is finite: X is
