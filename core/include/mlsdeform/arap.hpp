@@ -18,7 +18,8 @@ namespace mlsdeform {
 using Triangles = Eigen::Matrix<int, Eigen::Dynamic, 3, Eigen::RowMajor>;
 
 struct ArapOptions {
-  /// Worker threads for the local step; 0 means all cores. The result is bitwise the same for any value.
+  /// Worker threads for the local step and the substitution; 0 means all cores. The result is bitwise the
+  /// same for any value.
   int threads = 0;
 };
 

@@ -1,9 +1,9 @@
 // Surface ARAP (Sorkine & Alexa 2007) as a refinement of the MLS result: the session (arap.hpp documents the
 // energy and the weights). Local step: one S_i per vertex, gathered over its one-ring (CSR), and its rotation
 // by the active ISA's batched fit (SIMD lanes), chunk by chunk. Global step: the reduced cotangent Laplacian of the
-// free vertices, factorised once (Eigen's SimplicialLDLT, AMD ordering, in double) and kept as plain arrays;
-// per iteration the three right-hand sides are solved together (interleaved) by forward and backward
-// substitution, with nothing allocated.
+// free vertices, factorised once (Eigen's SimplicialLDLT, AMD ordering, in double); per iteration the three
+// right-hand sides are solved together (interleaved) by forward and backward substitution, disjoint subtrees
+// of the factor's elimination tree on the threads at once, with nothing allocated.
 #include "../dispatch.hpp"
 #include "../parallel.hpp"
 
@@ -12,6 +12,7 @@
 
 #include <kernel_table.hpp>
 
+#include <tbb/info.h>
 #include <Eigen/Geometry>  // cross
 #include <Eigen/SparseCholesky>
 
@@ -32,8 +33,8 @@ using PointsD = Eigen::Matrix<double, Eigen::Dynamic, 3>;
 using RowPoints = Eigen::Matrix<double, Eigen::Dynamic, 3, Eigen::RowMajor>;
 
 /// Vertices per task of the local step and the right-hand side (each vertex's work is its own: any cut gives
-/// the same bits).
-constexpr std::size_t kGrain = 1024;
+/// the same bits); small enough that a mesh of a few thousand vertices still splits evenly over the threads.
+constexpr std::size_t kGrain = 256;
 
 /// cot of the angle at c in the triangle (a, b, c), or 0 for a degenerate triangle (the sine below
 /// 2^-40 of |u| |v|: the cotangent would be rounding noise, and huge).
@@ -78,8 +79,18 @@ struct ArapRefiner<T>::Impl {
   /// implicit), and D, copied once (vectorD() returns a copy).
   Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>> ldlt;
   std::vector<double> D;
-  std::vector<double> we;  ///< w_ij (p_i - p_j) per directed edge (3 values), in the CSR order
-  std::vector<double> c;   ///< c_i = sum_j w_ij (p_i - p_j) per vertex (3 values)
+  /// L's strictly lower part again by rows (columns ascending in each row), for the forward substitution.
+  std::vector<int> row_start, row_col;
+  std::vector<double> row_value;
+  /// The substitution's schedule (schedule() builds it): factor rows part by part, ascending in each part;
+  /// part k is order[part_start[k] .. part_start[k + 1]). Parts 0 .. parts - 1 are disjoint sets of subtrees
+  /// of the elimination tree, part `parts` (the top) holds all their ancestors.
+  std::vector<int> order;
+  std::vector<std::size_t> part_start;
+  std::size_t parts = 0;
+  std::vector<Eigen::Index> vertex_of;  ///< the free vertex of factor row r (the inverse of perm)
+  std::vector<double> we;               ///< w_ij (p_i - p_j) per directed edge (3 values), in the CSR order
+  std::vector<double> c;                ///< c_i = sum_j w_ij (p_i - p_j) per vertex (3 values)
 
   // Scratch, sized once.
   RowPoints X;             ///< current positions
@@ -100,20 +111,135 @@ struct ArapRefiner<T>::Impl {
                             [&](std::size_t c0, std::size_t c1) {
                               const std::size_t i0 = c0 * kGrain, i1 = std::min(nn, c1 * kGrain);
                               for (std::size_t i = i0; i < i1; ++i) {
-                                double s[9] = {0, 0, 0, 0, 0, 0, 0, 0, 0};
+                                // Nine named sums: an array here is packed into pairs and shuffled by the
+                                // compiler, slower than the plain scalar code.
+                                double s0 = 0, s1 = 0, s2 = 0, s3 = 0, s4 = 0, s5 = 0, s6 = 0, s7 = 0, s8 = 0;
                                 const double* xi = X.data() + 3 * i;
                                 for (Eigen::Index e = start[i]; e < start[i + 1]; ++e) {
                                   const double* xj = X.data() + 3 * nbr[std::size_t(e)];
                                   const double* a = we.data() + 3 * e;
-                                  for (int r = 0; r < 3; ++r)
-                                    for (int k = 0; k < 3; ++k) s[3 * r + k] += (xi[r] - xj[r]) * a[k];
+                                  const double d0 = xi[0] - xj[0], d1 = xi[1] - xj[1], d2 = xi[2] - xj[2];
+                                  s0 += d0 * a[0], s1 += d0 * a[1], s2 += d0 * a[2];
+                                  s3 += d1 * a[0], s4 += d1 * a[1], s5 += d1 * a[2];
+                                  s6 += d2 * a[0], s7 += d2 * a[1], s8 += d2 * a[2];
                                 }
+                                const double s[9] = {s0, s1, s2, s3, s4, s5, s6, s7, s8};
                                 for (int k = 0; k < 9; ++k) H[std::size_t(k) * nn + i] = T(s[k]);
                               }
                               fit(H.data(), R.data(), nn, i0, i1, nullptr);  // S_i is finite: X is
                               for (std::size_t i = i0; i < i1; ++i)
                                 for (std::size_t k = 0; k < 9; ++k) Rd[9 * i + k] = double(R[k * nn + i]);
                             });
+  }
+
+  /// z_r = y_r - sum_c L_rc z_c for the rows order[k0 .. k1), in place in y. Each row's three sums are held
+  /// in registers (the compiler cannot know that the rows gathered never alias them).
+  void forward(std::size_t k0, std::size_t k1) {
+    for (std::size_t k = k0; k < k1; ++k) {
+      const auto r = std::size_t(order[k]);
+      double z0 = y[3 * r], z1 = y[3 * r + 1], z2 = y[3 * r + 2];
+      for (int p = row_start[r]; p < row_start[r + 1]; ++p) {
+        const double* t = y.data() + 3 * std::size_t(row_col[std::size_t(p)]);
+        const double l = row_value[std::size_t(p)];
+        z0 -= l * t[0], z1 -= l * t[1], z2 -= l * t[2];
+      }
+      y[3 * r] = z0, y[3 * r + 1] = z1, y[3 * r + 2] = z2;
+    }
+  }
+
+  /// x_c = z_c / D_c - sum_r L_rc x_r for the columns order[k0 .. k1), last first, in place in y; each x_c
+  /// also goes to its vertex's row of X.
+  void backward(std::size_t k0, std::size_t k1) {
+    const auto& L = ldlt.matrixL().nestedExpression();
+    const int *Lp = L.outerIndexPtr(), *Li = L.innerIndexPtr();
+    const double* Lx = L.valuePtr();
+    for (std::size_t k = k1; k-- > k0;) {
+      const auto col = std::size_t(order[k]);
+      double x0 = y[3 * col] / D[col], x1 = y[3 * col + 1] / D[col], x2 = y[3 * col + 2] / D[col];
+      for (int p = Lp[col]; p < Lp[col + 1]; ++p) {
+        const double* t = y.data() + 3 * std::size_t(Li[p]);
+        x0 -= Lx[p] * t[0], x1 -= Lx[p] * t[1], x2 -= Lx[p] * t[2];
+      }
+      y[3 * col] = x0, y[3 * col + 1] = x1, y[3 * col + 2] = x2;
+      const Eigen::Index v = vertex_of[col];
+      X(v, 0) = x0, X(v, 1) = x1, X(v, 2) = x2;
+    }
+  }
+
+  /// Builds row_start/row_col/row_value and the schedule for `bins` threads: the roots of the elimination
+  /// tree (parent(j) = the first row below the diagonal in column j) are spread over the bins, heaviest
+  /// first onto the lightest bin (work = entries + 2 per row); then the heaviest subtree is split, its root
+  /// moving to the top and its children into the spread, for as long as that shortens the longest path
+  /// (top + heaviest bin). Any schedule gives the same bits; this one only balances the threads.
+  void schedule(std::size_t bins) {
+    const auto& L = ldlt.matrixL().nestedExpression();
+    const int *Lp = L.outerIndexPtr(), *Li = L.innerIndexPtr();
+    const double* Lx = L.valuePtr();
+    const std::size_t m = D.size();
+    row_start.assign(m + 1, 0);
+    for (int p = 0; p < Lp[m]; ++p) ++row_start[std::size_t(Li[p]) + 1];
+    for (std::size_t r = 0; r < m; ++r) row_start[r + 1] += row_start[r];
+    row_col.resize(std::size_t(Lp[m]));
+    row_value.resize(std::size_t(Lp[m]));
+    std::vector<int> next(row_start.begin(), row_start.end() - 1);
+    for (std::size_t col = 0; col < m; ++col)  // columns ascending in each row
+      for (int p = Lp[col]; p < Lp[col + 1]; ++p) {
+        const auto q = std::size_t(next[std::size_t(Li[p])]++);
+        row_col[q] = int(col), row_value[q] = Lx[p];
+      }
+
+    std::vector<int> parent(m, -1);
+    std::vector<std::size_t> work(m), subtree(m);
+    for (std::size_t j = 0; j < m; ++j) {
+      for (int p = Lp[j]; p < Lp[j + 1]; ++p)
+        if (parent[j] < 0 || Li[p] < parent[j]) parent[j] = Li[p];
+      subtree[j] = work[j] = std::size_t(Lp[j + 1] - Lp[j]) + 2;
+    }
+    for (std::size_t j = 0; j < m; ++j)  // a parent comes after its children
+      if (parent[j] >= 0) subtree[std::size_t(parent[j])] += subtree[j];
+    std::vector<std::vector<int>> children(m);
+    std::vector<int> frontier;  // the subtrees' roots not yet split
+    for (std::size_t j = 0; j < m; ++j)
+      (parent[j] >= 0 ? children[std::size_t(parent[j])] : frontier).push_back(int(j));
+    const auto heavier = [&](int a, int b) {
+      const std::size_t wa = subtree[std::size_t(a)], wb = subtree[std::size_t(b)];
+      return wa != wb ? wa > wb : a < b;
+    };
+    std::vector<int> top, best_frontier, bin_of, best_bin;
+    std::vector<std::size_t> load(bins);
+    std::size_t top_work = 0, best = ~std::size_t(0), best_top = 0;
+    // A surface's top separators hold some sqrt(m) rows (137 of the bundled body's 6,882): the cap only
+    // bounds the set-up's time on odd meshes.
+    for (int split = 0; split < 1024 && !frontier.empty() && top_work < best; ++split) {
+      std::sort(frontier.begin(), frontier.end(), heavier);
+      std::fill(load.begin(), load.end(), std::size_t(0));
+      bin_of.assign(frontier.size(), 0);
+      for (std::size_t f = 0; f < frontier.size(); ++f) {
+        const auto b = std::size_t(std::min_element(load.begin(), load.end()) - load.begin());
+        load[b] += subtree[std::size_t(frontier[f])];
+        bin_of[f] = int(b);
+      }
+      const std::size_t span = top_work + *std::max_element(load.begin(), load.end());
+      if (span < best) best = span, best_top = top.size(), best_frontier = frontier, best_bin = bin_of;
+      if (bins == 1) break;
+      const int f = frontier.front();
+      frontier.erase(frontier.begin());
+      top.push_back(f);
+      top_work += work[std::size_t(f)];
+      frontier.insert(frontier.end(), children[std::size_t(f)].begin(), children[std::size_t(f)].end());
+    }
+    std::vector<int> part(m, -1);
+    for (std::size_t t = 0; t < best_top; ++t) part[std::size_t(top[t])] = int(bins);
+    for (std::size_t f = 0; f < best_frontier.size(); ++f) part[std::size_t(best_frontier[f])] = best_bin[f];
+    for (std::size_t j = m; j-- > 0;)  // the rest of each subtree goes with its root
+      if (part[j] < 0) part[j] = part[std::size_t(parent[j])];
+    parts = bins;
+    part_start.assign(bins + 2, 0);
+    for (std::size_t j = 0; j < m; ++j) ++part_start[std::size_t(part[j]) + 1];
+    for (std::size_t k = 0; k <= bins; ++k) part_start[k + 1] += part_start[k];
+    order.resize(m);
+    std::vector<std::size_t> fill(part_start.begin(), part_start.end() - 1);
+    for (std::size_t j = 0; j < m; ++j) order[fill[std::size_t(part[j])]++] = int(j);
   }
 
   /// b_i = sum_j (w_ij / 2)(R_i + R_j)(p_i - p_j) = (R_i c_i + sum_j R_j w_ij (p_i - p_j)) / 2, plus w_ij x_j
@@ -139,31 +265,19 @@ struct ArapRefiner<T>::Impl {
                                 for (int k = 0; k < 3; ++k) y[3 * std::size_t(perm[f]) + std::size_t(k)] = b[k];
                               }
                             });
-    const std::size_t m = D.size();
-    const auto& L = ldlt.matrixL().nestedExpression();
-    const int *Lp = L.outerIndexPtr(), *Li = L.innerIndexPtr();
-    const double* Lx = L.valuePtr();
-    // Each column's three values are held in registers (the compiler cannot know that the rows below never
-    // alias them): L z = y (unit lower), z /= D, L^T x = z.
-    for (std::size_t col = 0; col < m; ++col) {
-      const double z0 = y[3 * col], z1 = y[3 * col + 1], z2 = y[3 * col + 2];
-      for (int p = Lp[col]; p < Lp[col + 1]; ++p) {
-        double* t = y.data() + 3 * std::size_t(Li[p]);
-        t[0] -= Lx[p] * z0, t[1] -= Lx[p] * z1, t[2] -= Lx[p] * z2;
-      }
-    }
-    for (std::size_t r = 0; r < m; ++r)
-      for (std::size_t k = 0; k < 3; ++k) y[3 * r + k] /= D[r];
-    for (std::size_t col = m; col-- > 0;) {
-      double x0 = y[3 * col], x1 = y[3 * col + 1], x2 = y[3 * col + 2];
-      for (int p = Lp[col]; p < Lp[col + 1]; ++p) {
-        const double* t = y.data() + 3 * std::size_t(Li[p]);
-        x0 -= Lx[p] * t[0], x1 -= Lx[p] * t[1], x2 -= Lx[p] * t[2];
-      }
-      y[3 * col] = x0, y[3 * col + 1] = x1, y[3 * col + 2] = x2;
-    }
-    for (std::size_t f = 0; f < nf; ++f)
-      for (int k = 0; k < 3; ++k) X(free_vertices[f], k) = y[3 * std::size_t(perm[f]) + std::size_t(k)];
+    // L z = y (unit lower), then D^-1 and L^T x = z. Row r of L has entries only in columns that descend from
+    // r in the elimination tree, column c only in rows that are its ancestors: the parts' subtrees share no
+    // row, forward before the top and backward after it. Each row's sum runs in the same order whatever the
+    // schedule (ascending columns, as a column-by-column scatter would subtract them; then ascending rows):
+    // the same bits for any thread count.
+    detail::parallel_ranges(parts, options.threads, arena.get(), [&](std::size_t k0, std::size_t k1) {
+      for (std::size_t k = k0; k < k1; ++k) forward(part_start[k], part_start[k + 1]);
+    });
+    forward(part_start[parts], part_start[parts + 1]);
+    backward(part_start[parts], part_start[parts + 1]);
+    detail::parallel_ranges(parts, options.threads, arena.get(), [&](std::size_t k0, std::size_t k1) {
+      for (std::size_t k = k0; k < k1; ++k) backward(part_start[k], part_start[k + 1]);
+    });
   }
 };
 
@@ -277,6 +391,11 @@ ArapRefiner<T>::ArapRefiner(const Points<T>& rest, const Triangles& triangles,
   m.D.assign(d.data(), d.data() + d.size());
   m.perm.resize(std::size_t(nf));
   for (Eigen::Index f = 0; f < nf; ++f) m.perm[std::size_t(f)] = m.ldlt.permutationP().indices()(f);
+  m.vertex_of.resize(std::size_t(nf));
+  for (std::size_t f = 0; f < std::size_t(nf); ++f) m.vertex_of[std::size_t(m.perm[f])] = m.free_vertices[f];
+  // One part per thread the local step may use (detail::make_arena's rule).
+  const int cores = tbb::info::default_concurrency();
+  m.schedule(options.threads == 1 ? 1 : std::size_t(options.threads == 0 ? cores : std::min(options.threads, cores)));
 
   m.X.resize(m.n, 3);
   m.H.assign(9 * nn, T(0));
@@ -355,11 +474,13 @@ std::size_t ArapRefiner<T>::memory_bytes() const {
   const Impl& m = *impl_;
   const auto bytes = [](const auto& v) { return v.size() * sizeof(v[0]); };
   const auto& L = m.ldlt.matrixL().nestedExpression();
-  // The factor: L, its diagonal (twice: Eigen's and the copy) and its two permutations (about one more D).
+  // The factor: L (by columns and by rows), its diagonal (twice: Eigen's and the copy) and its two
+  // permutations (about one more D).
   return std::size_t(L.nonZeros()) * (sizeof(double) + sizeof(int)) + std::size_t(L.outerSize() + 1) * sizeof(int) +
-         3 * bytes(m.D) + bytes(m.perm) + bytes(m.start) + bytes(m.nbr) + bytes(m.w) + bytes(m.we) + bytes(m.c) +
-         bytes(m.row) + bytes(m.free_vertices) + bytes(m.H) + bytes(m.R) + bytes(m.Rd) + bytes(m.y) +
-         std::size_t(m.P.size() + m.X.size()) * sizeof(double);
+         bytes(m.row_start) + bytes(m.row_col) + bytes(m.row_value) + bytes(m.order) + bytes(m.part_start) +
+         bytes(m.vertex_of) + 3 * bytes(m.D) + bytes(m.perm) + bytes(m.start) + bytes(m.nbr) + bytes(m.w) +
+         bytes(m.we) + bytes(m.c) + bytes(m.row) + bytes(m.free_vertices) + bytes(m.H) + bytes(m.R) + bytes(m.Rd) +
+         bytes(m.y) + std::size_t(m.P.size() + m.X.size()) * sizeof(double);
 }
 
 template class ArapRefiner<float>;
