@@ -96,7 +96,8 @@ TEST_CASE("bad handles files: one line with the file, the JSON path and the prob
   require_error("{}", "h.json: /: no handles (give at least one entry in \"points\" or \"segments\")");
   require_error("{\"points\": []}", "h.json: /: no handles (give at least one entry in \"points\" or \"segments\")");
   require_error("{\"point\": []}",
-                "h.json: /point: unknown key (expected \"points\", \"segments\", \"groups\", \"frames\", \"region\", \"comment\")");
+                "h.json: /point: unknown key (expected \"points\", \"segments\", \"groups\", \"frames\", \"region\", "
+                "\"comment\")");
   require_error("{\"points\": {}}", "h.json: /points: expected an array of point handles, found object");
   require_error(
       "{\"points\": [{\"vertex\": 0, \"tagret\": [0, 0, 0]}]}",
