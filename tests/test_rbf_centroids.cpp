@@ -1,5 +1,5 @@
 // Centroids::rbf (paper Sec. 7-8): q* = g(p*) with g the polyharmonic RBF interpolant of the handles, with
-// each kernel of core/src/deformer/rbf_centroids.hpp (r^3, the library's, and r, which bench_quality
+// each kernel of core/src/deformer/rbf_centroids.hpp (r, the library's, and r^3, which bench_quality
 // --centroids measures against it): the properties and bounds below hold for both.
 //
 // Bounds. The centroid weights beta(p*) come from one solve with the interpolant's matrix M in double:
@@ -245,17 +245,17 @@ TEST_CASE("RBF centroids: a Deformer takes the kernel set when it is constructed
   Options o;
   o.centroids = Centroids::rbf;
   const RbfKernel before = mlsdeform::detail::rbf_kernel();
-  CHECK(before == RbfKernel::r3);  // the library's kernel (rbf_centroids.hpp)
+  CHECK(before == RbfKernel::r);  // the library's kernel (rbf_centroids.cpp)
   Points<double> r, r3, again;
-  Deformer<double>(sc.vertices, sc.rest, o).deform(moved, r3);
+  Deformer<double>(sc.vertices, sc.rest, o).deform(moved, r);
   {
-    const mlsdeform::detail::ScopedRbfKernel scoped(RbfKernel::r);
+    const mlsdeform::detail::ScopedRbfKernel scoped(RbfKernel::r3);
     const Deformer<double> d(sc.vertices, sc.rest, o);
-    mlsdeform::detail::set_rbf_kernel(RbfKernel::r3);  // read at construction only: d keeps r
-    d.deform(moved, r);
+    mlsdeform::detail::set_rbf_kernel(RbfKernel::r);  // read at construction only: d keeps r^3
+    d.deform(moved, r3);
   }
   CHECK(mlsdeform::detail::rbf_kernel() == before);
   Deformer<double>(sc.vertices, sc.rest, o).deform(moved, again);
   CHECK((r - r3).cwiseAbs().maxCoeff() > 1e-3);  // the kernels give different q*
-  CHECK(std::memcmp(again.data(), r3.data(), sizeof(double) * std::size_t(r3.size())) == 0);
+  CHECK(std::memcmp(again.data(), r.data(), sizeof(double) * std::size_t(r.size())) == 0);
 }

@@ -1,7 +1,8 @@
 // Centroids::rbf (paper Sec. 7-8, Fig. 8): q* = g(p*) instead of the weighted centroid of the targets, with
 // g: R^3 -> R^3 the radial-basis interpolant of the pseudo-handles, g(p_j) = q_j. The kernel is the
-// triharmonic phi(r) = r^3 with a linear polynomial (Botsch & Kobbelt 2005, the reference the paper cites
-// for RBF deformation): C^2, and exact for affine maps of the handles.
+// biharmonic phi(r) = r with a linear polynomial (the polyharmonic spline of 3D that minimises the thin-plate
+// energy), exact for affine maps of the handles. It was chosen over the triharmonic r^3 (Botsch & Kobbelt
+// 2005, the RBF deformation the paper cites) by measurement, rbf_centroids.cpp says with which numbers.
 //
 // g is linear in the targets, so for each vertex q* = sum_j beta_j q_j with weights beta(p*) that depend on
 // the rest pose only: the precomputation stores beta in the table where plain MLS stores omega (data.hpp), and
@@ -27,7 +28,7 @@ enum class RbfKernel { r, r3 };
 
 inline double phi(RbfKernel kernel, double r) { return kernel == RbfKernel::r ? r : r * r * r; }
 
-/// The kernel of Centroids::rbf: r^3 unless set_rbf_kernel chose another. A measurement switch, not an option
+/// The kernel of Centroids::rbf: r unless set_rbf_kernel chose another. A measurement switch, not an option
 /// (bench_quality --centroids compares the two, the tests cover both): it is read when a Deformer is
 /// constructed, is process-wide and thread-safe; restore it after use (ScopedRbfKernel).
 RbfKernel rbf_kernel();
