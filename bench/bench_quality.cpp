@@ -15,9 +15,26 @@
 // on the rest pose only (MLS weights, the ARAP and CGAL factorisations) is set up before and not timed.
 // mlsdeform runs on --threads threads (0: all cores); CGAL's deformation runs on one.
 //
+// --centroids prints instead one table per scene (with the Fig. 8 plane first) comparing the centroids q*:
+// Options::centroids = mls (eq. 2) against Centroids::rbf with each radial kernel of
+// core/src/deformer/rbf_centroids.hpp (phi = r and r^3, both with a linear polynomial; the library's is set
+// there, by these numbers):
+//
+//   centroids | ms per frame | setup ms | kappa(M) | rigidity median / p95 | dihedral change median / p95 / max |
+//   flipped
+//
+// setup ms: one construction of the Deformer (the RBF weights are solved there, so the per-frame cost is
+// the same); kappa(M): the 2-norm condition number of the interpolant's matrix in the deformer's local frame
+// (singular values, double); dihedral change: per interior edge, in degrees (quality.hpp; the measure of
+// Fig. 8, whose figure takes nearest-rank quantiles where these interpolate).
+//
+// Last, the conditioning table: the interpolant's matrix M for the Bar's two end caps as handles, the caps
+// cut into n x n cells (16 x 16 is the bar scene's), per kernel: kappa(M) and the LU's estimated reciprocal
+// condition, which core/src/deformer/rbf_centroids.cpp refuses below 1e-10.
+//
 // A plain program rather than Google Benchmark: each row needs its result measured once and one time, not a
 // timing loop per benchmark. Usage:
-//   bench_quality [--threads N] [--min-time S] [--precision float|double] [--json FILE]
+//   bench_quality [--threads N] [--min-time S] [--precision float|double] [--json FILE] [--centroids]
 #include "common.hpp"
 #include "meshes.hpp"
 #include "quality.hpp"
@@ -28,10 +45,14 @@
 #include <CGAL/version.h>
 #endif
 
+#include "deformer/local_frame.hpp"
+#include "deformer/rbf_centroids.hpp"
+
 #include <mlsdeform/batch.hpp>
 #include <mlsdeform/deformer.hpp>
 
 #include <Eigen/Geometry>
+#include <Eigen/SVD>
 
 #include <algorithm>
 #include <chrono>
@@ -58,6 +79,7 @@ struct Settings {
   int threads = 0;
   double min_time = 0.5;
   bool use_double = false;
+  bool centroids = false;
   std::string json;
 };
 
@@ -80,6 +102,37 @@ PointsD rows_of(const PointsD& p, const std::vector<Eigen::Index>& idx) {
   PointsD q(static_cast<Eigen::Index>(idx.size()), 3);
   for (std::size_t k = 0; k < idx.size(); ++k) q.row(static_cast<Eigen::Index>(k)) = p.row(idx[k]);
   return q;
+}
+
+// Fig. 8's plane (tools/cli/scenes.cpp, plane_row_scene): 33 x 33 vertices over 2 x 2 in the xz plane, each
+// quad cut into two triangles as the program's fan does, the two side columns held and a row of 5 handles in
+// the middle raised by half the plane's size.
+QualityScene plane_row_scene() {
+  constexpr int n = 32;
+  constexpr double size = 2.0;
+  QualityScene s;
+  s.rest.resize((n + 1) * (n + 1), 3);
+  for (int k = 0; k <= n; ++k)
+    for (int i = 0; i <= n; ++i) s.rest.row(k * (n + 1) + i) << -size / 2 + size * i / n, 0, -size / 2 + size * k / n;
+  s.triangles.resize(2 * n * n, 3);
+  const auto at = [&](int i, int k) { return k * (n + 1) + i; };
+  for (int k = 0; k < n; ++k)
+    for (int i = 0; i < n; ++i) {
+      const int a = at(i, k), b = at(i + 1, k), c = at(i + 1, k + 1), d = at(i, k + 1), f = 2 * (k * n + i);
+      s.triangles.row(f) << d, c, b;
+      s.triangles.row(f + 1) << d, b, a;
+    }
+  for (int k = 0; k <= n; ++k) s.handles.insert(s.handles.end(), {at(0, k), at(n, k)});
+  const auto fixed = static_cast<Eigen::Index>(s.handles.size());
+  for (int k = n / 2 - 8; k <= n / 2 + 8; k += 4) s.handles.push_back(at(n / 2, k));
+  s.targets = rows_of(s.rest, s.handles);
+  s.targets.bottomRows(s.targets.rows() - fixed).col(1).array() += 0.5 * size;
+  s.name = "plane";
+  s.description =
+      "Fig. 8: plane 33 x 33 (the paper's Plane), both side columns held, a row of 5 handles raised by "
+      "half the plane's size (" +
+      std::to_string(s.handles.size()) + " point handles)";
+  return s;
 }
 
 // (a) data/human_man.obj bending forward: the navel and both feet (toes, heels) held where they are, the head
@@ -247,6 +300,120 @@ std::vector<Row> cgal_rows(const QualityScene& s, const Settings& set) {
 }
 #endif
 
+struct CentroidRow {
+  std::string centroids;
+  double ms = 0, setup_ms = 0, kappa = 0;  // kappa 0: no RBF system (MLS centroids)
+  ShapeQuality quality;
+  std::vector<double> dihedral;
+};
+
+template <class T>
+std::vector<CentroidRow> centroid_rows(const QualityScene& s, const Settings& set) {
+  using mlsdeform::detail::RbfKernel;
+  std::vector<CentroidRow> rows;
+  const Points<T> rest = s.rest.cast<T>();
+  Handles<T> rest_handles, moved;
+  rest_handles.points = rows_of(s.rest, s.handles).cast<T>();
+  moved.points = s.targets.cast<T>();
+  Points<T> out;
+  for (const auto& [label, kernel] :
+       {std::pair{"MLS (eq. 2)", std::optional<RbfKernel>()}, std::pair{"RBF, phi = r", std::optional(RbfKernel::r)},
+        std::pair{"RBF, phi = r^3", std::optional(RbfKernel::r3)}}) {
+    mlsdeform::Options o;  // rigid, u = 2
+    o.threads = set.threads;
+    o.centroids = kernel ? mlsdeform::Centroids::rbf : mlsdeform::Centroids::mls;
+    // The weight table for every row (RBF centroids need it; the bar's is over the default budget), so the
+    // per-frame work is the same kernels on the same table.
+    o.weight_storage = mlsdeform::WeightStorage::precomputed;
+    const mlsdeform::detail::ScopedRbfKernel scoped(kernel.value_or(RbfKernel::r3));
+    CentroidRow r;
+    r.centroids = label;
+    const auto t0 = std::chrono::steady_clock::now();
+    const mlsdeform::Deformer<T> d(rest, rest_handles, o);
+    r.setup_ms = 1e3 * std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    if (kernel) {
+      // The matrix the deformer factorised: the same pseudo-handles in the same local frame.
+      const auto frame = mlsdeform::detail::make_local_frame(rest, rest_handles);
+      const Eigen::MatrixXd M =
+          mlsdeform::detail::RbfCentroids(mlsdeform::detail::make_rest_handles(rest_handles, frame).P, *kernel)
+              .matrix();
+      const Eigen::VectorXd sv = Eigen::BDCSVD<Eigen::MatrixXd>(M).singularValues();
+      r.kappa = sv(0) / sv(sv.size() - 1);
+    }
+    r.ms = ms_per_frame([&] { d.deform(moved, out); }, set.min_time);
+    const PointsD x = out.template cast<double>();
+    check_handles(s, label, x);
+    r.quality = mlsdeform::testing::shape_quality(s.rest, x, s.triangles);
+    r.dihedral = mlsdeform::testing::dihedral_change(s.rest, x, s.triangles);
+    rows.push_back(std::move(r));
+  }
+  return rows;
+}
+
+void print_centroid_table(const QualityScene& s, const std::vector<CentroidRow>& rows) {
+  using mlsdeform::testing::quantile;
+  std::printf("\n### %s\n\n%s: %lld vertices, %lld triangles, %zu interior edges.\n\n", s.name.c_str(),
+              s.description.c_str(), static_cast<long long>(s.rest.rows()), static_cast<long long>(s.triangles.rows()),
+              rows.front().dihedral.size());
+  std::printf(
+      "| centroids | ms per frame | setup ms | kappa(M) | rigidity median / p95 | dihedral change median / p95 / max "
+      "(deg) | flipped |\n");
+  std::printf("|---|---:|---:|---:|---:|---:|---:|\n");
+  for (const CentroidRow& r : rows) {
+    char kappa[32] = "-";
+    if (r.kappa > 0) std::snprintf(kappa, sizeof kappa, "%.3g", r.kappa);
+    std::printf("| %s | %.3g | %.4g | %s | %.4f / %.4f | %.3g / %.3g / %.4g | %lld |\n", r.centroids.c_str(), r.ms,
+                r.setup_ms, kappa, quantile(r.quality.rigidity, 0.5), quantile(r.quality.rigidity, 0.95),
+                quantile(r.dihedral, 0.5), quantile(r.dihedral, 0.95), quantile(r.dihedral, 1.0),
+                static_cast<long long>(r.quality.flipped));
+  }
+  std::fflush(stdout);
+}
+
+std::string json_centroid_row(const QualityScene& s, const CentroidRow& r) {
+  using mlsdeform::testing::quantile;
+  char buf[640];
+  std::snprintf(buf, sizeof buf,
+                "{\"scene\": \"%s\", \"centroids\": \"%s\", \"ms_per_frame\": %.6g, \"setup_ms\": %.6g, "
+                "\"kappa\": %.6g, \"rigidity_median\": %.6g, \"rigidity_p95\": %.6g, \"dihedral_median\": %.6g, "
+                "\"dihedral_p95\": %.6g, \"dihedral_max\": %.6g, \"flipped\": %lld}",
+                s.name.c_str(), r.centroids.c_str(), r.ms, r.setup_ms, r.kappa, quantile(r.quality.rigidity, 0.5),
+                quantile(r.quality.rigidity, 0.95), quantile(r.dihedral, 0.5), quantile(r.dihedral, 0.95),
+                quantile(r.dihedral, 1.0), static_cast<long long>(r.quality.flipped));
+  return buf;
+}
+
+// The conditioning table of the file comment (bar 16 x 16 x 88, caps of n x n cells, the deformer's local
+// frame: scaled by 2^-ilogb(diagonal)).
+void print_conditioning_table() {
+  using mlsdeform::detail::RbfKernel;
+  std::printf(
+      "\n### conditioning\n\nThe interpolant's matrix M for the bar's end caps (16 x 16 x 88) cut into n x n "
+      "cells as handles: kappa(M) (2-norm) and the LU's reciprocal condition estimate (refused below "
+      "1e-10).\n\n");
+  std::printf("| caps | handles | kappa(M), phi = r | rcond, phi = r | kappa(M), phi = r^3 | rcond, phi = r^3 |\n");
+  std::printf("|---|---:|---:|---:|---:|---:|\n");
+  for (const int n : {8, 16, 24, 32}) {
+    const double h = 16.0 / n, scale = std::ldexp(1.0, -std::ilogb(std::sqrt(2 * 16.0 * 16.0 + 88.0 * 88.0)));
+    std::vector<Eigen::Vector3d> P;
+    for (const double z : {0.0, 88.0})
+      for (int i = 0; i <= n; ++i)
+        for (int j = 0; j <= n; ++j) P.push_back(scale * Eigen::Vector3d(i * h, j * h, z));
+    std::printf("| %d x %d | %zu", n, n, P.size());
+    for (const RbfKernel kernel : {RbfKernel::r, RbfKernel::r3}) {
+      try {
+        const Eigen::MatrixXd M = mlsdeform::detail::RbfCentroids(P, kernel).matrix();
+        const Eigen::VectorXd sv = Eigen::BDCSVD<Eigen::MatrixXd>(M).singularValues();
+        std::printf(" | %.3g | %.3g", sv(0) / sv(sv.size() - 1), Eigen::PartialPivLU<Eigen::MatrixXd>(M).rcond());
+      } catch (const std::invalid_argument&) {
+        std::printf(" | refused | below 1e-10");
+      }
+    }
+    std::printf(" |\n");
+  }
+  std::fflush(stdout);
+}
+
 void print_table(const QualityScene& s, const std::vector<Row>& rows) {
   std::printf("\n### %s\n\n%s: %lld vertices, %lld triangles.\n\n", s.name.c_str(), s.description.c_str(),
               static_cast<long long>(s.rest.rows()), static_cast<long long>(s.triangles.rows()));
@@ -283,11 +450,14 @@ int run(const Settings& set) {
               std::string(mlsdeform::to_string(mlsdeform::active_isa())).c_str(), set.threads,
               bench::hardware_threads(), set.use_double ? "double" : "float");
 #ifdef MLSDEFORM_HAVE_CGAL
-  std::printf("CGAL %s: Surface_mesh_deformation, ORIGINAL_ARAP, whole mesh as region of interest\n", CGAL_VERSION_STR);
+  if (!set.centroids)
+    std::printf("CGAL %s: Surface_mesh_deformation, ORIGINAL_ARAP, whole mesh as region of interest\n",
+                CGAL_VERSION_STR);
 #else
-  std::printf("CGAL not found: skipped\n");
+  if (!set.centroids) std::printf("CGAL not found: skipped\n");
 #endif
   std::vector<QualityScene> scenes;
+  if (set.centroids) scenes.push_back(plane_row_scene());
   scenes.push_back(human_scene());
   scenes.push_back(bar_scene());
   if (auto fish = fish_scene())
@@ -297,6 +467,13 @@ int run(const Settings& set) {
 
   std::vector<std::string> json;
   for (const QualityScene& s : scenes) {
+    if (set.centroids) {
+      const std::vector<CentroidRow> rows =
+          set.use_double ? centroid_rows<double>(s, set) : centroid_rows<float>(s, set);
+      print_centroid_table(s, rows);
+      for (const CentroidRow& r : rows) json.push_back(json_centroid_row(s, r));
+      continue;
+    }
     std::vector<Row> rows = set.use_double ? mls_rows<double>(s, set) : mls_rows<float>(s, set);
 #ifdef MLSDEFORM_HAVE_CGAL
     for (Row& r : cgal_rows(s, set)) rows.push_back(std::move(r));
@@ -304,6 +481,7 @@ int run(const Settings& set) {
     print_table(s, rows);
     for (const Row& r : rows) json.push_back(json_row(s, r));
   }
+  if (set.centroids) print_conditioning_table();
   if (!set.json.empty()) {
     std::ofstream out(set.json);
     out << "[\n";
@@ -330,8 +508,12 @@ int main(int argc, char** argv) {
       set.use_double = std::string(argv[++i]) == "double";
     } else if (a == "--json" && has_value) {
       set.json = argv[++i];
+    } else if (a == "--centroids") {
+      set.centroids = true;
     } else {
-      std::fprintf(stderr, "usage: %s [--threads N] [--min-time S] [--precision float|double] [--json FILE]\n",
+      std::fprintf(stderr,
+                   "usage: %s [--threads N] [--min-time S] [--precision float|double] [--json FILE] "
+                   "[--centroids]\n",
                    argv[0]);
       return 2;
     }

@@ -7,6 +7,8 @@
 
 #include <Eigen/Geometry>
 
+#include <algorithm>
+#include <cmath>
 #include <cstdint>
 #include <cstdio>
 #include <filesystem>
@@ -147,4 +149,30 @@ TEST_CASE("shape_quality of rigid motions, scalings and a fold", "[quality]") {
     const ShapeQuality q = shape_quality(g, x, gt);
     CHECK(q.flipped == turned);
   }
+}
+
+TEST_CASE("dihedral_change: 0 under rigid motions, the fold angle across a folded line", "[quality]") {
+  const PointsD p = box_surface(4, 3, 6);
+  const Triangles t = box_surface_triangles(4, 3, 6);
+  // A closed surface: every edge is interior.
+  CHECK(dihedral_change(p, p, t).size() == unique_edges(t).size());
+  const Eigen::Matrix3d R = Eigen::AngleAxisd(2.0, Eigen::Vector3d(1, -2, 0.5).normalized()).toRotationMatrix();
+  const PointsD x = (p * R.transpose()).rowwise() + Eigen::RowVector3d(3, -1, 2);
+  // Normals of unit-cell triangles at coordinates up to ~10 carry errors of a few eps times 10; atan2 keeps
+  // the angle as accurate: far below 1e-9 degrees.
+  for (double d : dihedral_change(p, x, t)) CHECK(d < 1e-9);
+
+  // A grid folded by 60 degrees along its middle column x = 3: the edges on that line change by 60 degrees,
+  // all others by 0.
+  const int n = 7;
+  const PointsD g = grid_points(n);
+  const Triangles gt = grid_triangles(n);
+  PointsD f = g;
+  for (Eigen::Index i = 0; i < g.rows(); ++i)
+    if (g(i, 0) > 3) f.row(i) << 3 + (g(i, 0) - 3) * 0.5, g(i, 1), (g(i, 0) - 3) * std::sqrt(0.75);
+  const std::vector<double> d = dihedral_change(g, f, gt);
+  const auto on_fold = std::count_if(d.begin(), d.end(), [](double a) { return std::abs(a - 60) < 1e-9; });
+  const auto flat = std::count_if(d.begin(), d.end(), [](double a) { return a < 1e-9; });
+  CHECK(on_fold == n - 1);  // the n - 1 grid edges along the fold line
+  CHECK(std::size_t(on_fold + flat) == d.size());
 }

@@ -272,7 +272,7 @@ SampledReference rbf_centroid_reference(const SampledReference& mls, const Point
   const Vec3d mean = p.colwise().mean().transpose();
   Eigen::MatrixXd M = Eigen::MatrixXd::Zero(size, size);
   for (Eigen::Index i = 0; i < J; ++i) {
-    for (Eigen::Index j = 0; j < J; ++j) M(i, j) = std::pow((p.row(i) - p.row(j)).norm(), 3);
+    for (Eigen::Index j = 0; j < J; ++j) M(i, j) = (p.row(i) - p.row(j)).norm();
     M(i, J) = M(J, i) = 1;
     for (int c = 0; c < 3; ++c) M(i, J + 1 + c) = M(J + 1 + c, i) = p(i, c) - mean[c];
   }
@@ -292,7 +292,7 @@ SampledReference rbf_centroid_reference(const SampledReference& mls, const Point
     }
     ps /= W, qs /= W;
     Eigen::VectorXd rhs(size);
-    for (Eigen::Index j = 0; j < J; ++j) rhs(j) = std::pow((ps - p.row(j).transpose()).norm(), 3);
+    for (Eigen::Index j = 0; j < J; ++j) rhs(j) = (ps - p.row(j).transpose()).norm();
     rhs(J) = 1;
     rhs.tail(3) = ps - mean;
     const Eigen::VectorXd beta = lu.solve(rhs);

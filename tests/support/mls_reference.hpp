@@ -102,7 +102,7 @@ SampledReference sampled_reference(const Points<double>& vertices, const Points<
                                    const std::vector<Eigen::Index>& rows, double u = 2.0);
 
 /// The same reference with Centroids::rbf: v' = g(p*) + R vhat (R, vhat as with MLS centroids), g the
-/// triharmonic RBF interpolant of the handles (r^3 plus a linear polynomial, the library's choice), solved
+/// biharmonic RBF interpolant of the handles (r plus a linear polynomial, the library's choice), solved
 /// here directly in double with a full-pivoting LU, independently of core/src/deformer/rbf_centroids.cpp.
 /// The library forms q* = sum_j beta_j q_j from weights beta(p*) computed in double ((J + 4) eps(double)
 /// kappa(M) relative) and rounded to T, then summed in T ((J + 2) roundings): its q* is within

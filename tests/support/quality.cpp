@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <numbers>
 #include <stdexcept>
 
 namespace mlsdeform::testing {
@@ -89,6 +90,37 @@ ShapeQuality shape_quality(const PointsD& rest, const PointsD& deformed, const T
     q.flipped += against >= 2;
   }
   return q;
+}
+
+std::vector<double> dihedral_change(const PointsD& rest, const PointsD& deformed, const Triangles& triangles) {
+  const auto normal = [&](const PointsD& v, Eigen::Index f) -> Eigen::Vector3d {
+    const Eigen::Vector3d a = v.row(triangles(f, 0)), b = v.row(triangles(f, 1)), c = v.row(triangles(f, 2));
+    return (b - a).cross(c - a).normalized();
+  };
+  // atan2 of |m x n| and m . n: accurate at every angle, where acos loses half the digits near 0.
+  const auto angle = [](const Eigen::Vector3d& m, const Eigen::Vector3d& n) {
+    return std::atan2(m.cross(n).norm(), m.dot(n)) * 180 / std::numbers::pi;
+  };
+  std::vector<std::pair<std::pair<int, int>, Eigen::Index>> edge_face;
+  edge_face.reserve(static_cast<std::size_t>(3 * triangles.rows()));
+  for (Eigen::Index f = 0; f < triangles.rows(); ++f)
+    for (int c = 0; c < 3; ++c) {
+      const int a = triangles(f, c), b = triangles(f, (c + 1) % 3);
+      edge_face.push_back({{std::min(a, b), std::max(a, b)}, f});
+    }
+  std::sort(edge_face.begin(), edge_face.end());
+  std::vector<double> out;
+  for (std::size_t i = 0; i < edge_face.size();) {
+    std::size_t k = i;
+    while (k < edge_face.size() && edge_face[k].first == edge_face[i].first) ++k;
+    if (k - i == 2) {
+      const Eigen::Index f = edge_face[i].second, g = edge_face[i + 1].second;
+      out.push_back(
+          std::abs(angle(normal(deformed, f), normal(deformed, g)) - angle(normal(rest, f), normal(rest, g))));
+    }
+    i = k;
+  }
+  return out;
 }
 
 }  // namespace mlsdeform::testing

@@ -9,6 +9,10 @@
 //     two-of-three vote keeps one badly fitted corner from deciding. A flat ring cannot tell a mirror image
 //     from a rotation by 180 degrees, so a whole flat region mirrored is not counted; a triangle that folds
 //     over its neighbours is. A deformed triangle of zero area (n' = 0) is not counted.
+//   dihedral-angle change of an interior edge (one of exactly two triangles): |theta' - theta| in degrees,
+//     theta the angle between the two triangles' unit normals at rest, theta' deformed: the smoothness measure
+//     of Fig. 8 (tools/cli/cmd_figures.cpp's dihedral_change, which the program keeps for itself); a kink
+//     shows as a tail of large values along a line of edges.
 #pragma once
 
 #include "meshes.hpp"
@@ -41,5 +45,8 @@ struct ShapeQuality {
 
 /// The measures above for `deformed` (same rows as `rest`).
 ShapeQuality shape_quality(const PointsD& rest, const PointsD& deformed, const Triangles& triangles);
+
+/// The dihedral-angle change above for every interior edge, in the order of unique_edges (degrees, >= 0).
+std::vector<double> dihedral_change(const PointsD& rest, const PointsD& deformed, const Triangles& triangles);
 
 }  // namespace mlsdeform::testing

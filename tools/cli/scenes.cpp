@@ -497,7 +497,7 @@ Points<double> weighted_centroids(const Points<double>& vertices, const Handles<
 Points<double> rbf_centroids(const Points<double>& vertices, const Handles<double>& rest,
                              const Handles<double>& moved_h, double u) {
   const Eigen::Index m = rest.point_count();
-  const auto phi = [](double r) { return r * r * r; };
+  const auto phi = [](double r) { return r; };
   Eigen::MatrixXd M = Eigen::MatrixXd::Zero(m + 4, m + 4), rhs = Eigen::MatrixXd::Zero(m + 4, 3);
   for (Eigen::Index i = 0; i < m; ++i) {
     for (Eigen::Index j = 0; j < m; ++j) M(i, j) = phi((rest.points.row(i) - rest.points.row(j)).norm());

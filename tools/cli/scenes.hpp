@@ -72,9 +72,9 @@ Scene plane_row_scene(Centroids centroids);
 Points<double> weighted_centroids(const Points<double>& vertices, const Handles<double>& rest,
                                   const Handles<double>& moved, double u);
 /// Centroids::rbf's q* = g(p*) per vertex (point handles only): p* as above over the rest handles, g the
-/// triharmonic interpolant (r^3 plus a linear polynomial) of rest -> moved. Solved here by a minimum-norm
-/// least-squares solve, for drawing: on coplanar handles the polynomial's normal part is free but p* lies in
-/// their plane, so g(p*) is the library's.
+/// biharmonic interpolant (r plus a linear polynomial, the library's kernel) of rest -> moved. Solved here
+/// by a minimum-norm least-squares solve, for drawing: on coplanar handles the polynomial's normal part is
+/// free but p* lies in their plane, so g(p*) is the library's.
 Points<double> rbf_centroids(const Points<double>& vertices, const Handles<double>& rest, const Handles<double>& moved,
                              double u);
 

@@ -49,8 +49,8 @@ enum class WeightStorage {
 enum class Centroids {
   /// The paper's eq. (2): q* = the weighted centroid of the targets, a convex combination of them.
   mls,
-  /// The paper's Sec. 7-8 (Fig. 8): q* = g(p*), g the radial-basis interpolant of the handles (triharmonic
-  /// r^3 with a linear polynomial, g(p_i) = q_i): smoother under large displacements. Precomputed weights
+  /// The paper's Sec. 7-8 (Fig. 8): q* = g(p*), g the radial-basis interpolant of the handles (biharmonic
+  /// phi(r) = r with a linear polynomial, g(p_i) = q_i): smoother under large displacements. Precomputed weights
   /// only (no WeightStorage::on_the_fly); the per-frame cost is that of `mls` (docs/api.md).
   rbf,
 };
