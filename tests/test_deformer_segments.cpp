@@ -301,7 +301,7 @@ TEMPLATE_TEST_CASE("exact_integral segments agree with the segments densely samp
     }
 }
 
-TEMPLATE_TEST_CASE("exact_integral differs from paper_constant; segments interpolate where the map's limit does",
+TEMPLATE_TEST_CASE("exact_integral differs from paper_constant, and segments interpolate where the map's limit does",
                    "[deformer][segment]", float, double) {
   using T = TestType;
   std::mt19937_64 g(seed());
