@@ -151,15 +151,19 @@ TEST_CASE("RBF centroids: g interpolates the handles and reproduces affine maps"
   }
 }
 
-TEST_CASE("RBF centroids: coincident handles share a centre; nearly coincident ones are refused", "[rbf]") {
+TEST_CASE("RBF centroids: coincident handles share a centre, nearly coincident ones are refused", "[rbf]") {
   std::vector<Vec3d> P = {Vec3d(0, 0, 0), Vec3d(1, 0, 0), Vec3d(0, 1, 0), Vec3d(1, 0, 0)};
   const RbfCentroids rbf(P);
   std::vector<double> beta;
   Eigen::VectorXd rhs;
   rbf.weights(Vec3d(1, 0, 0), beta, rhs);
   CHECK(beta[3] == 0.0);  // the second handle at (1, 0, 0) gets no weight: the first one's target counts
-  P.push_back(Vec3d(1e-9, 0, 0));
-  CHECK_THROWS_WITH(RbfCentroids(P), Catch::Contains("nearly coincident"));
+  // Two centres d apart give two rows of M that differ by about d (phi is 1-Lipschitz at this scale for r,
+  // 3-Lipschitz for r^3; the affine columns differ by d), against entries of order 1: rcond(M) is of order d,
+  // so d = 1e-12 falls below the constructor's 1e-10 under either kernel (at d = 1e-9, r's rcond is above it).
+  P.push_back(Vec3d(1e-12, 0, 0));
+  for (const RbfKernel kernel : {RbfKernel::r, RbfKernel::r3})
+    CHECK_THROWS_WITH(RbfCentroids(P, kernel), Catch::Contains("nearly coincident"));
 }
 
 TEMPLATE_TEST_CASE("RBF centroids in the deformer: identity, interpolation, affine maps reproduced", "[rbf][deformer]",
