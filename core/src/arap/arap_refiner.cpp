@@ -19,6 +19,7 @@
 #include <algorithm>
 #include <cmath>
 #include <numeric>
+#include <span>
 #include <stdexcept>
 #include <string>
 #include <utility>
@@ -79,9 +80,9 @@ struct ArapRefiner<T>::Impl {
   /// implicit), and D, copied once (vectorD() returns a copy).
   Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>> ldlt;
   std::vector<double> D;
-  /// L's strictly lower part again by rows (columns ascending in each row), for the forward substitution.
-  std::vector<int> row_start, row_col;
-  std::vector<double> row_value;
+  /// Column c's entries in rows of the top part are L.innerIndex[top_start[c] .. Lp[c + 1]) (its rows
+  /// ascend along its ancestors, the top's last); tail_cols: the columns with any, ascending.
+  std::vector<int> top_start, tail_cols;
   /// The substitution's schedule (schedule() builds it): factor rows part by part, ascending in each part;
   /// part k is order[part_start[k] .. part_start[k + 1]). Parts 0 .. parts - 1 are disjoint sets of subtrees
   /// of the elimination tree, part `parts` (the top) holds all their ancestors.
@@ -132,18 +133,20 @@ struct ArapRefiner<T>::Impl {
                             });
   }
 
-  /// z_r = y_r - sum_c L_rc z_c for the rows order[k0 .. k1), in place in y. Each row's three sums are held
-  /// in registers (the compiler cannot know that the rows gathered never alias them).
-  void forward(std::size_t k0, std::size_t k1) {
-    for (std::size_t k = k0; k < k1; ++k) {
-      const auto r = std::size_t(order[k]);
-      double z0 = y[3 * r], z1 = y[3 * r + 1], z2 = y[3 * r + 2];
-      for (int p = row_start[r]; p < row_start[r + 1]; ++p) {
-        const double* t = y.data() + 3 * std::size_t(row_col[std::size_t(p)]);
-        const double l = row_value[std::size_t(p)];
-        z0 -= l * t[0], z1 -= l * t[1], z2 -= l * t[2];
+  /// L z = y, in place in y, column by column: z_c is final once the columns before it are done, and goes
+  /// to y_r -= L_rc z_c for the rows r of entries [p0(c), p1(c)) of column c, for the columns c of cols.
+  template <class Cols, class First, class Last>
+  void forward(const Cols& cols, First p0, Last p1) {
+    const auto& L = ldlt.matrixL().nestedExpression();
+    const int* Li = L.innerIndexPtr();
+    const double* Lx = L.valuePtr();
+    for (const auto col : cols) {
+      const auto k = 3 * std::size_t(col);
+      const double z0 = y[k], z1 = y[k + 1], z2 = y[k + 2];
+      for (int p = p0(col); p < p1(col); ++p) {
+        double* t = y.data() + 3 * std::size_t(Li[p]);
+        t[0] -= Lx[p] * z0, t[1] -= Lx[p] * z1, t[2] -= Lx[p] * z2;
       }
-      y[3 * r] = z0, y[3 * r + 1] = z1, y[3 * r + 2] = z2;
     }
   }
 
@@ -166,7 +169,7 @@ struct ArapRefiner<T>::Impl {
     }
   }
 
-  /// Builds row_start/row_col/row_value and the schedule for `bins` threads: the roots of the elimination
+  /// Builds the schedule for `bins` threads, and top_start and tail_cols: the roots of the elimination
   /// tree (parent(j) = the first row below the diagonal in column j) are spread over the bins, heaviest
   /// first onto the lightest bin (work = entries + 2 per row); then the heaviest subtree is split, its root
   /// moving to the top and its children into the spread, for as long as that shortens the longest path
@@ -174,20 +177,7 @@ struct ArapRefiner<T>::Impl {
   void schedule(std::size_t bins) {
     const auto& L = ldlt.matrixL().nestedExpression();
     const int *Lp = L.outerIndexPtr(), *Li = L.innerIndexPtr();
-    const double* Lx = L.valuePtr();
     const std::size_t m = D.size();
-    row_start.assign(m + 1, 0);
-    for (int p = 0; p < Lp[m]; ++p) ++row_start[std::size_t(Li[p]) + 1];
-    for (std::size_t r = 0; r < m; ++r) row_start[r + 1] += row_start[r];
-    row_col.resize(std::size_t(Lp[m]));
-    row_value.resize(std::size_t(Lp[m]));
-    std::vector<int> next(row_start.begin(), row_start.end() - 1);
-    for (std::size_t col = 0; col < m; ++col)  // columns ascending in each row
-      for (int p = Lp[col]; p < Lp[col + 1]; ++p) {
-        const auto q = std::size_t(next[std::size_t(Li[p])]++);
-        row_col[q] = int(col), row_value[q] = Lx[p];
-      }
-
     std::vector<int> parent(m, -1);
     std::vector<std::size_t> work(m), subtree(m);
     for (std::size_t j = 0; j < m; ++j) {
@@ -240,6 +230,14 @@ struct ArapRefiner<T>::Impl {
     order.resize(m);
     std::vector<std::size_t> fill(part_start.begin(), part_start.end() - 1);
     for (std::size_t j = 0; j < m; ++j) order[fill[std::size_t(part[j])]++] = int(j);
+    top_start.resize(m);
+    tail_cols.clear();
+    for (std::size_t col = 0; col < m; ++col) {
+      int p = Lp[col];
+      while (p < Lp[col + 1] && part[std::size_t(Li[p])] != int(bins)) ++p;
+      top_start[col] = p;
+      if (p < Lp[col + 1]) tail_cols.push_back(int(col));
+    }
   }
 
   /// b_i = sum_j (w_ij / 2)(R_i + R_j)(p_i - p_j) = (R_i c_i + sum_j R_j w_ij (p_i - p_j)) / 2, plus w_ij x_j
@@ -267,13 +265,20 @@ struct ArapRefiner<T>::Impl {
                             });
     // L z = y (unit lower), then D^-1 and L^T x = z. Row r of L has entries only in columns that descend from
     // r in the elimination tree, column c only in rows that are its ancestors: the parts' subtrees share no
-    // row, forward before the top and backward after it. Each row's sum runs in the same order whatever the
-    // schedule (ascending columns, as a column-by-column scatter would subtract them; then ascending rows):
-    // the same bits for any thread count.
+    // row. Forward: each part's columns scatter into their rows below the top, in parallel; then every column
+    // with entries in the top rows scatters into them, ascending. Backward gathers, the top first. Every y_r
+    // receives its terms in one order whatever the schedule (ascending columns; then ascending rows): the
+    // same bits for any thread count.
+    const auto& L = ldlt.matrixL().nestedExpression();
+    const int* Lp = L.outerIndexPtr();
+    const auto first = [&](int col) { return Lp[col]; };
+    const auto below_top = [&](int col) { return top_start[std::size_t(col)]; };
+    const auto last = [&](int col) { return Lp[col + 1]; };
     detail::parallel_ranges(parts, options.threads, arena.get(), [&](std::size_t k0, std::size_t k1) {
-      for (std::size_t k = k0; k < k1; ++k) forward(part_start[k], part_start[k + 1]);
+      for (std::size_t k = k0; k < k1; ++k)
+        forward(std::span<const int>(order.data() + part_start[k], order.data() + part_start[k + 1]), first, below_top);
     });
-    forward(part_start[parts], part_start[parts + 1]);
+    forward(tail_cols, below_top, last);
     backward(part_start[parts], part_start[parts + 1]);
     detail::parallel_ranges(parts, options.threads, arena.get(), [&](std::size_t k0, std::size_t k1) {
       for (std::size_t k = k0; k < k1; ++k) backward(part_start[k], part_start[k + 1]);
@@ -474,13 +479,13 @@ std::size_t ArapRefiner<T>::memory_bytes() const {
   const Impl& m = *impl_;
   const auto bytes = [](const auto& v) { return v.size() * sizeof(v[0]); };
   const auto& L = m.ldlt.matrixL().nestedExpression();
-  // The factor: L (by columns and by rows), its diagonal (twice: Eigen's and the copy) and its two
+  // The factor: L (by columns), its diagonal (twice: Eigen's and the copy) and its two
   // permutations (about one more D).
   return std::size_t(L.nonZeros()) * (sizeof(double) + sizeof(int)) + std::size_t(L.outerSize() + 1) * sizeof(int) +
-         bytes(m.row_start) + bytes(m.row_col) + bytes(m.row_value) + bytes(m.order) + bytes(m.part_start) +
-         bytes(m.vertex_of) + 3 * bytes(m.D) + bytes(m.perm) + bytes(m.start) + bytes(m.nbr) + bytes(m.w) +
-         bytes(m.we) + bytes(m.c) + bytes(m.row) + bytes(m.free_vertices) + bytes(m.H) + bytes(m.R) + bytes(m.Rd) +
-         bytes(m.y) + std::size_t(m.P.size() + m.X.size()) * sizeof(double);
+         bytes(m.top_start) + bytes(m.tail_cols) + bytes(m.order) + bytes(m.part_start) + bytes(m.vertex_of) +
+         3 * bytes(m.D) + bytes(m.perm) + bytes(m.start) + bytes(m.nbr) + bytes(m.w) + bytes(m.we) + bytes(m.c) +
+         bytes(m.row) + bytes(m.free_vertices) + bytes(m.H) + bytes(m.R) + bytes(m.Rd) + bytes(m.y) +
+         std::size_t(m.P.size() + m.X.size()) * sizeof(double);
 }
 
 template class ArapRefiner<float>;
