@@ -1,5 +1,5 @@
 // The shape-quality measures of the quality benchmark (tests/support/quality.hpp) and the mesh helpers they
-// need: the OBJ triangle reader and the triangulated box surface.
+// need: the OBJ and PLY triangle readers and the triangulated box surface.
 #include "meshes.hpp"
 #include "quality.hpp"
 
@@ -70,6 +70,42 @@ TEST_CASE("read_obj_triangles fans polygons and resolves index forms", "[quality
   CHECK_THROWS_AS(read_obj_triangles(TempFile("v 0 0 0\nv 1 0 0\nf 1 2 3\n").path), std::runtime_error);
   CHECK_THROWS_AS(read_obj_triangles(TempFile("v 0 0 0\nv 1 0 0\nf 1 2\n").path), std::runtime_error);
   CHECK_THROWS_AS(read_obj_triangles(TempFile("v 0 0 0\nv 1 0 0\nv 1 1 0\nf 0 1 2\n").path), std::runtime_error);
+}
+
+TEST_CASE("read_ply_vertices reads the faces, fanning polygons, and refuses bad indices", "[quality]") {
+  // A binary little-endian PLY: 4 vertices (x, y, z float and a uchar the reader skips), a triangle and a quad.
+  const auto ply = [](std::int32_t last_index) {
+    std::string s =
+        "ply\nformat binary_little_endian 1.0\nelement vertex 4\nproperty float x\nproperty float y\n"
+        "property float z\nproperty uchar flag\nelement face 2\nproperty list uchar int vertex_indices\n"
+        "end_header\n";
+    const auto put = [&](const auto& v) { s.append(reinterpret_cast<const char*>(&v), sizeof v); };
+    for (int i = 0; i < 4; ++i) {
+      put(float(i)), put(float(2 * i)), put(float(-i));
+      s.push_back('\x7f');
+    }
+    s.push_back('\x03');
+    for (const std::int32_t c : {0, 1, 2}) put(c);
+    s.push_back('\x04');
+    for (const std::int32_t c : {0, 2, 1, last_index}) put(c);
+    return s;
+  };
+  const TempFile good(ply(3));
+  Triangles t;
+  const PointsD p = read_ply_vertices(good.path, &t);
+  REQUIRE(p.rows() == 4);
+  CHECK(p.row(3) == Eigen::RowVector3d(3, 6, -3));
+  REQUIRE(t.rows() == 3);
+  CHECK(t.row(0) == Eigen::RowVector3i(0, 1, 2));
+  CHECK(t.row(1) == Eigen::RowVector3i(0, 2, 1));
+  CHECK(t.row(2) == Eigen::RowVector3i(0, 1, 3));
+  CHECK(read_ply_vertices(good.path).rows() == 4);  // without faces: the face element is not read
+  const TempFile bad(ply(4));
+  CHECK_THROWS_WITH(read_ply_vertices(bad.path, &t), Catch::Contains("index out of range"));
+  std::string cut = ply(3);
+  cut.resize(cut.size() - 2);
+  const TempFile truncated(cut);
+  CHECK_THROWS_WITH(read_ply_vertices(truncated.path, &t), Catch::Contains("truncated face data"));
 }
 
 TEST_CASE("box_surface_triangles is a closed surface with outward normals", "[quality]") {

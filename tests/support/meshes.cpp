@@ -7,6 +7,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
@@ -83,7 +84,7 @@ Triangles read_obj_triangles(const std::string& path) {
   return t;
 }
 
-PointsD read_ply_vertices(const std::string& path) {
+PointsD read_ply_vertices(const std::string& path, Triangles* faces) {
   gzFile f = gzopen(path.c_str(), "rb");
   if (!f) throw std::runtime_error("cannot open " + path);
   auto fail = [&](const std::string& why) {
@@ -98,8 +99,8 @@ PointsD read_ply_vertices(const std::string& path) {
     return !header_line.empty() || !gzeof(f);
   };
   if (!getline() || header_line != "ply") throw fail("not a PLY file");
-  long long vertices = -1;
-  bool in_vertex = false, seen_vertex = false;
+  long long vertices = -1, face_count = -1;
+  bool in_vertex = false, seen_vertex = false, in_face = false, face_list = false;
   int stride = 0, offset[3] = {-1, -1, -1};
   auto size_of = [](const std::string& t) {
     if (t == "char" || t == "uchar" || t == "int8" || t == "uint8") return 1;
@@ -121,12 +122,21 @@ PointsD read_ply_vertices(const std::string& path) {
       long long count;
       ss >> name >> count;
       in_vertex = name == "vertex";
+      in_face = name == "face";
+      if (faces && seen_vertex && !in_face && face_count < 0) throw fail("an element between vertex and face");
+      if (in_face) face_count = count;
       if (in_vertex) {
         if (seen_vertex) throw fail("two vertex elements");
         vertices = count, seen_vertex = true;
       } else if (!seen_vertex) {
         throw fail("the vertex element must come first");
       }
+    } else if (word == "property" && in_face && faces) {
+      std::string list, count_type, index_type, name;
+      ss >> list >> count_type >> index_type >> name;
+      if (face_list || list != "list" || count_type != "uchar" || (index_type != "int" && index_type != "uint"))
+        throw fail("faces must be one property 'list uchar int'");
+      face_list = true;
     } else if (word == "property" && in_vertex) {
       std::string type, name;
       ss >> type >> name;
@@ -152,6 +162,24 @@ PointsD read_ply_vertices(const std::string& path) {
     const int r = gzread(f, buf.data() + got, chunk);
     if (r <= 0) throw fail("truncated vertex data");
     got += static_cast<std::size_t>(r);
+  }
+  if (faces) {
+    // Each face: a uchar corner count, then that many 32-bit little-endian indices; polygons are fanned.
+    if (face_count < 0 || !face_list) throw fail("no face element");
+    std::vector<Eigen::Vector3i> tri;
+    std::vector<std::int32_t> corner;
+    for (long long k = 0; k < face_count; ++k) {
+      const int count = gzgetc(f);
+      if (count < 3) throw fail(count < 0 ? "truncated face data" : "a face with fewer than 3 corners");
+      corner.resize(std::size_t(count));
+      const int bytes = count * int(sizeof(std::int32_t));
+      if (gzread(f, corner.data(), unsigned(bytes)) != bytes) throw fail("truncated face data");
+      for (const std::int32_t c : corner)
+        if (c < 0 || c >= vertices) throw fail("face " + std::to_string(k) + " has an index out of range");
+      for (int c = 2; c < count; ++c) tri.emplace_back(corner[0], corner[std::size_t(c - 1)], corner[std::size_t(c)]);
+    }
+    faces->resize(Eigen::Index(tri.size()), 3);
+    for (std::size_t k = 0; k < tri.size(); ++k) faces->row(Eigen::Index(k)) = tri[k].transpose();
   }
   gzclose(f);
   PointsD p(vertices, 3);

@@ -40,8 +40,9 @@ Triangles read_obj_triangles(const std::string& path);
 
 /// The vertices of a binary little-endian PLY file, optionally gzip-compressed (zlib reads both). Supports
 /// a vertex element whose properties are scalars (float, double, uchar, int ...) with x, y, z among them
-/// (float). Throws std::runtime_error naming the file otherwise.
-PointsD read_ply_vertices(const std::string& path);
+/// (float). With `faces`, also the face element that must follow it: one property 'list uchar int' (or
+/// uint), polygons fanned into triangles. Throws std::runtime_error naming the file otherwise.
+PointsD read_ply_vertices(const std::string& path, Triangles* faces = nullptr);
 
 /// `count` distinct rows of `p` chosen uniformly at random (Rng(seed); partial Fisher-Yates), in their
 /// original order; all of `p` when count >= its rows. Brings a mesh to a given vertex count: MLS cost depends
