@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Build the benchmarks (Release), run the whole suite with JSON output, and write docs/benchmarks.md and
 # docs/plots/*.png (tools/bench_report.py). About 6-9 minutes on the 2-core development machine (bench_quality:
-# about 1 of them, mostly CGAL run to 500 iterations).
+# about 2 of them: CGAL run to 500 iterations, ARAP set up on the 737,986-vertex spot_loop3).
 #
 #   tools/bench_report.sh            the full run (what docs/benchmarks.md shows)
 #   tools/bench_report.sh --quick    a smoke test of the pipeline: 10^4 matrices, short timings; writes the
