@@ -1,0 +1,40 @@
+// The ARAP session's mesh structure (arap.hpp documents the weights): cotangent weights per edge, made safe,
+// and each vertex's one-ring in CSR form; and the union-find that groups vertices into components.
+#pragma once
+
+#include <mlsdeform/arap.hpp>
+
+#include <Eigen/Core>
+
+#include <cstddef>
+#include <numeric>
+#include <vector>
+
+namespace mlsdeform::detail {
+
+/// One-rings, CSR: the neighbours of i are nbr[start[i] .. start[i + 1]) with weights w, ascending.
+struct OneRings {
+  std::vector<Eigen::Index> start, nbr;
+  std::vector<double> w;
+  std::size_t clamped = 0;  ///< edges whose cotangent weight was negative, clamped at zero
+};
+
+/// w_ij = (cot alpha + cot beta) / 2 over the triangles sharing the edge (degenerate triangles and repeated
+/// corners contribute nothing), clamped below at zero, plus 1e-6 of the mean weight on every edge. Throws
+/// std::invalid_argument for a triangle index outside [0, P.rows()).
+OneRings cotangent_one_rings(const Eigen::Matrix<double, Eigen::Dynamic, 3>& P, const Triangles& triangles);
+
+/// Union-find with path halving.
+struct Disjoint {
+  std::vector<Eigen::Index> parent;
+  explicit Disjoint(Eigen::Index n) : parent(static_cast<std::size_t>(n)) {
+    std::iota(parent.begin(), parent.end(), Eigen::Index(0));
+  }
+  Eigen::Index find(Eigen::Index i) {
+    while (parent[std::size_t(i)] != i) i = parent[std::size_t(i)] = parent[std::size_t(parent[std::size_t(i)])];
+    return i;
+  }
+  void unite(Eigen::Index a, Eigen::Index b) { parent[std::size_t(find(a))] = find(b); }
+};
+
+}  // namespace mlsdeform::detail

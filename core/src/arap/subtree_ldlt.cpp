@@ -1,0 +1,157 @@
+// SubtreeLdlt (subtree_ldlt.hpp): the factor, the substitution's schedule, forward and backward substitution.
+#include "subtree_ldlt.hpp"
+
+#include "../parallel.hpp"
+
+#include <algorithm>
+#include <span>
+
+namespace mlsdeform::detail {
+
+bool SubtreeLdlt::compute(const Eigen::SparseMatrix<double>& A, std::size_t bins) {
+  ldlt.compute(A);
+  if (ldlt.info() != Eigen::Success) return false;
+  const Eigen::VectorXd d = ldlt.vectorD();
+  D.assign(d.data(), d.data() + d.size());
+  perm.resize(std::size_t(A.rows()));
+  for (Eigen::Index i = 0; i < A.rows(); ++i) perm[std::size_t(i)] = ldlt.permutationP().indices()(i);
+  schedule(bins);
+  return true;
+}
+
+/// L z = y, in place in y, column by column: z_c is final once the columns before it are done, and goes
+/// to y_r -= L_rc z_c for the rows r of entries [p0(c), p1(c)) of column c, for the columns c of cols.
+template <class Cols, class First, class Last>
+void SubtreeLdlt::forward(std::vector<double>& y, const Cols& cols, First p0, Last p1) const {
+  const auto& L = ldlt.matrixL().nestedExpression();
+  const int* Li = L.innerIndexPtr();
+  const double* Lx = L.valuePtr();
+  for (const auto col : cols) {
+    const auto k = 3 * std::size_t(col);
+    const double z0 = y[k], z1 = y[k + 1], z2 = y[k + 2];
+    for (int p = p0(col); p < p1(col); ++p) {
+      double* t = y.data() + 3 * std::size_t(Li[p]);
+      t[0] -= Lx[p] * z0, t[1] -= Lx[p] * z1, t[2] -= Lx[p] * z2;
+    }
+  }
+}
+
+/// x_c = z_c / D_c - sum_r L_rc x_r for the columns order[k0 .. k1), last first, in place in y.
+void SubtreeLdlt::backward(std::vector<double>& y, std::size_t k0, std::size_t k1) const {
+  const auto& L = ldlt.matrixL().nestedExpression();
+  const int *Lp = L.outerIndexPtr(), *Li = L.innerIndexPtr();
+  const double* Lx = L.valuePtr();
+  for (std::size_t k = k1; k-- > k0;) {
+    const auto col = std::size_t(order[k]);
+    double x0 = y[3 * col] / D[col], x1 = y[3 * col + 1] / D[col], x2 = y[3 * col + 2] / D[col];
+    for (int p = Lp[col]; p < Lp[col + 1]; ++p) {
+      const double* t = y.data() + 3 * std::size_t(Li[p]);
+      x0 -= Lx[p] * t[0], x1 -= Lx[p] * t[1], x2 -= Lx[p] * t[2];
+    }
+    y[3 * col] = x0, y[3 * col + 1] = x1, y[3 * col + 2] = x2;
+  }
+}
+
+/// Builds the schedule for `bins` threads, and top_start and tail_cols: the roots of the elimination
+/// tree (parent(j) = the first row below the diagonal in column j) are spread over the bins, heaviest
+/// first onto the lightest bin (work = entries + 2 per row); then the heaviest subtree is split, its root
+/// moving to the top and its children into the spread, for as long as that shortens the longest path
+/// (top + heaviest bin). Any schedule gives the same bits; this one only balances the threads.
+void SubtreeLdlt::schedule(std::size_t bins) {
+  const auto& L = ldlt.matrixL().nestedExpression();
+  const int *Lp = L.outerIndexPtr(), *Li = L.innerIndexPtr();
+  const std::size_t m = D.size();
+  std::vector<int> parent(m, -1);
+  std::vector<std::size_t> work(m), subtree(m);
+  for (std::size_t j = 0; j < m; ++j) {
+    for (int p = Lp[j]; p < Lp[j + 1]; ++p)
+      if (parent[j] < 0 || Li[p] < parent[j]) parent[j] = Li[p];
+    subtree[j] = work[j] = std::size_t(Lp[j + 1] - Lp[j]) + 2;
+  }
+  for (std::size_t j = 0; j < m; ++j)  // a parent comes after its children
+    if (parent[j] >= 0) subtree[std::size_t(parent[j])] += subtree[j];
+  std::vector<std::vector<int>> children(m);
+  std::vector<int> frontier;  // the subtrees' roots not yet split
+  for (std::size_t j = 0; j < m; ++j) (parent[j] >= 0 ? children[std::size_t(parent[j])] : frontier).push_back(int(j));
+  const auto heavier = [&](int a, int b) {
+    const std::size_t wa = subtree[std::size_t(a)], wb = subtree[std::size_t(b)];
+    return wa != wb ? wa > wb : a < b;
+  };
+  std::vector<int> top, best_frontier, bin_of, best_bin;
+  std::vector<std::size_t> load(bins);
+  std::size_t top_work = 0, best = ~std::size_t(0), best_top = 0;
+  // A surface's top separators hold some sqrt(m) rows (137 of the bundled body's 6,882): the cap only
+  // bounds the set-up's time on odd meshes.
+  for (int split = 0; split < 1024 && !frontier.empty() && top_work < best; ++split) {
+    std::sort(frontier.begin(), frontier.end(), heavier);
+    std::fill(load.begin(), load.end(), std::size_t(0));
+    bin_of.assign(frontier.size(), 0);
+    for (std::size_t f = 0; f < frontier.size(); ++f) {
+      const auto b = std::size_t(std::min_element(load.begin(), load.end()) - load.begin());
+      load[b] += subtree[std::size_t(frontier[f])];
+      bin_of[f] = int(b);
+    }
+    const std::size_t span = top_work + *std::max_element(load.begin(), load.end());
+    if (span < best) best = span, best_top = top.size(), best_frontier = frontier, best_bin = bin_of;
+    if (bins == 1) break;
+    const int f = frontier.front();
+    frontier.erase(frontier.begin());
+    top.push_back(f);
+    top_work += work[std::size_t(f)];
+    frontier.insert(frontier.end(), children[std::size_t(f)].begin(), children[std::size_t(f)].end());
+  }
+  std::vector<int> part(m, -1);
+  for (std::size_t t = 0; t < best_top; ++t) part[std::size_t(top[t])] = int(bins);
+  for (std::size_t f = 0; f < best_frontier.size(); ++f) part[std::size_t(best_frontier[f])] = best_bin[f];
+  for (std::size_t j = m; j-- > 0;)  // the rest of each subtree goes with its root
+    if (part[j] < 0) part[j] = part[std::size_t(parent[j])];
+  parts = bins;
+  part_start.assign(bins + 2, 0);
+  for (std::size_t j = 0; j < m; ++j) ++part_start[std::size_t(part[j]) + 1];
+  for (std::size_t k = 0; k <= bins; ++k) part_start[k + 1] += part_start[k];
+  order.resize(m);
+  std::vector<std::size_t> fill(part_start.begin(), part_start.end() - 1);
+  for (std::size_t j = 0; j < m; ++j) order[fill[std::size_t(part[j])]++] = int(j);
+  top_start.resize(m);
+  tail_cols.clear();
+  for (std::size_t col = 0; col < m; ++col) {
+    int p = Lp[col];
+    while (p < Lp[col + 1] && part[std::size_t(Li[p])] != int(bins)) ++p;
+    top_start[col] = p;
+    if (p < Lp[col + 1]) tail_cols.push_back(int(col));
+  }
+}
+
+void SubtreeLdlt::solve(std::vector<double>& y, int threads, tbb::task_arena* arena) const {
+  // L z = y (unit lower), then D^-1 and L^T x = z. Row r of L has entries only in columns that descend from
+  // r in the elimination tree, column c only in rows that are its ancestors: the parts' subtrees share no
+  // row. Forward: each part's columns scatter into their rows below the top, in parallel; then every column
+  // with entries in the top rows scatters into them, ascending. Backward gathers, the top first. Every y_r
+  // receives its terms in one order whatever the schedule (ascending columns; then ascending rows): the
+  // same bits for any thread count.
+  const auto& L = ldlt.matrixL().nestedExpression();
+  const int* Lp = L.outerIndexPtr();
+  const auto first = [&](int col) { return Lp[col]; };
+  const auto below_top = [&](int col) { return top_start[std::size_t(col)]; };
+  const auto last = [&](int col) { return Lp[col + 1]; };
+  parallel_ranges(parts, threads, arena, [&](std::size_t k0, std::size_t k1) {
+    for (std::size_t k = k0; k < k1; ++k)
+      forward(y, std::span<const int>(order.data() + part_start[k], order.data() + part_start[k + 1]), first,
+              below_top);
+  });
+  forward(y, tail_cols, below_top, last);
+  backward(y, part_start[parts], part_start[parts + 1]);
+  parallel_ranges(parts, threads, arena, [&](std::size_t k0, std::size_t k1) {
+    for (std::size_t k = k0; k < k1; ++k) backward(y, part_start[k], part_start[k + 1]);
+  });
+}
+
+std::size_t SubtreeLdlt::memory_bytes() const {
+  const auto bytes = [](const auto& v) { return v.size() * sizeof(v[0]); };
+  const auto& L = ldlt.matrixL().nestedExpression();
+  // L by columns, its diagonal (twice: Eigen's and the copy) and its two permutations (about one more D).
+  return std::size_t(L.nonZeros()) * (sizeof(double) + sizeof(int)) + std::size_t(L.outerSize() + 1) * sizeof(int) +
+         bytes(top_start) + bytes(tail_cols) + bytes(order) + bytes(part_start) + 3 * bytes(D) + bytes(perm);
+}
+
+}  // namespace mlsdeform::detail
