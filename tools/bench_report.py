@@ -583,6 +583,9 @@ def main():
                   "by the ring rotation of at least two of their corners (tests/support/quality.hpp). ms per "
                   "frame: the median of one frame from the rest pose, set-up (weights, factorisations) not "
                   "timed; CGAL's deformation runs on one thread.\n")
+        md.append("The human bend, as `mlsdeform figures` draws it from the library (the same mesh and handles; "
+                  "E: the ARAP energy):\n")
+        md.append("![MLS, MLS + 2 and MLS + 10 ARAP iterations on the human bend](figures/arap.png)\n")
         with open(quality) as f:
             md.append(f.read())
     # ----------------------------------------------------------------------------------------------------
