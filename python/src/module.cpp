@@ -36,17 +36,25 @@ std::string shape_of(const py::array& a) {
   return s + (a.ndim() == 1 ? ",)" : ")");
 }
 
-/// An (n, 3) array of T from any array-like (converted, copied only if it is not already C-contiguous T).
+/// obj as a C-contiguous array of T (converted, copied only if it is not one already), or a null array with
+/// Python's error indicator cleared where it cannot be converted: the caller raises its own error.
 template <class T>
-Array<T> as_n3(const py::handle& obj, const char* name) {
+Array<T> try_array(const py::handle& obj) {
   Array<T> a;
   try {
     a = Array<T>::ensure(obj);
   } catch (const py::error_already_set&) {
     a = Array<T>();
   }
+  if (!a) PyErr_Clear();
+  return a;
+}
+
+/// An (n, 3) array of T from any array-like.
+template <class T>
+Array<T> as_n3(const py::handle& obj, const char* name) {
+  const Array<T> a = try_array<T>(obj);
   if (!a) {
-    PyErr_Clear();
     throw py::type_error(std::string(name) + ": expected an (n, 3) array of numbers, got " +
                          std::string(py::str(py::type::of(obj).attr("__name__"))));
   }
@@ -256,30 +264,16 @@ class PyDeformer {
 
   template <class T>
   static Vector3<T> vector3(const py::object& obj, const char* name) {
-    Array<T> a;
-    try {
-      a = Array<T>::ensure(obj);
-    } catch (const py::error_already_set&) {
-    }
-    if (!a) {
-      PyErr_Clear();
-      throw py::type_error(std::string(name) + ": expected 3 numbers");
-    }
+    const Array<T> a = try_array<T>(obj);
+    if (!a) throw py::type_error(std::string(name) + ": expected 3 numbers");
     if (a.size() != 3) throw py::value_error(std::string(name) + ": expected 3 numbers, got shape " + shape_of(a));
     return Vector3<T>(a.data()[0], a.data()[1], a.data()[2]);
   }
 
   template <class T>
   static Matrix3<T> matrix3(const py::object& obj, const char* name) {
-    Array<T> a;
-    try {
-      a = Array<T>::ensure(obj);
-    } catch (const py::error_already_set&) {
-    }
-    if (!a) {
-      PyErr_Clear();
-      throw py::type_error(std::string(name) + ": expected a 3 x 3 array");
-    }
+    const Array<T> a = try_array<T>(obj);
+    if (!a) throw py::type_error(std::string(name) + ": expected a 3 x 3 array");
     if (a.ndim() != 2 || a.shape(0) != 3 || a.shape(1) != 3)
       throw py::value_error(std::string(name) + ": expected shape (3, 3), got " + shape_of(a));
     Matrix3<T> m;
@@ -475,11 +469,8 @@ bool wants_single(const py::object& obj) {
 py::array fit_rotations_py(const py::object& H, const std::string& method, int threads, const py::object& out) {
   const RotationMethod m = parse_method(method);
   if (wants_single(H)) return fit_rotations_t<float>(Array<float>::ensure(H), m, threads, nullptr, out);
-  Array<double> a = Array<double>::ensure(H);
-  if (!a) {
-    PyErr_Clear();
-    throw py::type_error("H: expected an (m, 3, 3) array of numbers");
-  }
+  const Array<double> a = try_array<double>(H);
+  if (!a) throw py::type_error("H: expected an (m, 3, 3) array of numbers");
   return fit_rotations_t<double>(a, m, threads, nullptr, out);
 }
 
@@ -500,11 +491,8 @@ py::tuple fit_points_t(const py::object& P, const py::object& Q, const py::objec
   const Points<T> p = to_points(as_n3<T>(P, "P")), q = to_points(as_n3<T>(Q, "Q"));
   Eigen::Matrix<T, Eigen::Dynamic, 1> weights;
   if (!w.is_none()) {
-    const Array<T> a = Array<T>::ensure(w);
-    if (!a || a.ndim() != 1) {
-      PyErr_Clear();
-      throw py::value_error("w: expected a 1-D array of weights");
-    }
+    const Array<T> a = try_array<T>(w);
+    if (!a || a.ndim() != 1) throw py::value_error("w: expected a 1-D array of weights");
     weights = Eigen::Map<const Eigen::Matrix<T, Eigen::Dynamic, 1>>(a.data(), a.shape(0));
   }
   if (transform == Transform::affine) throw py::value_error("transform: fit_points supports 'rigid' and 'similarity'");
@@ -626,11 +614,8 @@ written.)");
       [](const py::object& H, const std::string& method) -> py::array {
         const RotationMethod mth = parse_method(method);
         if (wants_single(H)) return fit_rotation_t<float>(Array<float>::ensure(H), mth);
-        Array<double> a = Array<double>::ensure(H);
-        if (!a) {
-          PyErr_Clear();
-          throw py::type_error("H: expected a (3, 3) array of numbers");
-        }
+        const Array<double> a = try_array<double>(H);
+        if (!a) throw py::type_error("H: expected a (3, 3) array of numbers");
         return fit_rotation_t<double>(a, mth);
       },
       py::arg("H"), py::kw_only(), py::arg("method") = "axis_angle",
