@@ -11,7 +11,7 @@
 //                                    N threads, arrays first touched by the thread that uses them.
 // Kernels (GFLOPs and GBs counters beside the peaks; the report draws the roofline):
 //   kernel/fit/float/axis_angle/<isa>/<hot|stream>  the batched fit (mlsdeform::fit_rotations), one thread.
-//        flops per fit: counted by running the scalar reference (core/src/axis_angle.hpp) on an instrumented
+//        flops per fit: counted by running the scalar reference (core/src/rotation/axis_angle.hpp) on an instrumented
 //        scalar type over the same matrices (bench/flop_count.hpp); the SIMD lanes run the same stages, so
 //        this is the useful work (masked lanes and selects are not counted). Bytes: 36 in + 36 out per fit.
 //   kernel/deform/<scene>/<storage>   one frame of the Deformer (Backend::simd, all cores). Flops: nominal

@@ -1,6 +1,6 @@
 // Counting floating-point operations of a templated scalar algorithm: Counted<T> behaves as T and tallies
 // every +, -, *, / and sqrt (and, apart, the transcendental calls) in thread-local counters. The roofline
-// benchmark runs the library's scalar reference of the axis/angle fit (core/src/axis_angle.hpp) on it over
+// benchmark runs the library's scalar reference of the axis/angle fit (core/src/rotation/axis_angle.hpp) on it over
 // the benchmark's matrices, which gives the flops per fit of the algorithm as written (Newton iterations
 // and rare branches included, averaged). This machine's virtualised CPU exposes no hardware counters
 // (no PMU in the guest), so this is how flops are counted here.

@@ -3,9 +3,9 @@
 // frame a deformation kernel reads. Included by both sides, so that neither copies a constant or an index
 // formula from the other.
 //
-// Nothing here may become an out-of-line symbol shared by a baseline and an ISA object (../shared/TOOLCHAIN.md
-// pitfall 3: the linker keeps one copy, possibly AVX-512, for every caller): functions and constants are
-// `static` (internal linkage, a private copy in each object), types have no member functions.
+// Nothing here may become an out-of-line symbol shared by a baseline and an ISA object (an inline function
+// becomes a weak symbol, and the linker keeps one copy, possibly AVX-512, for every caller): functions and
+// constants are `static` (internal linkage, a private copy in each object), types have no member functions.
 #pragma once
 
 #include <mlsdeform/enums.hpp>

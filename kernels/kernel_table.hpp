@@ -1,8 +1,8 @@
 // The dispatch table between core/ (baseline flags) and the kernels: plain function pointers and declarations
 // only. One table per ISA (kernels/isa_<name>.cpp) and one for the scalar reference
 // (core/src/scalar_kernels.cpp), chosen at run time by core/src/dispatch.cpp. Nothing here may be an inline
-// function or be instantiated in an ISA translation unit, or the linker could pick an AVX copy for the
-// baseline path (../shared/TOOLCHAIN.md pitfall 3).
+// function or be instantiated in an ISA translation unit, or the linker could pick an AVX copy of the weak
+// symbol for the baseline path.
 #pragma once
 
 #include "contract.hpp"

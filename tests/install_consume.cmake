@@ -23,7 +23,7 @@ if(NOT CMAKE_SCRIPT_MODE_FILE)
       "-DCONSUMER_CXX_FLAGS=${_ic_flags}"
       -DCONSUMER_BUILD_TYPE=$<CONFIG>
       -P ${CMAKE_CURRENT_LIST_FILE})
-  # Configuring a project with all dependencies takes ~30 s on the 2-core machine (TOOLCHAIN.md).
+  # A clean configure and build of a small project with all dependencies takes ~30 s on a 2-core machine.
   set_tests_properties(install_consume PROPERTIES TIMEOUT 600 LABELS install RUN_SERIAL TRUE)
   return()
 endif()

@@ -234,7 +234,7 @@ TEMPLATE_TEST_CASE("scale invariance: scaling the scene scales the output and ch
   using T = TestType;
   std::mt19937_64 g(seed());
   INFO("seed " << seed());
-  // Powers of two near the issue's factors (1e-20, 1e20 in double; 1e-8, 1e8 in float) scale every input
+  // Powers of two near the decimal factors below (1e-20, 1e20 in double; 1e-8, 1e8 in float) scale every input
   // exactly; the precomputation works in a frame scaled by a power of two and fit_rotation is bitwise
   // invariant under power-of-two scaling of H, so the output must scale bitwise.
   const int e = sizeof(T) == 8 ? 66 : 27;

@@ -1,7 +1,8 @@
 // deform() and fit_rotations() allocate nothing once the output has its size. The C
 // allocator itself is replaced by a counting one for this test binary (Eigen and std::aligned_alloc call
-// malloc directly; operator new ends there too), forwarding to glibc's __libc_* entry points. Not run under
-// the sanitizers, which interpose the allocator themselves (label no_sanitizer, tests/no_allocation.cmake).
+// malloc directly; operator new ends there too), forwarding to glibc's __libc_* entry points. Not built with
+// the sanitizers, which interpose the allocator themselves (tests/CMakeLists.txt skips it when
+// MLSDEFORM_SANITIZE is on).
 #include <mlsdeform/mlsdeform.hpp>
 
 #include <catch2/catch.hpp>

@@ -35,8 +35,8 @@ using namespace mlsdeform::testing;
 
 namespace {
 
-/// Default number of matrices per precision: about 5 s per precision in Release on the 2-core machine of
-/// ../shared/TOOLCHAIN.md; a tenth of that under AddressSanitizer (tools/dev.sh test runs the suite twice).
+/// Default number of matrices per precision: about 5 s per precision in Release on a 2-core x86-64 machine;
+/// a tenth of that under AddressSanitizer (tools/dev.sh test runs the suite twice).
 constexpr std::uint64_t kDefaultCases = built_with_sanitizer() ? 4000 : 40000;
 
 struct RunConfig {

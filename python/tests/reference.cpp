@@ -1,4 +1,4 @@
-// The C++ library's own result for the Python tests' bitwise comparison (python/tests/test_deformer.py):
+// The C++ library's own result for the Python tests' bitwise comparison (python/tests/test_mlsdeform.py):
 //   mlsdeform_py_reference f|d rigid|similarity|affine u paper_constant|exact_integral n k s in out
 // `in` holds raw T values, row-major: V (n x 3), P (k x 3), A, B (s x 3 each), then the moved Q, C, D;
 // `out` receives the deformed vertices (n x 3, row-major) from Deformer<T>::deform.

@@ -1,6 +1,7 @@
 # Fails if a weak symbol defined in a per-ISA kernel object is also defined in another object of the
 # library: the linker keeps one copy, possibly compiled for AVX-512, for every caller (SIGILL on older CPUs;
-# ../shared/TOOLCHAIN.md pitfall 3, numpy#25274, xsimd#633). Usage: cmake -DARCHIVE=libmlsdeform.a -P ...
+# at -O0 even an inline helper, std::fma or std::sqrt used in an ISA object can become such a weak symbol).
+# Usage: cmake -DARCHIVE=libmlsdeform.a -P ...
 execute_process(COMMAND nm -A --defined-only ${ARCHIVE} OUTPUT_VARIABLE out RESULT_VARIABLE rc)
 if(NOT rc EQUAL 0)
   message(FATAL_ERROR "nm failed on ${ARCHIVE}")

@@ -11,9 +11,9 @@
 //
 // Error bound of the precomputed path in precision T against the exact result (first order, per vertex;
 // eps = eps(T), m = J + 16: J rounded additions of the per-vertex sums plus at most 16 roundings of each
-// stored coefficient in the precomputation). The precomputation removes the common rounding error of p* from
-// the A_j (deformer.cpp), so each A_j is accurate relative to itself, |dA_j| <= m eps |A_j|; p* and vhat
-// carry an absolute error of eps times the scene size l (the local frame):
+// stored coefficient in the precomputation). The precomputation (core/src/deformer/precompute_table.cpp)
+// removes the common rounding error of p* from the A_j, so each A_j is accurate relative to itself,
+// |dA_j| <= m eps |A_j|; p* and vhat carry an absolute error of eps times the scene size l (the local frame):
 //   |dq*| <= m eps sum_j omega_j |q_j|                                       (weighted_centroid)
 //   |dH|_F <= m eps Habs, Habs = sum_j (|q_j - c| + |q_j|) |A_j|              (correlation_matrix; the |q_j|
 //                                                                             term covers targets rounded to T)

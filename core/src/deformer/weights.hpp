@@ -1,5 +1,5 @@
 // Inverse-distance weights of the MLS deformer (paper Sec. 3, w_i = |p_i - v|^-u, and Sec. 6.2 for segments),
-// scalar reference in double, used by the precomputation (deformer.cpp) for every precision T.
+// scalar reference in double, used by the precomputed table (precompute_table.cpp) for every precision T.
 //
 // Scale invariance and range. All weights are taken relative to the nearest handle: w = (d_min / d)^u, so
 // they lie in [0, 1], the nearest handle has weight 1 and nothing overflows for any u >= 1 or any scene
@@ -100,7 +100,7 @@ inline SegmentGeometry segment_geometry(const Eigen::Vector3d& v, const Eigen::V
 /// moments about the closest point tc, J1 = int w (t - tc) dt and J2 = int w (t - tc)^2 dt. Near a segment
 /// with exact_integral weights, w is a peak of width ~ d around tc: the weighted spread about p* is O(d^2),
 /// which combinations of I0, I1, I2 with the end points (O(1) each) would give only as a difference of O(1)
-/// terms (error eps, not eps d^2); J1 and J2 carry it directly (deformer.cpp).
+/// terms (error eps, not eps d^2); J1 and J2 carry it directly (precompute_table.cpp).
 struct SegmentMoments {
   double I0 = 0, I1 = 0, I2 = 0;
   double J1 = 0, J2 = 0;
