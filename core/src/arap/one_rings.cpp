@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstddef>
 #include <stdexcept>
 #include <string>
 #include <utility>
@@ -27,51 +28,78 @@ double cotangent(const Vec3d& a, const Vec3d& b, const Vec3d& c) {
 }  // namespace
 
 OneRings cotangent_one_rings(const Eigen::Matrix<double, Eigen::Dynamic, 3>& P, const Triangles& triangles) {
-  const Eigen::Index n = P.rows();
+  const auto n = std::size_t(P.rows());
   OneRings r;
-  // Cotangent weights per undirected edge, as (min, max) pairs, merged over the triangles sharing the edge.
-  std::vector<std::pair<std::pair<Eigen::Index, Eigen::Index>, double>> edges;
-  edges.reserve(std::size_t(triangles.rows()) * 3);
+  // Half the cotangent opposite each triangle edge, as (larger vertex, weight), bucketed by the smaller one.
+  using Half = std::pair<Eigen::Index, double>;
+  std::vector<std::size_t> first(n + 1, 0);
   for (Eigen::Index f = 0; f < triangles.rows(); ++f) {
     for (int k = 0; k < 3; ++k)
-      if (triangles(f, k) < 0 || triangles(f, k) >= n)
+      if (triangles(f, k) < 0 || triangles(f, k) >= P.rows())
         throw std::invalid_argument("ArapRefiner: triangle " + std::to_string(f) + " has vertex index " +
                                     std::to_string(triangles(f, k)) + ", outside [0, " + std::to_string(n) + ")");
-    for (int k = 0; k < 3; ++k) {
-      const Eigen::Index a = triangles(f, k), b = triangles(f, (k + 1) % 3), c = triangles(f, (k + 2) % 3);
-      if (a == b) continue;  // a repeated corner: no edge
-      edges.push_back(
-          {{std::min(a, b), std::max(a, b)}, a == c || b == c ? 0.0 : 0.5 * cotangent(P.row(a), P.row(b), P.row(c))});
-    }
+    for (int k = 0; k < 3; ++k)
+      if (triangles(f, k) != triangles(f, (k + 1) % 3))  // a repeated corner: no edge
+        ++first[std::size_t(std::min(triangles(f, k), triangles(f, (k + 1) % 3))) + 1];
   }
-  std::sort(edges.begin(), edges.end());
-  std::vector<std::pair<std::pair<Eigen::Index, Eigen::Index>, double>> merged;
-  for (const auto& e : edges) {
-    if (!merged.empty() && merged.back().first == e.first)
-      merged.back().second += e.second;
-    else
-      merged.push_back(e);
+  for (std::size_t i = 0; i < n; ++i) first[i + 1] += first[i];
+  std::vector<Half> halves(first[n]);
+  {
+    std::vector<std::size_t> fill(first.begin(), first.end() - 1);
+    for (Eigen::Index f = 0; f < triangles.rows(); ++f)
+      for (int k = 0; k < 3; ++k) {
+        const Eigen::Index a = triangles(f, k), b = triangles(f, (k + 1) % 3), c = triangles(f, (k + 2) % 3);
+        if (a == b) continue;
+        halves[fill[std::size_t(std::min(a, b))]++] = {
+            std::max(a, b), a == c || b == c ? 0.0 : 0.5 * cotangent(P.row(a), P.row(b), P.row(c))};
+      }
   }
+  // Per undirected edge (i < j), the sum of its halves in ascending order of (j, half): merged in place.
+  std::vector<std::size_t> merged_end(n);
+  std::size_t edges = 0;
   double sum = 0;
-  for (auto& e : merged) {
-    if (e.second < 0) ++r.clamped, e.second = 0;
-    sum += e.second;
+  for (std::size_t i = 0; i < n; ++i) {
+    const auto b = halves.begin() + std::ptrdiff_t(first[i]), e = halves.begin() + std::ptrdiff_t(first[i + 1]);
+    std::sort(b, e);
+    auto out = b;
+    for (auto h = b; h != e; ++h)
+      if (out != b && (out - 1)->first == h->first)
+        (out - 1)->second += h->second;
+      else
+        *out++ = *h;
+    merged_end[i] = first[i] + std::size_t(out - b);
+    for (auto h = b; h != out; ++h) {
+      if (h->second < 0) ++r.clamped, h->second = 0;
+      sum += h->second;
+    }
+    edges += std::size_t(out - b);
   }
-  const double floor = merged.empty() || sum == 0 ? 1.0 : 1e-6 * sum / double(merged.size());
-  for (auto& e : merged) e.second += floor;
+  const double floor = edges == 0 || sum == 0 ? 1.0 : 1e-6 * sum / double(edges);
 
-  // CSR one-rings: both directions of every edge, sorted by (vertex, neighbour).
-  std::vector<std::pair<std::pair<Eigen::Index, Eigen::Index>, double>> directed;
-  directed.reserve(2 * merged.size());
-  for (const auto& e : merged) {
-    directed.push_back(e);
-    directed.push_back({{e.first.second, e.first.first}, e.second});
+  // CSR one-rings: both directions of every edge, each ring ascending.
+  r.start.assign(n + 1, 0);
+  for (std::size_t i = 0; i < n; ++i)
+    for (std::size_t h = first[i]; h < merged_end[i]; ++h) {
+      ++r.start[i + 1];
+      ++r.start[std::size_t(halves[h].first) + 1];
+    }
+  for (std::size_t i = 0; i < n; ++i) r.start[i + 1] += r.start[i];
+  std::vector<Half> ring(std::size_t(r.start[n]));
+  std::vector<std::size_t> fill(r.start.begin(), r.start.end() - 1);
+  for (std::size_t i = 0; i < n; ++i)
+    for (std::size_t h = first[i]; h < merged_end[i]; ++h) {
+      const double w = halves[h].second + floor;
+      ring[fill[i]++] = {halves[h].first, w};
+      ring[fill[std::size_t(halves[h].first)]++] = {Eigen::Index(i), w};
+    }
+  r.nbr.resize(ring.size());
+  r.w.resize(ring.size());
+  for (std::size_t i = 0; i < n; ++i) {
+    const auto b = ring.begin() + std::ptrdiff_t(r.start[i]), e = ring.begin() + std::ptrdiff_t(r.start[i + 1]);
+    std::sort(b, e);  // neighbours are distinct: by neighbour
+    for (auto h = b; h != e; ++h)
+      r.nbr[std::size_t(h - ring.begin())] = h->first, r.w[std::size_t(h - ring.begin())] = h->second;
   }
-  std::sort(directed.begin(), directed.end());
-  r.start.assign(std::size_t(n) + 1, 0);
-  for (const auto& e : directed) ++r.start[std::size_t(e.first.first) + 1];
-  for (std::size_t i = 0; i < std::size_t(n); ++i) r.start[i + 1] += r.start[i];
-  for (const auto& e : directed) r.nbr.push_back(e.first.second), r.w.push_back(e.second);
   return r;
 }
 
