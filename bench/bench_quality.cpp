@@ -33,7 +33,8 @@
 // condition, which core/src/deformer/rbf_centroids.cpp refuses below 1e-10.
 //
 // Last in the default run, the cost of ARAP on the 737,986-vertex spot_loop3 (from ../shared; skipped with a
-// message where it is absent): set-up s (one ArapRefiner construction: the Laplacian and its factorisation),
+// message where it is absent), for each factorisation the build has (ArapFactorisation): set-up s (one
+// ArapRefiner construction: the Laplacian and its factorisation),
 // held MiB (ArapRefiner::memory_bytes), peak RSS GiB (the process's high-water mark, reset just before the
 // construction through /proc/self/clear_refs: it includes the mesh itself, about 0.05 GiB), and ms per
 // iteration (the median of 3 refine calls of 10 iterations from the rest pose, divided by 10).
@@ -429,13 +430,13 @@ double status_gib(const std::string& key) {
   return 0;
 }
 
-// Prints the table; returns its JSON row ("" where skipped).
+// Prints the table; returns its JSON rows, one per factorisation the build has (none where skipped).
 template <class T>
-std::string print_large_arap(const Settings& set) {
+std::vector<std::string> print_large_arap(const Settings& set) {
   const std::string path = mlsdeform::testing::mesh_dir() + "/spot_loop3.ply.gz";
   if (!std::ifstream(path)) {
     std::printf("\nspot_loop3: %s not found: skipped\n", path.c_str());
-    return "";
+    return {};
   }
   mlsdeform::Triangles triangles;
   const mlsdeform::Points<T> rest = mlsdeform::testing::read_ply_vertices(path, &triangles).cast<T>();
@@ -450,35 +451,45 @@ std::string print_large_arap(const Settings& set) {
   for (std::size_t k = 0; k < held.size(); ++k) targets.row(Eigen::Index(k)) = rest.row(held[k]);
   targets(targets.rows() - 1, 0) += T(0.1) * (rest(by_height.back(), 1) - rest(by_height.front(), 1));
 
-  { std::ofstream("/proc/self/clear_refs") << "5"; }  // resets VmHWM to the current RSS
-  using Clock = std::chrono::steady_clock;
-  const auto t0 = Clock::now();
-  mlsdeform::ArapRefiner<T> session(rest, triangles, held, mlsdeform::ArapOptions{set.threads});
-  const double setup_s = std::chrono::duration<double>(Clock::now() - t0).count(), peak = status_gib("VmHWM");
-  mlsdeform::Points<T> out;
-  std::vector<double> ms;
-  session.refine(rest, targets, 1, out);  // warm-up
-  for (int r = 0; r < 3; ++r) {
-    const auto t = Clock::now();
-    session.refine(rest, targets, 10, out);
-    ms.push_back(1e3 * std::chrono::duration<double>(Clock::now() - t).count() / 10);
-  }
-  std::sort(ms.begin(), ms.end());
   std::printf(
       "\n### spot_loop3: ARAP on a large mesh\n\nspot_loop3.ply.gz (\"Spot\" by Keenan Crane, 3 Loop "
       "subdivisions): %lld vertices, %lld triangles; the %zu lowest vertices (the hooves) held, the highest "
-      "moved along x by a tenth of the height.\n\n",
+      "moved along x by a tenth of the height. One row per factorisation of the global step this build has "
+      "(ArapFactorisation).\n\n",
       static_cast<long long>(rest.rows()), static_cast<long long>(triangles.rows()), held.size() - 1);
-  std::printf("| set-up s | held MiB | peak RSS GiB | ms per iteration |\n|---:|---:|---:|---:|\n");
-  std::printf("| %.1f | %.0f | %.2f | %.0f |\n", setup_s, double(session.memory_bytes()) / (1024.0 * 1024.0), peak,
-              ms[1]);
-  std::fflush(stdout);
-  char buf[256];
-  std::snprintf(buf, sizeof buf,
-                "{\"scene\": \"spot_loop3\", \"tool\": \"ArapRefiner\", \"setup_s\": %.6g, \"held_mib\": %.6g, "
-                "\"peak_rss_gib\": %.6g, \"ms_per_iteration\": %.6g}",
-                setup_s, double(session.memory_bytes()) / (1024.0 * 1024.0), peak, ms[1]);
-  return buf;
+  std::printf("| factorisation | set-up s | held MiB | peak RSS GiB | ms per iteration |\n|---|---:|---:|---:|---:|\n");
+  using F = mlsdeform::ArapFactorisation;
+  std::vector<std::pair<F, const char*>> methods{{F::simplicial, "simplicial"}};
+  if (mlsdeform::supernodal_factorisation_available()) methods.insert(methods.begin(), {F::supernodal, "supernodal"});
+  std::vector<std::string> json;
+  for (const auto& [method, name] : methods) {
+    { std::ofstream("/proc/self/clear_refs") << "5"; }  // resets VmHWM to the current RSS
+    using Clock = std::chrono::steady_clock;
+    const auto t0 = Clock::now();
+    mlsdeform::ArapRefiner<T> session(rest, triangles, held, mlsdeform::ArapOptions{set.threads, method});
+    const double setup_s = std::chrono::duration<double>(Clock::now() - t0).count(), peak = status_gib("VmHWM");
+    mlsdeform::Points<T> out;
+    std::vector<double> ms;
+    session.refine(rest, targets, 1, out);  // warm-up
+    for (int r = 0; r < 3; ++r) {
+      const auto t = Clock::now();
+      session.refine(rest, targets, 10, out);
+      ms.push_back(1e3 * std::chrono::duration<double>(Clock::now() - t).count() / 10);
+    }
+    std::sort(ms.begin(), ms.end());
+    const double held_mib = double(session.memory_bytes()) / (1024.0 * 1024.0);
+    std::printf("| %s | %.1f | %.0f | %.2f | %.0f |\n", name, setup_s, held_mib, peak, ms[1]);
+    std::fflush(stdout);
+    char buf[320];
+    std::snprintf(buf, sizeof buf,
+                  "{\"scene\": \"spot_loop3\", \"tool\": \"ArapRefiner\", \"factorisation\": \"%s\", "
+                  "\"setup_s\": %.6g, \"held_mib\": %.6g, \"peak_rss_gib\": %.6g, \"ms_per_iteration\": %.6g}",
+                  name, setup_s, held_mib, peak, ms[1]);
+    json.push_back(buf);
+  }
+  if (methods.size() == 1)
+    std::printf("\n(This build has no supernodal factorisation: configure with -DMLSDEFORM_CHOLMOD=ON.)\n");
+  return json;
 }
 
 void print_table(const QualityScene& s, const std::vector<Row>& rows) {
@@ -551,8 +562,8 @@ int run(const Settings& set) {
   if (set.centroids) {
     print_conditioning_table();
   } else {
-    const std::string large = set.use_double ? print_large_arap<double>(set) : print_large_arap<float>(set);
-    if (!large.empty()) json.push_back(large);
+    for (std::string& row : set.use_double ? print_large_arap<double>(set) : print_large_arap<float>(set))
+      json.push_back(std::move(row));
   }
   if (!set.json.empty()) {
     std::ofstream out(set.json);

@@ -1,21 +1,30 @@
-// detail::SubtreeLdlt (core/src/arap/subtree_ldlt.hpp), the ARAP global step's solver, on its own: the
-// same bits for any number of parts (the schedule) and any thread count, and a residual within the
-// backward-error bound of an LDL^T solve.
+// detail::SubtreeLdlt (core/src/arap/subtree_ldlt.hpp), the ARAP global step's solver, on its own, with
+// each factorisation the build has: the same bits for any number of parts (the schedule) and any thread
+// count, and a residual within the backward-error bound of the L D L^T solve.
 //
-// The bound: Eigen factors P A P^T = L D L^T (no pivoting; A is symmetric positive definite), and the
-// solve runs forward substitution, the diagonal and backward substitution with the computed factors, each
-// an inner product of at most w terms, w = 1 + the most entries in a row or column of L. By the standard
-// analysis (Higham, "Accuracy and Stability of Numerical Algorithms", 2nd ed., Thm 8.5 for the triangular
-// solves and Thm 10.3 for the factorisation, with the inner products' lengths for n), the computed x solves
-// (A + dA) x = b with |dA| <= gamma_{3w+2} P^T |L| |D| |L^T| P, gamma_k = k eps / (1 - k eps): so
-// |b - A x| <= gamma_{3w+2} P^T |L| |D| |L^T| P |x| componentwise, which the test checks in long double.
+// The bound, with u = eps / 2, gamma_k = k u / (1 - k u), and w = 1 + the most entries in a row or column of
+// L (every inner product below has at most w terms; terms that are exact zeros add no rounding).
+// - Simplicial: Eigen factors P A P^T = L D L^T (no pivoting; A is symmetric positive definite). By the
+//   standard analysis (Higham, "Accuracy and Stability of Numerical Algorithms", 2nd ed., Thm 8.5 for the
+//   triangular solves and Thm 10.3 for the factorisation), the computed x solves (A + dA) x = b with
+//   |dA| <= gamma_{3w+2} P^T |L| |D| |L^T| P.
+// - Supernodal: CHOLMOD computes P A P^T + E1 = G G^T with |E1| <= gamma_{w+1} |G| |G^T| (Thm 10.3, for any
+//   order of the inner products, so for blocked BLAS too), then D_c = fl(G_cc^2) and L_rc = fl(G_rc / G_cc),
+//   one rounding each: L D L^T = G G^T + E2 with |E2| <= gamma_3 |L| |D| |L^T|, and |G| |G^T| <=
+//   (1 + gamma_3) |L| |D| |L^T|. The solve with L, D, L^T adds gamma_{2w+1} |L| |D| |L^T| (as above).
+//   Altogether (gamma_a + gamma_b + gamma_a gamma_b <= gamma_{a+b}): |dA| <= gamma_{3w+6} P^T |L| |D| |L^T| P.
+// So |b - A x| <= gamma_k P^T |L| |D| |L^T| P |x| componentwise, k as above, which the test checks in long
+// double with the solver's own L and D.
+#include "arap/nested_dissection.hpp"
 #include "arap/subtree_ldlt.hpp"
 #include "random.hpp"
 
+#include <Eigen/SparseCholesky>
 #include <catch2/catch.hpp>
 
 #include <cstring>
 #include <limits>
+#include <stdexcept>
 #include <vector>
 
 using mlsdeform::detail::SubtreeLdlt;
@@ -55,6 +64,15 @@ Sparse spd(Rng& g, int pieces, int rows, int cols, int extra) {
   return A;
 }
 
+/// The rows' points for spd(pieces, rows, cols): piece p's grid in the plane z = p, cell (i, j) at (j, i).
+Eigen::Matrix<double, Eigen::Dynamic, 3> grid_points(int pieces, int rows, int cols) {
+  Eigen::Matrix<double, Eigen::Dynamic, 3> x(Eigen::Index(pieces) * rows * cols, 3);
+  for (int p = 0; p < pieces; ++p)
+    for (int i = 0; i < rows; ++i)
+      for (int j = 0; j < cols; ++j) x.row((Eigen::Index(p) * rows + i) * cols + j) << j, i, p;
+  return x;
+}
+
 /// y for b: 3 values per row of A at 3 * row_of(i).
 std::vector<double> packed(const SubtreeLdlt& s, const Eigen::MatrixX3d& b) {
   std::vector<double> y(3 * std::size_t(b.rows()));
@@ -67,73 +85,140 @@ std::vector<double> packed(const SubtreeLdlt& s, const Eigen::MatrixX3d& b) {
 
 TEST_CASE("SubtreeLdlt: the same bits for any schedule and thread count, residual within the LDL^T bound",
           "[arap][ldlt]") {
-  Rng g(20261124);
-  struct Shape {
-    int pieces, rows, cols, extra;
-  };
-  for (const Shape sh : {Shape{1, 1, 1, 0}, Shape{1, 1, 2, 0}, Shape{3, 1, 1, 0}, Shape{1, 7, 9, 5},
-                         Shape{4, 10, 12, 20}, Shape{2, 45, 50, 200}}) {
-    const Sparse A = spd(g, sh.pieces, sh.rows, sh.cols, sh.extra);
-    const Eigen::Index n = A.rows();
-    INFO("n = " << n << ", " << sh.pieces << " pieces");
-    Eigen::MatrixX3d b(n, 3);
-    for (Eigen::Index i = 0; i < n; ++i)
-      for (int k = 0; k < 3; ++k) b(i, k) = g.uniform<double>(-1, 1);
+  using Method = SubtreeLdlt::Method;
+  std::vector<Method> methods{Method::simplicial};
+  if (mlsdeform::detail::supernodal_available())
+    methods.push_back(Method::supernodal);
+  else
+    WARN("this build has no supernodal factorisation (MLSDEFORM_CHOLMOD=OFF): simplicial only");
+  for (const Method method : methods) {
+    const bool supernodal = method == Method::supernodal;
+    // The supernodal factorisation in the order of coordinate_nested_dissection (as ArapRefiner gives the
+    // rows' points) and, where no points are given, in CHOLMOD's AMD order.
+    for (const bool with_points : supernodal ? std::vector<bool>{true, false} : std::vector<bool>{false}) {
+      Rng g(20261124);
+      struct Shape {
+        int pieces, rows, cols, extra;
+      };
+      for (const Shape sh : {Shape{1, 1, 1, 0}, Shape{1, 1, 2, 0}, Shape{3, 1, 1, 0}, Shape{1, 7, 9, 5},
+                             Shape{4, 10, 12, 20}, Shape{2, 45, 50, 200}}) {
+        const Sparse A = spd(g, sh.pieces, sh.rows, sh.cols, sh.extra);
+        const Eigen::Index n = A.rows();
+        const auto points = grid_points(sh.pieces, sh.rows, sh.cols);
+        const auto* x = with_points ? &points : nullptr;
+        INFO((supernodal ? "supernodal" : "simplicial")
+             << (with_points ? " (points)" : "") << ", n = " << n << ", " << sh.pieces << " pieces");
+        Eigen::MatrixX3d b(n, 3);
+        for (Eigen::Index i = 0; i < n; ++i)
+          for (int k = 0; k < 3; ++k) b(i, k) = g.uniform<double>(-1, 1);
 
-    SubtreeLdlt ref;
-    REQUIRE(ref.compute(A, 1));
-    std::vector<double> y1 = packed(ref, b);
-    ref.solve(y1, 1, nullptr);
-    for (const std::size_t bins : {2, 3, 5, 8})
-      for (const int threads : {1, 0}) {
-        SubtreeLdlt s;
-        REQUIRE(s.compute(A, bins));
-        std::vector<double> y = packed(s, b);
-        s.solve(y, threads, nullptr);
-        INFO("bins " << bins << ", threads " << threads);
-        CHECK(std::memcmp(y.data(), y1.data(), sizeof(double) * y.size()) == 0);
-      }
+        SubtreeLdlt ref;
+        REQUIRE(ref.compute(A, 1, method, x));
+        std::vector<double> y1 = packed(ref, b);
+        ref.solve(y1, 1, nullptr);
+        for (const std::size_t bins : {2, 3, 5, 8})
+          for (const int threads : {1, 0}) {
+            SubtreeLdlt s;
+            REQUIRE(s.compute(A, bins, method, x));
+            std::vector<double> y = packed(s, b);
+            s.solve(y, threads, nullptr);
+            INFO("bins " << bins << ", threads " << threads);
+            CHECK(std::memcmp(y.data(), y1.data(), sizeof(double) * y.size()) == 0);
+          }
 
-    // The bound of the file comment, from Eigen's factors of the same A (the same deterministic factorisation).
-    Eigen::SimplicialLDLT<Sparse> f(A);
-    REQUIRE(f.info() == Eigen::Success);
-    const Sparse& L = f.matrixL().nestedExpression();  // strictly lower, by columns; P A P^T = L D L^T
-    const Eigen::VectorXd D = f.vectorD();
-    std::vector<int> count(static_cast<std::size_t>(n), 0);
-    int w = 1;
-    for (Eigen::Index c = 0; c < n; ++c) {
-      w = std::max(w, int(L.outerIndexPtr()[c + 1] - L.outerIndexPtr()[c]) + 1);
-      for (Sparse::InnerIterator it(L, c); it; ++it) w = std::max(w, ++count[std::size_t(it.row())] + 1);
+        // The bound of the file comment, from the solver's own factor.
+        const SubtreeLdlt::Factor f = ref.factor();
+        REQUIRE(f.D.size() == std::size_t(n));
+        const auto column = [&](Eigen::Index c, auto&& visit) {  // visit(row, L_rc) for column c's entries
+          for (int p = f.col_start[std::size_t(c)]; p < f.col_start[std::size_t(c) + 1]; ++p)
+            visit(Eigen::Index(f.rows[std::size_t(p)]), f.values[std::size_t(p)]);
+        };
+        std::vector<int> count(static_cast<std::size_t>(n), 0);
+        int w = 1;
+        for (Eigen::Index c = 0; c < n; ++c) {
+          w = std::max(w, f.col_start[std::size_t(c) + 1] - f.col_start[std::size_t(c)] + 1);
+          column(c, [&](Eigen::Index r, double) {
+            REQUIRE(r > c);  // strictly lower
+            w = std::max(w, ++count[std::size_t(r)] + 1);
+          });
+        }
+        const LD u = std::numeric_limits<double>::epsilon() / 2, k = supernodal ? 3 * w + 6 : 3 * w + 2;
+        const LD gamma = k * u / (1 - k * u);
+        LD worst = 0;
+        for (int col = 0; col < 3; ++col) {
+          // x in the factor's order (x_p[row_of(i)] = x_i), then |L| |D| |L^T| |x_p|.
+          const auto size = std::size_t(n);
+          std::vector<LD> xp(size, 0), t(size, 0), m(size, 0);
+          for (Eigen::Index r = 0; r < n; ++r)
+            xp[std::size_t(r)] = std::abs(LD(y1[3 * std::size_t(r) + std::size_t(col)]));
+          for (Eigen::Index c = 0; c < n; ++c) {  // t = |L^T| xp: t_c = xp_c + sum_r |L_rc| xp_r
+            t[std::size_t(c)] = xp[std::size_t(c)];
+            column(c, [&](Eigen::Index r, double v) { t[std::size_t(c)] += std::abs(LD(v)) * xp[std::size_t(r)]; });
+          }
+          for (Eigen::Index c = 0; c < n; ++c) t[std::size_t(c)] *= std::abs(LD(f.D[std::size_t(c)]));
+          for (Eigen::Index c = 0; c < n; ++c) {  // m = |L| t: m_c += t_c, m_r += |L_rc| t_c
+            m[std::size_t(c)] += t[std::size_t(c)];
+            column(c, [&](Eigen::Index r, double v) { m[std::size_t(r)] += std::abs(LD(v)) * t[std::size_t(c)]; });
+          }
+          for (Eigen::Index i = 0; i < n; ++i) {  // residual of row i of A, in long double
+            LD r = b(i, col);
+            for (Sparse::InnerIterator it(A, i); it; ++it)  // A is symmetric: column i is row i
+              r -= LD(it.value()) * LD(y1[3 * std::size_t(ref.row_of(it.row())) + std::size_t(col)]);
+            const LD bound = gamma * m[std::size_t(ref.row_of(i))];
+            worst = std::max(worst, std::abs(r) / bound);
+            if (!(std::abs(r) <= bound))
+              FAIL_CHECK("row " << i << " column " << col << ": residual " << double(r) << " > bound "
+                                << double(bound));
+          }
+        }
+        INFO("worst residual / bound " << double(worst));
+        CHECK(worst <= 1);
+      }
     }
-    const LD u = std::numeric_limits<double>::epsilon() / 2, k = 3 * w + 2, gamma = k * u / (1 - k * u);
-    LD worst = 0;
-    for (int col = 0; col < 3; ++col) {
-      // x in the factor's order (x_p[row_of(i)] = x_i), then |L| |D| |L^T| |x_p|.
-      const auto size = std::size_t(n);
-      std::vector<LD> xp(size, 0), t(size, 0), m(size, 0);
-      for (Eigen::Index r = 0; r < n; ++r) xp[std::size_t(r)] = std::abs(LD(y1[3 * std::size_t(r) + std::size_t(col)]));
-      for (Eigen::Index c = 0; c < n; ++c) {  // t = |L^T| xp: t_c = xp_c + sum_r |L_rc| xp_r
-        t[std::size_t(c)] = xp[std::size_t(c)];
-        for (Sparse::InnerIterator it(L, c); it; ++it)
-          t[std::size_t(c)] += std::abs(LD(it.value())) * xp[std::size_t(it.row())];
-      }
-      for (Eigen::Index c = 0; c < n; ++c) t[std::size_t(c)] *= std::abs(LD(D(c)));
-      for (Eigen::Index c = 0; c < n; ++c) {  // m = |L| t: m_c += t_c, m_r += |L_rc| t_c
-        m[std::size_t(c)] += t[std::size_t(c)];
-        for (Sparse::InnerIterator it(L, c); it; ++it)
-          m[std::size_t(it.row())] += std::abs(LD(it.value())) * t[std::size_t(c)];
-      }
-      for (Eigen::Index i = 0; i < n; ++i) {  // residual of row i of A, in long double
-        LD r = b(i, col);
-        for (Sparse::InnerIterator it(A, i); it; ++it)  // A is symmetric: column i is row i
-          r -= LD(it.value()) * LD(y1[3 * std::size_t(ref.row_of(it.row())) + std::size_t(col)]);
-        const LD bound = gamma * m[std::size_t(ref.row_of(i))];
-        worst = std::max(worst, std::abs(r) / bound);
-        if (!(std::abs(r) <= bound))
-          FAIL_CHECK("row " << i << " column " << col << ": residual " << double(r) << " > bound " << double(bound));
-      }
-    }
-    INFO("worst residual / bound " << double(worst));
-    CHECK(worst <= 1);
   }
+}
+
+TEST_CASE("coordinate_nested_dissection: a permutation, separators last, less fill than the natural order",
+          "[arap][ldlt]") {
+  using mlsdeform::detail::coordinate_nested_dissection;
+  Rng g(7);
+  // A grid with random extra edges, and points that all coincide (every cut is then by row index alone).
+  for (const bool coincident : {false, true}) {
+    const Sparse A = spd(g, 2, 40, 60, coincident ? 50 : 0);
+    auto points = grid_points(2, 40, 60);
+    if (coincident) points.setConstant(0.5);
+    const std::vector<int> order = coordinate_nested_dissection(A, points);
+    INFO((coincident ? "coincident points" : "grid points"));
+    REQUIRE(order.size() == std::size_t(A.rows()));
+    std::vector<int> seen(order.size(), 0);
+    for (const int v : order) {
+      REQUIRE((v >= 0 && v < A.rows()));
+      CHECK(seen[std::size_t(v)]++ == 0);
+    }
+    CHECK(coordinate_nested_dissection(A, points) == order);  // deterministic
+    if (coincident) continue;
+    // Fill: entries of L (Eigen's symbolic factorisation of the permuted matrix, natural order) against the
+    // grid's natural order; a 40 x 60 grid's band profile fills about 40 per row, a dissection far less.
+    const auto fill = [&](const std::vector<int>& o) {
+      Eigen::PermutationMatrix<Eigen::Dynamic, Eigen::Dynamic, int> P(A.rows());
+      for (std::size_t k = 0; k < o.size(); ++k) P.indices()(o[k]) = int(k);
+      const Sparse B = P * A * P.transpose();
+      Eigen::SimplicialLDLT<Sparse, Eigen::Lower, Eigen::NaturalOrdering<int>> f;
+      f.analyzePattern(B);
+      f.factorize(B);
+      return f.matrixL().nestedExpression().nonZeros();
+    };
+    std::vector<int> natural(order.size());
+    for (std::size_t k = 0; k < natural.size(); ++k) natural[k] = int(k);
+    const auto nd = fill(order), band = fill(natural);
+    INFO("entries of L: nested dissection " << nd << ", natural " << band);
+    CHECK(nd * 2 < band);
+  }
+}
+
+TEST_CASE("SubtreeLdlt: the supernodal factorisation where the build has none is an error", "[arap][ldlt]") {
+  if (mlsdeform::detail::supernodal_available()) return;  // the build has it: the test above covers it
+  SubtreeLdlt s;
+  Rng g(1);
+  CHECK_THROWS_AS(s.compute(spd(g, 1, 3, 3, 0), 1, SubtreeLdlt::Method::supernodal), std::invalid_argument);
 }

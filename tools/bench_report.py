@@ -251,15 +251,23 @@ def main():
         targets.append(["human bend, MLS + 10 ARAP: p95 in time per frame", "<= 0.15 in <= 5 ms",
                         f"{m10['rigidity_p95']:.3f} in {fmt(m10['ms_per_frame'])} ms",
                         status(m10["rigidity_p95"] <= 0.15 and m10["ms_per_frame"] <= 5)])
-    spot = q.get(("spot_loop3", "ArapRefiner"))
-    if spot:
-        targets.append(["spot_loop3 (737,986 vertices), ARAP set-up (factorisation)", "<= 5 s",
-                        f"{spot['setup_s']:.1f} s", status(spot["setup_s"] <= 5)])
+    # spot_loop3: one row per factorisation (bench_quality); the target is judged on the default one of the
+    # build the report ran (supernodal where the build has it), the other shown beside it.
+    spots = {r.get("factorisation", "simplicial"): r for r in quality_rows if r["scene"] == "spot_loop3"}
+    if spots:
+        name = "supernodal" if "supernodal" in spots else "simplicial"
+        spot = spots[name]
+        other = {k: v for k, v in spots.items() if k != name}
+
+        def beside(key, unit, digits):
+            return "".join(f" ({k}: {v[key]:.{digits}f}{unit})" for k, v in other.items())
+        targets.append([f"spot_loop3 (737,986 vertices), ARAP set-up (factorisation), {name}", "<= 5 s",
+                        f"{spot['setup_s']:.1f} s" + beside("setup_s", " s", 1), status(spot["setup_s"] <= 5)])
         targets.append(["... memory (peak RSS of the set-up; held)", "<= 1.5 GiB",
-                        f"{spot['peak_rss_gib']:.2f} GiB; {spot['held_mib'] / 1024:.2f} GiB",
-                        status(spot["peak_rss_gib"] <= 1.5)])
-        targets.append(["... each iteration, both cores", "<= 150 ms", f"{spot['ms_per_iteration']:.0f} ms",
-                        status(spot["ms_per_iteration"] <= 150)])
+                        f"{spot['peak_rss_gib']:.2f} GiB; {spot['held_mib'] / 1024:.2f} GiB"
+                        + beside("peak_rss_gib", " GiB", 2), status(spot["peak_rss_gib"] <= 1.5)])
+        targets.append(["... each iteration, both cores", "<= 150 ms", f"{spot['ms_per_iteration']:.0f} ms"
+                        + beside("ms_per_iteration", " ms", 0), status(spot["ms_per_iteration"] <= 150)])
     worst = None
     for n in [10000, 100000, 1000000]:
         r = ratio(sc.get(f"scaling/centroids/rbf/n:{n}", "ms_per_frame"),

@@ -19,7 +19,7 @@ quick=0
 [[ "${1:-}" == "--quick" ]] && quick=1
 
 cmake -S . -B "$build" -DCMAKE_BUILD_TYPE=Release -DMLSDEFORM_BUILD_TESTS=OFF -DMLSDEFORM_BUILD_TOOLS=OFF \
-  -DMLSDEFORM_BUILD_BENCH=ON >/dev/null
+  -DMLSDEFORM_BUILD_BENCH=ON -DMLSDEFORM_CHOLMOD=ON >/dev/null
 cmake --build "$build" -j "$jobs" --target bench_rotation_fit bench_table2 bench_scaling bench_roofline bench_quality
 
 out=$build/bench-results

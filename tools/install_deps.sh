@@ -4,6 +4,7 @@
 set -euo pipefail
 packages=(cmake g++ make pkg-config
   libtbb-dev libxsimd-dev libeigen3-dev libbenchmark-dev catch2            # the library, tests, benchmarks
+  libsuitesparse-dev libopenblas0-pthread                                 # CHOLMOD, its BLAS (MLSDEFORM_CHOLMOD)
   nlohmann-json3-dev libcli11-dev zlib1g-dev                               # the command-line tool
   python3 python3-matplotlib                                              # figures and benchmark plots
   python3-dev python3-numpy python3-pytest pybind11-dev python3-pybind11  # the Python package (python/)

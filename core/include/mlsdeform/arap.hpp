@@ -17,10 +17,21 @@ namespace mlsdeform {
 /// program fans them).
 using Triangles = Eigen::Matrix<int, Eigen::Dynamic, 3, Eigen::RowMajor>;
 
+/// The global step's sparse factorisation, done once per session (docs/api.md, "ARAP refinement").
+enum class ArapFactorisation {
+  automatic,   ///< supernodal where this build has it, else simplicial
+  simplicial,  ///< Eigen's SimplicialLDLT, AMD ordering: every build
+  supernodal,  ///< CHOLMOD's supernodal Cholesky, METIS ordering: builds with MLSDEFORM_CHOLMOD=ON only
+};
+
+/// Whether this build has ArapFactorisation::supernodal (the CMake option MLSDEFORM_CHOLMOD).
+bool supernodal_factorisation_available();
+
 struct ArapOptions {
   /// Worker threads for the local step and the substitution; 0 means all cores. The result is bitwise the
   /// same for any value.
   int threads = 0;
+  ArapFactorisation factorisation = ArapFactorisation::automatic;
 };
 
 /// A refinement session over a triangle mesh at rest: the constructor builds the cotangent weights and
@@ -29,16 +40,16 @@ struct ArapOptions {
 ///   E(x) = sum_i sum_{j in N(i)} w_ij |(x_i - x_j) - R_i (p_i - p_j)|^2,
 /// local step: R_i = argmax trace(R^T S_i), S_i = sum_j w_ij (x_i - x_j)(p_i - p_j)^T, all n fits in one
 /// fit_rotations call (SIMD lanes); global step: L x = b with the cotangent Laplacian L and
-/// b_i = sum_j (w_ij / 2)(R_i + R_j)(p_i - p_j), by a sparse Cholesky factorisation (Eigen's SimplicialLDLT,
-/// in double). Weights: w_ij = (cot alpha_ij + cot beta_ij) / 2 clamped below at zero (negative cotangents,
-/// from obtuse angles, make the energy indefinite) plus 1e-6 of the mean weight on every edge, so that a
+/// b_i = sum_j (w_ij / 2)(R_i + R_j)(p_i - p_j), by a sparse Cholesky factorisation in double
+/// (ArapOptions::factorisation). Weights: w_ij = (cot alpha_ij + cot beta_ij) / 2 clamped below at zero (negative
+/// cotangents, from obtuse angles, make the energy indefinite) plus 1e-6 of the mean weight on every edge, so that a
 /// sliver or a clamped edge never disconnects a vertex; degenerate triangles (zero area) contribute nothing.
 /// Vertices in a connected component with no constrained vertex keep their start position.
 template <class T>
 class ArapRefiner {
  public:
-  /// Throws std::invalid_argument on a face index out of range, a non-finite vertex, or a constrained index
-  /// out of range or repeated.
+  /// Throws std::invalid_argument on a face index out of range, a non-finite vertex, a constrained index
+  /// out of range or repeated, or ArapFactorisation::supernodal in a build without it.
   ArapRefiner(const Points<T>& rest_vertices, const Triangles& triangles, std::span<const Eigen::Index> constrained,
               const ArapOptions& options = {});
   ~ArapRefiner();

@@ -139,6 +139,9 @@ ArapRefiner<T>::ArapRefiner(const Points<T>& rest, const Triangles& triangles,
   Impl& m = *impl_;
   m.n = rest.rows();
   m.options = options;
+  if (options.factorisation == ArapFactorisation::supernodal && !detail::supernodal_available())
+    throw std::invalid_argument(
+        "ArapRefiner: ArapFactorisation::supernodal is not in this build (configure with -DMLSDEFORM_CHOLMOD=ON)");
   if (options.threads < 0)
     throw std::invalid_argument("ArapRefiner: threads must be >= 0 (got " + std::to_string(options.threads) + ")");
   if (!rest.allFinite()) throw std::invalid_argument("ArapRefiner: non-finite rest vertex coordinate");
@@ -198,8 +201,14 @@ ArapRefiner<T>::ArapRefiner(const Points<T>& rest, const Triangles& triangles,
   L.setFromTriplets(entries.begin(), entries.end());
   // One part of the substitution per thread the local step may use (detail::make_arena's rule).
   const int cores = tbb::info::default_concurrency();
-  if (!m.solver.compute(
-          L, options.threads == 1 ? 1 : std::size_t(options.threads == 0 ? cores : std::min(options.threads, cores))))
+  const std::size_t bins =
+      options.threads == 1 ? 1 : std::size_t(options.threads == 0 ? cores : std::min(options.threads, cores));
+  using Method = detail::SubtreeLdlt::Method;
+  const bool supernodal = options.factorisation == ArapFactorisation::supernodal ||
+                          (options.factorisation == ArapFactorisation::automatic && detail::supernodal_available());
+  PointsD free_points(nf, 3);  // the supernodal factorisation orders the rows by their points
+  for (Eigen::Index f = 0; f < nf; ++f) free_points.row(f) = m.P.row(m.free_vertices[std::size_t(f)]);
+  if (!m.solver.compute(L, bins, supernodal ? Method::supernodal : Method::simplicial, &free_points))
     throw std::invalid_argument("ArapRefiner: the cotangent Laplacian could not be factorised");
 
   m.X.resize(m.n, 3);
@@ -282,6 +291,8 @@ std::size_t ArapRefiner<T>::memory_bytes() const {
          bytes(m.row) + bytes(m.free_vertices) + bytes(m.H) + bytes(m.R) + bytes(m.Rd) + bytes(m.y) +
          std::size_t(m.P.size() + m.X.size()) * sizeof(double);
 }
+
+bool supernodal_factorisation_available() { return detail::supernodal_available(); }
 
 template class ArapRefiner<float>;
 template class ArapRefiner<double>;

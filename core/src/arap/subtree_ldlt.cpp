@@ -2,30 +2,158 @@
 #include "subtree_ldlt.hpp"
 
 #include "../parallel.hpp"
+#include "nested_dissection.hpp"
+
+#include <Eigen/SparseCholesky>
+
+#if MLSDEFORM_HAVE_CHOLMOD
+#include <cholmod.h>
+#endif
 
 #include <algorithm>
+#include <new>
 #include <span>
+#include <stdexcept>
 
 namespace mlsdeform::detail {
 
-bool SubtreeLdlt::compute(const Eigen::SparseMatrix<double>& A, std::size_t bins) {
-  ldlt.compute(A);
-  if (ldlt.info() != Eigen::Success) return false;
-  const Eigen::VectorXd d = ldlt.vectorD();
-  D.assign(d.data(), d.data() + d.size());
-  perm.resize(std::size_t(A.rows()));
-  for (Eigen::Index i = 0; i < A.rows(); ++i) perm[std::size_t(i)] = ldlt.permutationP().indices()(i);
+struct SubtreeLdlt::Storage {
+  virtual ~Storage() = default;
+  virtual std::size_t bytes() const = 0;  ///< held by the factor's arrays
+};
+
+namespace {
+
+/// Eigen's factor (AMD ordering): it stores L's strictly lower part by columns, rows ascending.
+struct EigenStorage final : SubtreeLdlt::Storage {
+  Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>> ldlt;
+  std::size_t bytes() const override {  // L by columns, D, and the two permutations (about one more D)
+    const auto& L = ldlt.matrixL().nestedExpression();
+    return std::size_t(L.nonZeros()) * (sizeof(double) + sizeof(int)) +
+           std::size_t(L.outerSize()) * (sizeof(int) + sizeof(double) + 2 * sizeof(int));
+  }
+};
+
+#if MLSDEFORM_HAVE_CHOLMOD
+/// CHOLMOD's factor, converted to a simplicial L D L^T whose columns hold the diagonal (D) first; `start`
+/// indexes the strictly lower rest, moved to the front of the arrays.
+struct CholmodStorage final : SubtreeLdlt::Storage {
+  cholmod_common common;
+  cholmod_factor* L = nullptr;
+  std::vector<int> start;
+  CholmodStorage() {
+    cholmod_start(&common);
+    common.print = 0;  // failures are reported by compute()'s result, not on stdout
+  }
+  ~CholmodStorage() override {
+    cholmod_free_factor(&L, &common);
+    cholmod_finish(&common);
+  }
+  CholmodStorage(const CholmodStorage&) = delete;
+  CholmodStorage& operator=(const CholmodStorage&) = delete;
+  std::size_t bytes() const override {  // L's rows and values, its column and permutation arrays, `start`
+    return L ? L->nzmax * (sizeof(double) + sizeof(int)) + L->n * (6 * sizeof(int)) + start.size() * sizeof(int) : 0;
+  }
+
+  /// P A P^T = L L^T by supernodes, in the given order (order[k] = the row of A eliminated k-th) or, for an
+  /// empty one, CHOLMOD's AMD; then L D L^T as a packed simplicial factor with the supernodes' relaxed zeros
+  /// removed (final_resymbol): the same structure as Eigen's, rows ascending.
+  bool factorise(const Eigen::SparseMatrix<double>& A, std::vector<int> order, std::vector<int>& perm,
+                 std::vector<double>& D) {
+    Eigen::SparseMatrix<double> lower = A.triangularView<Eigen::Lower>();
+    lower.makeCompressed();
+    cholmod_sparse S{};
+    S.nrow = S.ncol = std::size_t(A.rows());
+    S.nzmax = std::size_t(lower.nonZeros());
+    S.p = lower.outerIndexPtr(), S.i = lower.innerIndexPtr(), S.x = lower.valuePtr();
+    S.stype = -1, S.itype = CHOLMOD_INT, S.xtype = CHOLMOD_REAL, S.dtype = CHOLMOD_DOUBLE;
+    S.sorted = 1, S.packed = 1;
+    common.supernodal = CHOLMOD_SUPERNODAL;
+    common.nmethods = 1;
+    common.method[0].ordering = order.empty() ? CHOLMOD_AMD : CHOLMOD_GIVEN;
+    common.postorder = 1;  // the given order, postordered along its elimination tree (the same fill)
+    common.final_asis = 0, common.final_super = 0, common.final_ll = 0;
+    common.final_pack = 1, common.final_monotonic = 1, common.final_resymbol = 1;
+    L = cholmod_analyze_p(&S, order.empty() ? nullptr : order.data(), nullptr, 0, &common);
+    const bool done = L && cholmod_factorize(&S, L, &common);
+    if (common.status == CHOLMOD_OUT_OF_MEMORY) throw std::bad_alloc();
+    if (!done || common.status != CHOLMOD_OK || L->minor < L->n || L->is_super || L->is_ll || !L->is_monotonic)
+      return false;
+    const std::size_t n = L->n;
+    const int *p = static_cast<const int*>(L->p), *nz = static_cast<const int*>(L->nz);
+    int* rows = static_cast<int*>(L->i);
+    double* x = static_cast<double*>(L->x);
+    const int* P = static_cast<const int*>(L->Perm);  // row k of P A P^T is row P[k] of A
+    perm.resize(n);
+    D.resize(n);
+    start.assign(n + 1, 0);
+    int to = 0;
+    for (std::size_t c = 0; c < n; ++c) {  // each column: its diagonal (D_c), then its rows below, ascending
+      if (nz[c] < 1 || rows[p[c]] != int(c)) return false;  // not CHOLMOD's documented layout
+      perm[std::size_t(P[c])] = int(c);
+      D[c] = x[p[c]];
+      start[c] = to;
+      for (int q = p[c] + 1, above = int(c); q < p[c] + nz[c]; above = rows[q++], ++to) {
+        if (rows[q] <= above) return false;  // rows not ascending: not CHOLMOD's documented layout either
+        rows[to] = rows[q], x[to] = x[q];
+      }
+    }
+    start[n] = to;
+    // Only the prefix is used now (CHOLMOD's own column pointers no longer describe the arrays, which are
+    // only ever freed after this): give the rest back.
+    return cholmod_reallocate_factor(std::size_t(std::max(to, 1)), L, &common) != 0;
+  }
+};
+#endif
+
+}  // namespace
+
+bool supernodal_available() { return MLSDEFORM_HAVE_CHOLMOD != 0; }
+
+SubtreeLdlt::SubtreeLdlt() = default;
+SubtreeLdlt::~SubtreeLdlt() = default;
+SubtreeLdlt::SubtreeLdlt(SubtreeLdlt&&) noexcept = default;
+SubtreeLdlt& SubtreeLdlt::operator=(SubtreeLdlt&&) noexcept = default;
+
+bool SubtreeLdlt::compute(const Eigen::SparseMatrix<double>& A, std::size_t bins, Method method,
+                          const Eigen::Matrix<double, Eigen::Dynamic, 3>* points) {
+  storage.reset();
+  Lp = Li = nullptr, Lx = nullptr;
+  if (method == Method::supernodal && A.rows() > 0) {
+#if MLSDEFORM_HAVE_CHOLMOD
+    auto s = std::make_unique<CholmodStorage>();
+    if (!s->factorise(A, points ? coordinate_nested_dissection(A, *points) : std::vector<int>(), perm, D)) return false;
+    Lp = s->start.data(), Li = static_cast<const int*>(s->L->i), Lx = static_cast<const double*>(s->L->x);
+    storage = std::move(s);
+#else
+    static_cast<void>(points);
+    throw std::invalid_argument("the supernodal factorisation is not in this build (MLSDEFORM_CHOLMOD=OFF)");
+#endif
+  } else {
+    auto s = std::make_unique<EigenStorage>();
+    s->ldlt.compute(A);
+    if (s->ldlt.info() != Eigen::Success) return false;
+    const Eigen::VectorXd d = s->ldlt.vectorD();
+    D.assign(d.data(), d.data() + d.size());
+    perm.resize(std::size_t(A.rows()));
+    for (Eigen::Index i = 0; i < A.rows(); ++i) perm[std::size_t(i)] = s->ldlt.permutationP().indices()(i);
+    const auto& L = s->ldlt.matrixL().nestedExpression();
+    Lp = L.outerIndexPtr(), Li = L.innerIndexPtr(), Lx = L.valuePtr();
+    storage = std::move(s);
+  }
   schedule(bins);
   return true;
+}
+
+SubtreeLdlt::Factor SubtreeLdlt::factor() const {
+  const std::size_t n = D.size(), nnz = n ? std::size_t(Lp[n]) : 0;
+  return {std::span<const int>(Lp, n ? n + 1 : 0), std::span<const int>(Li, nnz), std::span<const double>(Lx, nnz), D};
 }
 
 /// L z = y, in place in y, column by column: z_c is final once the columns before it are done, and goes
 /// to y_r -= L_rc z_c for the rows r of entries [p0(c), p1(c)) of column c, for the columns c of cols.
 template <class Cols, class First, class Last>
 void SubtreeLdlt::forward(std::vector<double>& y, const Cols& cols, First p0, Last p1) const {
-  const auto& L = ldlt.matrixL().nestedExpression();
-  const int* Li = L.innerIndexPtr();
-  const double* Lx = L.valuePtr();
   for (const auto col : cols) {
     const auto k = 3 * std::size_t(col);
     const double z0 = y[k], z1 = y[k + 1], z2 = y[k + 2];
@@ -38,9 +166,6 @@ void SubtreeLdlt::forward(std::vector<double>& y, const Cols& cols, First p0, La
 
 /// x_c = z_c / D_c - sum_r L_rc x_r for the columns order[k0 .. k1), last first, in place in y.
 void SubtreeLdlt::backward(std::vector<double>& y, std::size_t k0, std::size_t k1) const {
-  const auto& L = ldlt.matrixL().nestedExpression();
-  const int *Lp = L.outerIndexPtr(), *Li = L.innerIndexPtr();
-  const double* Lx = L.valuePtr();
   for (std::size_t k = k1; k-- > k0;) {
     const auto col = std::size_t(order[k]);
     double x0 = y[3 * col] / D[col], x1 = y[3 * col + 1] / D[col], x2 = y[3 * col + 2] / D[col];
@@ -58,8 +183,6 @@ void SubtreeLdlt::backward(std::vector<double>& y, std::size_t k0, std::size_t k
 /// moving to the top and its children into the spread, for as long as that shortens the longest path
 /// (top + heaviest bin). Any schedule gives the same bits; this one only balances the threads.
 void SubtreeLdlt::schedule(std::size_t bins) {
-  const auto& L = ldlt.matrixL().nestedExpression();
-  const int *Lp = L.outerIndexPtr(), *Li = L.innerIndexPtr();
   const std::size_t m = D.size();
   std::vector<int> parent(m, -1);
   std::vector<std::size_t> work(m), subtree(m);
@@ -80,9 +203,12 @@ void SubtreeLdlt::schedule(std::size_t bins) {
   std::vector<int> top, best_frontier, bin_of, best_bin;
   std::vector<std::size_t> load(bins);
   std::size_t top_work = 0, best = ~std::size_t(0), best_top = 0;
-  // A surface's top separators hold some sqrt(m) rows (137 of the bundled body's 6,882): the cap only
-  // bounds the set-up's time on odd meshes.
-  for (int split = 0; split < 1024 && !frontier.empty() && top_work < best; ++split) {
+  // A surface's top separators hold some sqrt(m) rows (137 of the bundled body's 6,882; about 2,000 of
+  // spot_loop3's 730,607 free vertices in coordinate_nested_dissection's order), each split taking one: the
+  // splits go on while the frontier stays small. The budget (frontier entries visited) only bounds the
+  // set-up's time on odd meshes, whose frontier grows wide.
+  for (std::size_t visited = 0; visited < 16 * m + (1u << 20) && !frontier.empty() && top_work < best;
+       visited += frontier.size()) {
     std::sort(frontier.begin(), frontier.end(), heavier);
     std::fill(load.begin(), load.end(), std::size_t(0));
     bin_of.assign(frontier.size(), 0);
@@ -129,8 +255,6 @@ void SubtreeLdlt::solve(std::vector<double>& y, int threads, tbb::task_arena* ar
   // with entries in the top rows scatters into them, ascending. Backward gathers, the top first. Every y_r
   // receives its terms in one order whatever the schedule (ascending columns; then ascending rows): the
   // same bits for any thread count.
-  const auto& L = ldlt.matrixL().nestedExpression();
-  const int* Lp = L.outerIndexPtr();
   const auto first = [&](int col) { return Lp[col]; };
   const auto below_top = [&](int col) { return top_start[std::size_t(col)]; };
   const auto last = [&](int col) { return Lp[col + 1]; };
@@ -148,10 +272,8 @@ void SubtreeLdlt::solve(std::vector<double>& y, int threads, tbb::task_arena* ar
 
 std::size_t SubtreeLdlt::memory_bytes() const {
   const auto bytes = [](const auto& v) { return v.size() * sizeof(v[0]); };
-  const auto& L = ldlt.matrixL().nestedExpression();
-  // L by columns, its diagonal (twice: Eigen's and the copy) and its two permutations (about one more D).
-  return std::size_t(L.nonZeros()) * (sizeof(double) + sizeof(int)) + std::size_t(L.outerSize() + 1) * sizeof(int) +
-         bytes(top_start) + bytes(tail_cols) + bytes(order) + bytes(part_start) + 3 * bytes(D) + bytes(perm);
+  return (storage ? storage->bytes() : 0) + bytes(top_start) + bytes(tail_cols) + bytes(order) + bytes(part_start) +
+         bytes(D) + bytes(perm);
 }
 
 }  // namespace mlsdeform::detail

@@ -1,21 +1,42 @@
 // The ARAP global step's linear algebra: a sparse symmetric positive definite matrix A factorised once,
-// P A P^T = L D L^T (Eigen's SimplicialLDLT, AMD ordering, double), and the substitution for three
-// right-hand sides at once (interleaved), disjoint subtrees of L's elimination tree on the threads at once,
-// with nothing allocated. The result is bitwise the same for any thread count and schedule.
+// P A P^T = L D L^T in double, and the substitution for three right-hand sides at once (interleaved),
+// disjoint subtrees of L's elimination tree on the threads at once, with nothing allocated. The result is
+// bitwise the same for any thread count and schedule.
+//
+// Two factorisations give the same kind of factor (L's strictly lower part by columns, rows ascending, and D):
+//  - simplicial: Eigen's SimplicialLDLT with its AMD ordering (always there; MIT-compatible, MPL-2.0);
+//  - supernodal: CHOLMOD's supernodal Cholesky, dense blocks by the BLAS, in the order of
+//    coordinate_nested_dissection (nested_dissection.hpp) where the rows' points are given, else CHOLMOD's
+//    AMD; then converted to L D L^T (only in builds with MLSDEFORM_CHOLMOD=ON; CHOLMOD's Supernodal module is
+//    GPL-2+).
 #pragma once
 
 #include <tbb/task_arena.h>
-#include <Eigen/SparseCholesky>
+#include <Eigen/SparseCore>
 
 #include <cstddef>
+#include <memory>
+#include <span>
 #include <vector>
 
 namespace mlsdeform::detail {
 
+/// Whether this build has the supernodal factorisation (MLSDEFORM_CHOLMOD).
+bool supernodal_available();
+
 class SubtreeLdlt {
  public:
+  enum class Method { simplicial, supernodal };
+  SubtreeLdlt();
+  ~SubtreeLdlt();
+  SubtreeLdlt(SubtreeLdlt&&) noexcept;
+  SubtreeLdlt& operator=(SubtreeLdlt&&) noexcept;
+
   /// Factorises A and schedules the substitution for `bins` threads; false where the factorisation fails.
-  bool compute(const Eigen::SparseMatrix<double>& A, std::size_t bins);
+  /// `points` (optional): row i's point, for the supernodal factorisation's ordering. Method::supernodal in
+  /// a build without it throws std::invalid_argument.
+  bool compute(const Eigen::SparseMatrix<double>& A, std::size_t bins, Method method = Method::simplicial,
+               const Eigen::Matrix<double, Eigen::Dynamic, 3>* points = nullptr);
   /// Where row i of A lives in the substitution's vectors: at 3 * row_of(i) (P's indices).
   int row_of(Eigen::Index i) const { return perm[std::size_t(i)]; }
   /// A x = b for three right-hand sides: y holds b in and x out, 3 values per row of A, at 3 * row_of(i).
@@ -23,15 +44,27 @@ class SubtreeLdlt {
   void solve(std::vector<double>& y, int threads, tbb::task_arena* arena) const;
   std::size_t memory_bytes() const;
 
+  /// The factor: P A P^T = L D L^T, with L's strictly lower part by columns (column c's rows, ascending, are
+  /// rows[col_start[c] .. col_start[c + 1]), its values alike) and P as row_of.
+  struct Factor {
+    std::span<const int> col_start, rows;
+    std::span<const double> values, D;
+  };
+  Factor factor() const;
+
+  struct Storage;  ///< whoever owns L's arrays (Eigen's factor or CHOLMOD's): subtree_ldlt.cpp
+
  private:
   template <class Cols, class First, class Last>
   void forward(std::vector<double>& y, const Cols& cols, First p0, Last p1) const;
   void backward(std::vector<double>& y, std::size_t k0, std::size_t k1) const;
   void schedule(std::size_t bins);
 
-  /// The factor (Eigen stores L's strictly lower part by columns: the unit diagonal is implicit), and D,
-  /// copied once (vectorD() returns a copy).
-  Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>> ldlt;
+  /// L's owner; Lp, Li, Lx point into its arrays: L's strictly lower part by columns, the unit diagonal
+  /// implicit.
+  std::unique_ptr<Storage> storage;
+  const int *Lp = nullptr, *Li = nullptr;
+  const double* Lx = nullptr;
   std::vector<double> D;
   std::vector<int> perm;  ///< P as indices: P b puts b(i) at perm[i]
   /// The substitution's schedule (schedule() builds it): factor rows part by part, ascending in each part;
