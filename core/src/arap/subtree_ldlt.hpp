@@ -6,9 +6,9 @@
 // Two factorisations give the same kind of factor (L's strictly lower part by columns, rows ascending, and D):
 //  - simplicial: Eigen's SimplicialLDLT with its AMD ordering (always there; MIT-compatible, MPL-2.0);
 //  - supernodal: CHOLMOD's supernodal Cholesky, dense blocks by the BLAS, in the order of
-//    coordinate_nested_dissection (nested_dissection.hpp) where the rows' points are given, else CHOLMOD's
-//    AMD; then converted to L D L^T (only in builds with MLSDEFORM_CHOLMOD=ON; CHOLMOD's Supernodal module is
-//    GPL-2+).
+//    coordinate_nested_dissection (nested_dissection.hpp) where the rows' points are given and it leaves
+//    fewer entries in L than CHOLMOD's AMD, else in AMD's; then converted to L D L^T (only in builds with
+//    MLSDEFORM_CHOLMOD=ON; CHOLMOD's Supernodal module is GPL-2+).
 #pragma once
 
 #include <tbb/task_arena.h>
