@@ -241,6 +241,11 @@ TEST_CASE("ARAP: bad input is refused with a message", "[arap]") {
   CHECK_THROWS_WITH(ArapRefiner<double>(t.v, bad, ends(t)), Catch::Contains("outside"));
   std::vector<Eigen::Index> twice = {0, 0};
   CHECK_THROWS_WITH(ArapRefiner<double>(t.v, t.f, twice), Catch::Contains("constrained twice"));
+  const ArapOptions supernodal{0, ArapFactorisation::supernodal};
+  if (supernodal_factorisation_available())
+    CHECK_NOTHROW(ArapRefiner<double>(t.v, t.f, ends(t), supernodal));
+  else
+    CHECK_THROWS_WITH(ArapRefiner<double>(t.v, t.f, ends(t), supernodal), Catch::Contains("MLSDEFORM_CHOLMOD=ON"));
   ArapRefiner<double> arap(t.v, t.f, ends(t));
   Points<double> x;
   CHECK_THROWS_WITH(arap.refine(t.v, Points<double>(3, 3), 1, x), Catch::Contains("targets"));

@@ -21,7 +21,7 @@ using Triangles = Eigen::Matrix<int, Eigen::Dynamic, 3, Eigen::RowMajor>;
 enum class ArapFactorisation {
   automatic,   ///< supernodal where this build has it, else simplicial
   simplicial,  ///< Eigen's SimplicialLDLT, AMD ordering: every build
-  supernodal,  ///< CHOLMOD's supernodal Cholesky, METIS ordering: builds with MLSDEFORM_CHOLMOD=ON only
+  supernodal,  ///< CHOLMOD's supernodal Cholesky (GPL-2+): builds with MLSDEFORM_CHOLMOD=ON only
 };
 
 /// Whether this build has ArapFactorisation::supernodal (the CMake option MLSDEFORM_CHOLMOD).
