@@ -1,7 +1,8 @@
-// check_affine_rank and singular_values (validation.hpp), apart from the other checks: Eigen's dynamic-size SVD
-// is slow to compile, and this is its one instantiation.
+// check_affine_rank and singular_values (validation.hpp), apart from the other checks: Eigen's SVD is slow to
+// compile, and this is its one instantiation.
 #include "validation.hpp"
 
+#include <Eigen/QR>
 #include <Eigen/SVD>
 
 #include <algorithm>
@@ -34,7 +35,16 @@ void check_affine_rank(const std::vector<Vec3d>& P) {
 }
 
 Eigen::Vector3d singular_values(const Eigen::Matrix<double, Eigen::Dynamic, 3>& X, Eigen::Matrix3d* V) {
-  const Eigen::JacobiSVD<Eigen::Matrix<double, Eigen::Dynamic, 3>> svd(X, V ? Eigen::ComputeFullV : 0);
+  // X = Q R (Householder, backward stable), so X and R share their singular values and right singular
+  // vectors; the 3 x 3 R's SVD is a fixed-size instantiation, much quicker to compile than a dynamic one.
+  Eigen::Matrix3d R = Eigen::Matrix3d::Zero();
+  if (X.rows() >= 3) {
+    const Eigen::HouseholderQR<Eigen::Matrix<double, Eigen::Dynamic, 3>> qr(X);
+    R = qr.matrixQR().topRows<3>().triangularView<Eigen::Upper>();
+  } else {
+    R.topRows(X.rows()) = X;
+  }
+  const Eigen::JacobiSVD<Eigen::Matrix3d, Eigen::NoQRPreconditioner> svd(R, V ? Eigen::ComputeFullV : 0);
   if (V) *V = svd.matrixV();
   return svd.singularValues();
 }
