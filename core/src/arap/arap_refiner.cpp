@@ -206,9 +206,13 @@ ArapRefiner<T>::ArapRefiner(const Points<T>& rest, const Triangles& triangles,
   using Method = detail::SubtreeLdlt::Method;
   const bool supernodal = options.factorisation == ArapFactorisation::supernodal ||
                           (options.factorisation == ArapFactorisation::automatic && detail::supernodal_available());
-  PointsD free_points(nf, 3);  // the supernodal factorisation orders the rows by their points
-  for (Eigen::Index f = 0; f < nf; ++f) free_points.row(f) = m.P.row(m.free_vertices[std::size_t(f)]);
-  if (!m.solver.compute(L, bins, supernodal ? Method::supernodal : Method::simplicial, &free_points))
+  PointsD free_points;  // the supernodal factorisation orders the rows by their points
+  if (supernodal) {
+    free_points.resize(nf, 3);
+    for (Eigen::Index f = 0; f < nf; ++f) free_points.row(f) = m.P.row(m.free_vertices[std::size_t(f)]);
+  }
+  if (!m.solver.compute(L, bins, supernodal ? Method::supernodal : Method::simplicial,
+                        supernodal ? &free_points : nullptr))
     throw std::invalid_argument("ArapRefiner: the cotangent Laplacian could not be factorised");
 
   m.X.resize(m.n, 3);

@@ -16,7 +16,6 @@ struct Dissection {
   const Eigen::Matrix<double, Eigen::Dynamic, 3>& X;
   std::vector<int> order;
   std::vector<signed char> side;  ///< during a cut: 0 outside the set, 1 lower half, 2 upper half
-  std::vector<int> separator;     ///< scratch: the separator being built (copied out before recursing)
 
   /// Whether row v has a neighbour on side `other`.
   bool touches(int v, signed char other) const {
@@ -49,15 +48,14 @@ struct Dissection {
     for (std::size_t k = 0; k < n; ++k) count[k < mid ? 0 : 1] += touches(s[k], k < mid ? 2 : 1);
     const bool lower = count[0] <= count[1];
     int *first = lower ? s : s + mid, *last = lower ? s + mid : s + n, *kept = first;
-    separator.clear();
+    std::vector<int> cut;  // the separator, ordered after both halves
     for (int* p = first; p != last; ++p)
       if (touches(*p, lower ? 2 : 1))
-        separator.push_back(*p);
+        cut.push_back(*p);
       else
         *kept++ = *p;
-    for (std::size_t k = 0; k < n; ++k) side[std::size_t(s[k])] = 0;
-    for (const int v : separator) side[std::size_t(v)] = 0;
-    std::vector<int> cut(separator.begin(), separator.end());
+    for (std::size_t k = 0; k < n; ++k) side[std::size_t(s[k])] = 0;  // the halves (and stale copies)
+    for (const int v : cut) side[std::size_t(v)] = 0;
     std::sort(cut.begin(), cut.end());
     if (lower) {
       run(s, std::size_t(kept - s));
@@ -75,7 +73,7 @@ struct Dissection {
 std::vector<int> coordinate_nested_dissection(const Eigen::SparseMatrix<double>& A,
                                               const Eigen::Matrix<double, Eigen::Dynamic, 3>& points) {
   const auto n = std::size_t(A.rows());
-  Dissection d{A, points, {}, std::vector<signed char>(n, 0), {}};
+  Dissection d{A, points, {}, std::vector<signed char>(n, 0)};
   d.order.reserve(n);
   std::vector<int> rows(n);
   for (std::size_t i = 0; i < n; ++i) rows[i] = int(i);
