@@ -3,6 +3,7 @@
 // then make the surface locally rigid where few handles leave MLS too smooth (an arm bent by a hand handle).
 #pragma once
 
+#include <mlsdeform/cancel.hpp>
 #include <mlsdeform/types.hpp>
 
 #include <Eigen/Core>
@@ -60,8 +61,10 @@ class ArapRefiner {
   /// constrained[k] held at targets.row(k). Writes `out` (resized only if its size is wrong; it may be `start`
   /// itself); allocates nothing once `out` has its size. Not for concurrent calls (the session holds the
   /// scratch). iterations = 0 copies `start` with the constraints applied. Throws std::invalid_argument on
-  /// sizes that do not match or non-finite input.
-  void refine(const Points<T>& start, const Points<T>& targets, int iterations, Points<T>& out);
+  /// sizes that do not match or non-finite input. Any iteration count is allowed, each one costs the same:
+  /// `cancel` (cancel.hpp) is checked before every iteration and throws Cancelled with `out` untouched.
+  void refine(const Points<T>& start, const Points<T>& targets, int iterations, Points<T>& out,
+              const CancelCheck& cancel = {});
 
   /// E(x) with the optimal rotations for x (as one local step computes them), in double.
   double energy(const Points<T>& x) const;

@@ -3,6 +3,7 @@
 #pragma once
 
 #include <mlsdeform/arap.hpp>
+#include <mlsdeform/cancel.hpp>
 #include <mlsdeform/rotation.hpp>
 #include <mlsdeform/types.hpp>
 
@@ -104,12 +105,13 @@ class Deformer {
   /// Throws std::invalid_argument (message naming the problem) on: no handles, non-finite coordinates,
   /// mismatched segment end-point counts, weight_exponent < 1 or non-finite, a zero-length segment, or an
   /// affine transform whose handles do not span 3D (fewer than four non-coplanar points), a region index out
-  /// of range or repeated.
-  Deformer(const Points<T>& rest_vertices, const Handles<T>& rest_handles, const Options& options = {});
+  /// of range or repeated. `cancel` (cancel.hpp) may stop the precomputation: Cancelled is thrown.
+  Deformer(const Points<T>& rest_vertices, const Handles<T>& rest_handles, const Options& options = {},
+           const CancelCheck& cancel = {});
   /// The same over a triangle mesh, so that options.arap_iterations > 0 can refine MLS's result (without
   /// triangles that option throws std::invalid_argument). Also throws on a triangle index out of range.
   Deformer(const Points<T>& rest_vertices, const Triangles& triangles, const Handles<T>& rest_handles,
-           const Options& options = {});
+           const Options& options = {}, const CancelCheck& cancel = {});
   ~Deformer();
   Deformer(Deformer&&) noexcept;
   Deformer& operator=(Deformer&&) noexcept;
@@ -120,10 +122,13 @@ class Deformer {
   /// position must share their target too, since a vertex there cannot follow both). Writes `out` (resized
   /// only if its size is wrong); allocates nothing once `out` has its size. On invalid input throws
   /// std::invalid_argument and leaves `out` untouched. With arap_iterations > 0 or a region, concurrent calls
-  /// on one session take turns (the refinement's or the region's scratch belongs to the session).
-  void deform(const Handles<T>& moved_handles, Points<T>& out) const;
+  /// on one session take turns (the refinement's or the region's scratch belongs to the session). `cancel`
+  /// (cancel.hpp) is checked before each ARAP iteration, where a frame's time is the iteration count's, and
+  /// throws Cancelled with `out` untouched; the MLS pass itself is not interrupted (its time is that of one
+  /// pass over the table, about what reading the table once costs).
+  void deform(const Handles<T>& moved_handles, Points<T>& out, const CancelCheck& cancel = {}) const;
   /// The same, writing interleaved xyz (e.g. a mapped vertex buffer of vertex_count() * 3 values).
-  void deform(const Handles<T>& moved_handles, InterleavedView<T> out) const;
+  void deform(const Handles<T>& moved_handles, InterleavedView<T> out, const CancelCheck& cancel = {}) const;
 
   /// Stateful targets for interactive use: the session keeps the current moved handles (initially the rest
   /// handles); move some of them and deform() with no handle argument.
@@ -141,12 +146,13 @@ class Deformer {
   void transform_handles(std::span<const Eigen::Index> point_indices, std::span<const Eigen::Index> segment_indices,
                          const Matrix3<T>& R, const Vector3<T>& t, const Vector3<T>& pivot);
   const Handles<T>& targets() const;
-  void deform(Points<T>& out) const;
+  void deform(Points<T>& out, const CancelCheck& cancel = {}) const;
   /// The same, writing interleaved xyz (vertex_count() rows; std::invalid_argument otherwise).
-  void deform(InterleavedView<T> out) const;
+  void deform(InterleavedView<T> out, const CancelCheck& cancel = {}) const;
 
   /// A new rest pose (vertices and/or handles): redoes the precomputation; targets reset to the rest handles.
-  void reset_rest_pose(const Points<T>& rest_vertices, const Handles<T>& rest_handles);
+  /// On any exception (Cancelled included) the session is unchanged.
+  void reset_rest_pose(const Points<T>& rest_vertices, const Handles<T>& rest_handles, const CancelCheck& cancel = {});
 
   Eigen::Index vertex_count() const;
   const Options& options() const;

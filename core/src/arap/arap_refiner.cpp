@@ -230,7 +230,8 @@ template <class T>
 ArapRefiner<T>& ArapRefiner<T>::operator=(ArapRefiner&&) noexcept = default;
 
 template <class T>
-void ArapRefiner<T>::refine(const Points<T>& start, const Points<T>& targets, int iterations, Points<T>& out) {
+void ArapRefiner<T>::refine(const Points<T>& start, const Points<T>& targets, int iterations, Points<T>& out,
+                            const CancelCheck& cancel) {
   if (!impl_) throw std::logic_error("ArapRefiner: this session was moved from");
   Impl& m = *impl_;
   if (start.rows() != m.n)
@@ -248,6 +249,7 @@ void ArapRefiner<T>::refine(const Points<T>& start, const Points<T>& targets, in
   for (std::size_t k = 0; k < m.constrained.size(); ++k)
     m.X.row(m.constrained[k]) = targets.row(Eigen::Index(k)).template cast<double>();
   for (int it = 0; it < iterations; ++it) {
+    detail::throw_if_cancelled(cancel);  // before `out` is written: the strong guarantee
     m.local_step();
     m.global_step();
   }

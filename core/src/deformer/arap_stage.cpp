@@ -48,9 +48,9 @@ std::unique_ptr<ArapStage<T>> ArapStage<T>::make(const Points<T>& rest, const Tr
 }
 
 template <class T>
-void ArapStage<T>::run(Points<T>& x, int iterations) {
+void ArapStage<T>::run(Points<T>& x, int iterations, const CancelCheck& cancel) {
   for (std::size_t k = 0; k < constrained.size(); ++k) targets.row(Eigen::Index(k)) = x.row(constrained[k]);
-  refiner.refine(x, targets, iterations, x);
+  refiner.refine(x, targets, iterations, x, cancel);
 }
 
 template struct ArapStage<float>;

@@ -26,8 +26,8 @@ struct ArapStage {
   static std::unique_ptr<ArapStage> make(const Points<T>& rest_vertices, const Triangles& triangles,
                                          const Handles<T>& rest_handles, const Options& options);
 
-  /// `x` holds MLS's result (n x 3): refined in place, `iterations` times.
-  void run(Points<T>& x, int iterations);
+  /// `x` holds MLS's result (n x 3): refined in place, `iterations` times (Cancelled: x is left as it was).
+  void run(Points<T>& x, int iterations, const CancelCheck& cancel);
 };
 
 /// Throws std::invalid_argument unless every index of `triangles` is in [0, n).

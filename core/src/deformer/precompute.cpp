@@ -48,7 +48,7 @@ bool use_on_the_fly(const Options& o, const RestHandles& rh, std::size_t padded)
 
 template <class T>
 DeformerData<T> precompute(const Points<T>& vertices, const Handles<T>& handles, const Options& o,
-                           tbb::task_arena* arena) {
+                           tbb::task_arena* arena, const CancelCheck& cancel) {
   check_options(o);
   check_points(vertices, "rest vertices", "", std::numeric_limits<T>::max());
   check_handles(handles, "rest handles", std::numeric_limits<T>::max());
@@ -73,16 +73,16 @@ DeformerData<T> precompute(const Points<T>& vertices, const Handles<T>& handles,
   data.scale = std::ldexp(1.0, scene.e);
   const std::size_t np = data.padded();
   if (use_on_the_fly<T>(o, rh, np)) {
-    precompute_on_the_fly(data, vertices, scene, rh, o, arena);
+    precompute_on_the_fly(data, vertices, scene, rh, o, arena, cancel);
     return data;
   }
-  precompute_table(data, vertices, scene, rh, o, arena);
+  precompute_table(data, vertices, scene, rh, o, arena, cancel);
   return data;
 }
 
 template DeformerData<float> precompute<float>(const Points<float>&, const Handles<float>&, const Options&,
-                                               tbb::task_arena*);
+                                               tbb::task_arena*, const CancelCheck&);
 template DeformerData<double> precompute<double>(const Points<double>&, const Handles<double>&, const Options&,
-                                                 tbb::task_arena*);
+                                                 tbb::task_arena*, const CancelCheck&);
 
 }  // namespace mlsdeform::detail

@@ -12,20 +12,21 @@
 
 namespace mlsdeform::detail {
 
-/// Validates the rest pose and builds the session data. Throws std::invalid_argument (nothing is changed).
+/// Validates the rest pose and builds the session data. Throws std::invalid_argument (nothing is changed), or
+/// Cancelled when `cancel` asks to stop (checked before each block of kLanes vertices).
 template <class T>
 DeformerData<T> precompute(const Points<T>& vertices, const Handles<T>& handles, const Options& o,
-                           tbb::task_arena* arena);
+                           tbb::task_arena* arena, const CancelCheck& cancel);
 
 /// The coefficient table (data.table, p_star, vhat, D) of every block.
 template <class T>
 void precompute_table(DeformerData<T>& data, const Points<T>& vertices, const LocalFrame& scene, const RestHandles& rh,
-                      const Options& o, tbb::task_arena* arena);
+                      const Options& o, tbb::task_arena* arena, const CancelCheck& cancel);
 
 /// The on-the-fly session data: the rest vertices and handles in the local frame, each vertex's squared
 /// distance to its nearest handle (weights are relative to it), and the handle a vertex sits on, if any.
 template <class T>
 void precompute_on_the_fly(DeformerData<T>& data, const Points<T>& vertices, const LocalFrame& scene,
-                           const RestHandles& rh, const Options& o, tbb::task_arena* arena);
+                           const RestHandles& rh, const Options& o, tbb::task_arena* arena, const CancelCheck& cancel);
 
 }  // namespace mlsdeform::detail

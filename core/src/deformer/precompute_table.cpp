@@ -196,7 +196,7 @@ void precompute_block(DeformerData<T>& data, std::size_t b, const Points<T>& ver
 
 template <class T>
 void precompute_table(DeformerData<T>& data, const Points<T>& vertices, const LocalFrame& scene, const RestHandles& rh,
-                      const Options& o, tbb::task_arena* arena) {
+                      const Options& o, tbb::task_arena* arena, const CancelCheck& cancel) {
   const std::size_t np = data.padded();
   data.table.assign(np * rh.P.size() * data.components(), T(0));
   if (o.transform != Transform::affine) {
@@ -207,13 +207,16 @@ void precompute_table(DeformerData<T>& data, const Points<T>& vertices, const Lo
   const std::unique_ptr<RbfCentroids> rbf =
       o.centroids == Centroids::rbf ? std::make_unique<RbfCentroids>(rh.P) : nullptr;
   parallel_ranges(data.blocks, o.threads, arena, [&](std::size_t b0, std::size_t b1) {
-    for (std::size_t b = b0; b < b1; ++b) precompute_block(data, b, vertices, scene, rh, o, rbf.get());
+    for (std::size_t b = b0; b < b1; ++b) {
+      throw_if_cancelled(cancel);
+      precompute_block(data, b, vertices, scene, rh, o, rbf.get());
+    }
   });
 }
 
 template void precompute_table<float>(DeformerData<float>&, const Points<float>&, const LocalFrame&, const RestHandles&,
-                                      const Options&, tbb::task_arena*);
+                                      const Options&, tbb::task_arena*, const CancelCheck&);
 template void precompute_table<double>(DeformerData<double>&, const Points<double>&, const LocalFrame&,
-                                       const RestHandles&, const Options&, tbb::task_arena*);
+                                       const RestHandles&, const Options&, tbb::task_arena*, const CancelCheck&);
 
 }  // namespace mlsdeform::detail

@@ -31,7 +31,7 @@ std::vector<Eigen::Index> checked_region(const std::vector<Eigen::Index>& region
 /// Outside vertices next to the region, ascending (see RegionStage::make).
 template <class T>
 std::vector<Eigen::Index> ring(const Points<T>& v, const Triangles& triangles, const std::vector<char>& in,
-                               const std::vector<Eigen::Index>& inside, int threads) {
+                               const std::vector<Eigen::Index>& inside, int threads, const CancelCheck& cancel) {
   const auto n = static_cast<std::size_t>(v.rows());
   std::vector<char> on_ring(n, 0);
   if (triangles.rows() > 0) {
@@ -50,6 +50,7 @@ std::vector<Eigen::Index> ring(const Points<T>& v, const Triangles& triangles, c
     std::vector<std::array<std::size_t, kRingNeighbours>> near(inside.size());
     parallel_ranges(inside.size(), threads, nullptr, [&](std::size_t r0, std::size_t r1) {
       for (std::size_t r = r0; r < r1; ++r) {
+        throw_if_cancelled(cancel);
         const auto i = inside[r];
         std::array<std::pair<double, std::size_t>, kRingNeighbours> best;
         best.fill({std::numeric_limits<double>::infinity(), n});
@@ -79,7 +80,8 @@ std::vector<Eigen::Index> ring(const Points<T>& v, const Triangles& triangles, c
 
 template <class T>
 std::unique_ptr<RegionStage<T>> RegionStage<T>::make(const Points<T>& rest_vertices, const Triangles& triangles,
-                                                     const Handles<T>& rest_handles, const Options& options) {
+                                                     const Handles<T>& rest_handles, const Options& options,
+                                                     const CancelCheck& cancel) {
   auto st = std::make_unique<RegionStage<T>>();
   st->n = rest_vertices.rows();
   st->inside = checked_region(options.region, st->n);
@@ -107,7 +109,7 @@ std::unique_ptr<RegionStage<T>> RegionStage<T>::make(const Points<T>& rest_verti
   std::sort(taken.begin(), taken.end());
   std::vector<Eigen::Index> fixed;
   std::vector<Key> fixed_keys;
-  for (Eigen::Index i : ring(rest_vertices, triangles, in, st->inside, options.threads)) {
+  for (Eigen::Index i : ring(rest_vertices, triangles, in, st->inside, options.threads, cancel)) {
     const Key k = key(rest_vertices.row(i));
     if (std::binary_search(taken.begin(), taken.end(), k)) continue;
     if (std::find(fixed_keys.begin(), fixed_keys.end(), k) != fixed_keys.end()) continue;

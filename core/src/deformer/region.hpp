@@ -37,9 +37,11 @@ struct RegionStage {
   /// Checks the region's indices (std::invalid_argument: out of range, repeated), finds the ring (outside
   /// vertices sharing a triangle with a region vertex; without triangles, among the kRingNeighbours nearest
   /// vertices of a region vertex) and adds a fixed point handle at each ring vertex's rest position, once
-  /// per position, and none where the caller has a point handle or segment end already.
+  /// per position, and none where the caller has a point handle or segment end already. `cancel` is checked
+  /// before each region vertex's scan (without triangles).
   static std::unique_ptr<RegionStage> make(const Points<T>& rest_vertices, const Triangles& triangles,
-                                           const Handles<T>& rest_handles, const Options& options);
+                                           const Handles<T>& rest_handles, const Options& options,
+                                           const CancelCheck& cancel);
 
   /// The fixed point handles added at the ring.
   Eigen::Index ring_handles() const { return rest_handles.points.rows() - user_points; }
