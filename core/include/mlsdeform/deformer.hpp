@@ -89,8 +89,9 @@ struct Options {
   /// keeps its rest position bitwise, and only the region's vertices cost time per frame. Empty (default):
   /// the whole model. The outside vertices next to the region (sharing a triangle with a region vertex, or
   /// without triangles among the 8 nearest vertices of one) are held as fixed point handles at their rest
-  /// positions, so that the result is continuous across the region's border; targets() and the handle
-  /// counts stay the caller's. Not with arap_iterations > 0 (std::invalid_argument). docs/api.md, "Region of
+  /// positions, so that the result is continuous across the region's border (with precomputed weights they
+  /// cost four table columns however many they are: docs/api.md); targets() and the handle counts stay the
+  /// caller's. Not with arap_iterations > 0 (std::invalid_argument). docs/api.md, "Region of
   /// interest".
   std::vector<Eigen::Index> region;
 };

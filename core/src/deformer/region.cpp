@@ -1,6 +1,7 @@
 #include "region.hpp"
 
 #include "../parallel.hpp"
+#include "fold.hpp"
 
 #include <algorithm>
 #include <array>
@@ -122,9 +123,19 @@ std::unique_ptr<RegionStage<T>> RegionStage<T>::make(const Points<T>& rest_verti
   st->rest_handles.points.topRows(st->user_points) = rest_handles.points;
   for (std::size_t f = 0; f < fixed.size(); ++f)
     st->rest_handles.points.row(st->user_points + Eigen::Index(f)) = rest_vertices.row(fixed[f]);
+  if (fixed.size() > kFoldedHandles)
+    st->fold_targets = detail::fold_targets<T>(st->rest_handles.points.bottomRows(Eigen::Index(fixed.size())));
   st->moved = st->rest_handles;
   st->compact.resize(st->rest_inside.rows(), 3);
   return st;
+}
+
+template <class T>
+void RegionStage<T>::set_folded(bool folded) {
+  moved = rest_handles;
+  if (!folded) return;
+  moved.points.conservativeResize(user_points + Eigen::Index(kFoldedHandles), 3);
+  moved.points.bottomRows(Eigen::Index(kFoldedHandles)) = fold_targets;
 }
 
 template <class T>
@@ -152,7 +163,7 @@ std::size_t RegionStage<T>::bytes() const {
   };
   return (inside.capacity() + outside.capacity()) * sizeof(Eigen::Index) +
          (std::size_t(rest_inside.size() + rest_outside.size() + compact.size()) + values(rest_handles) +
-          values(moved)) *
+          values(moved) + std::size_t(fold_targets.size())) *
              sizeof(T);
 }
 

@@ -77,7 +77,9 @@ struct Deformer<T>::Impl {
     detail::check_options(o);
     detail::check_triangles(triangles, rest_vertices.rows());
     auto region = detail::RegionStage<T>::make(rest_vertices, triangles, rest_handles, o, cancel);
-    detail::DeformerData<T> data = detail::precompute(region->rest_inside, region->rest_handles, o, arena, cancel);
+    detail::DeformerData<T> data =
+        detail::precompute(region->rest_inside, region->rest_handles, o, arena, cancel, region->fixed());
+    region->set_folded(data.folded > 0);
     return {std::move(data), std::move(region)};
   }
 
