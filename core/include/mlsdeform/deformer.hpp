@@ -20,7 +20,8 @@ enum class SegmentWeight {
   /// The paper's simplification: constant d^-u (d = distance from the vertex to the segment), so
   /// W = d^-u [[1/3, 1/6], [1/6, 1/3]] and the centroids use the segment midpoints.
   paper_constant,
-  /// The exact integral of |p(t) - v|^-u along the segment (adaptive Gauss-Legendre quadrature).
+  /// The exact integral of |p(t) - v|^-u along the segment (adaptive Gauss-Legendre quadrature; beyond
+  /// u = 64 in a variable that makes its cost independent of u: docs/api.md, "Segments").
   exact_integral,
 };
 
@@ -82,7 +83,8 @@ struct Options {
   /// Surface-ARAP iterations after MLS (arap.hpp), for sessions built with the mesh's triangles; 0 (default)
   /// is the paper's MLS. Each point handle constrains its nearest rest vertex, each segment handle the
   /// nearest vertices of its two ends, held where MLS put them; the iterations then make the one-rings
-  /// locally rigid (docs/api.md, "ARAP refinement").
+  /// locally rigid (docs/api.md, "ARAP refinement"). Any count: each iteration costs the same, and a
+  /// CancelCheck given to deform() stops a frame between iterations (cancel.hpp).
   int arap_iterations = 0;
   Centroids centroids = Centroids::mls;
   /// A region of interest: the vertices (0-based, any order, each once) that may move; every other vertex
