@@ -105,7 +105,7 @@ void interruptible(bool watch, F&& f) {
   try {
     const py::gil_scoped_release release;
     f(watch ? w.check() : CancelCheck());
-  } catch (const Cancelled&) {
+  } catch (...) {  // Cancelled, or another error while a handler had raised: the handler's exception wins
     w.raise_kept();
     throw;
   }
@@ -551,7 +551,7 @@ py::array_t<T> fit_rotations_t(const Array<T>& H, RotationMethod method, int thr
         for (std::size_t e = 0; e < 9; ++e) rb[9 * i + e] = rsoa[e * b + i];
     }
     if (dest != r) std::memcpy(r, dest, 9 * m * sizeof(T));
-  } catch (const Cancelled&) {
+  } catch (...) {  // as in interruptible()
     watch.raise_kept();
     throw;
   }
