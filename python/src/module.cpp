@@ -81,6 +81,29 @@ py::array_t<T> from_points(const Points<T>& p) {
   return a;
 }
 
+/// The bytes [first, last) that an array's elements span, whatever its strides (negative, zero): the bounds
+/// numpy's may_share_memory compares. An empty array spans nothing.
+std::pair<std::uintptr_t, std::uintptr_t> byte_extent(const py::array& a) {
+  std::uintptr_t first = reinterpret_cast<std::uintptr_t>(a.data()), last = first;
+  if (a.size() == 0) return {first, first};
+  for (py::ssize_t d = 0; d < a.ndim(); ++d) {
+    const py::ssize_t step = (a.shape(d) - 1) * a.strides(d);
+    if (step < 0)
+      first -= std::uintptr_t(-step);
+    else
+      last += std::uintptr_t(step);
+  }
+  return {first, last + std::uintptr_t(a.itemsize())};
+}
+
+/// Whether two arrays' memory bounds intersect (numpy's may_share_memory): conservative for interleaved
+/// strided views, exact for the C-contiguous arrays the kernels read and write.
+bool may_share_memory(const py::array& a, const py::array& b) {
+  const auto [a0, a1] = byte_extent(a);
+  const auto [b0, b1] = byte_extent(b);
+  return a0 < b1 && b0 < a1;
+}
+
 template <class E>
 E parse_enum(const std::string& value, const char* name, std::initializer_list<std::pair<const char*, E>> options) {
   std::string known;
@@ -408,12 +431,17 @@ template <class T>
 }
 
 template <class T>
-py::array_t<T> fit_rotations_t(const Array<T>& H, RotationMethod method, int threads, double* seconds_cpp,
+py::array_t<T> fit_rotations_t(Array<T> H, RotationMethod method, int threads, double* seconds_cpp,
                                const py::object& out = py::none()) {
   if (H.ndim() != 3 || H.shape(1) != 3 || H.shape(2) != 3)
     throw py::value_error("H: expected shape (m, 3, 3), got " + shape_of(H));
   const std::size_t m = static_cast<std::size_t>(H.shape(0));
   py::array_t<T> R = rotations_out<T>(out, H.shape(0));
+  // Both are C-contiguous (m, 3, 3) arrays of T here, so `out` either is H (each block below is copied out
+  // of H before its rotations are written back over the same rows: in place works) or overlaps it shifted,
+  // where writing block b would overwrite the H of a block not read yet: then the fit reads a copy of H.
+  if (!out.is_none() && R.data() != H.data() && may_share_memory(H, R))
+    H = Array<T>({H.shape(0), py::ssize_t(3), py::ssize_t(3)}, H.data());  // no base given: a copy
   const T* h = H.data();
   T* r = R.mutable_data();
   {
@@ -596,8 +624,8 @@ ValueError for a reflection, a non-orthonormal or non-finite matrix; on error no
 Batched rotation fit in SIMD lanes: for each correlation matrix H[i] = sum_j w_j qhat_j phat_j^T, the
 proper rotation R[i] maximising trace(R^T H). float32 in gives float32 out, anything else float64.
 threads: 1 = the calling thread, 0 = all cores. out: a C-contiguous (m, 3, 3) array of H's dtype to write
-into (returned). The GIL is released. ValueError naming the first NaN or infinite entry, with nothing
-written.)");
+into (returned); it may be H itself or overlap H (H is then read from a copy). The GIL is released.
+ValueError naming the first NaN or infinite entry, with nothing written.)");
   m.def(
       "_time_cpp_fit_rotations",
       [](const py::object& H, int threads) {

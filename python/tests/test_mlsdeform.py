@@ -462,3 +462,64 @@ def test_region():
         mlsdeform.Deformer(V, points=P, region=[])
     with pytest.raises(ValueError, match="vertex 300"):
         mlsdeform.Deformer(V, points=P, region=[0, 300])
+
+
+# ---- out= overlapping the input -------------------------------------------------------------------------------
+
+@pytest.mark.parametrize("dtype", [np.float32, np.float64])
+@pytest.mark.parametrize("threads", [1, 0])
+def test_fit_rotations_out_overlapping_h(dtype, threads):
+    # Shifts by one row and across the binding's block boundaries (2048 rows with threads=1, 32768 with more):
+    # with out= a view of the same buffer as H, every result must equal the fit of an independent copy of H
+    # bitwise (each matrix is fitted alone in its lane, whatever its place in the batch).
+    g = rng()
+    m = 40000
+    for shift in (1, 3, 2047, 2048, 2049, 32768):
+        for out_after in (True, False):
+            B = g.standard_normal((m + shift, 3, 3)).astype(dtype)
+            H, out = (B[:m], B[shift:]) if out_after else (B[shift:], B[:m])
+            expected = mlsdeform.fit_rotations(H.copy(), threads=threads)
+            r = mlsdeform.fit_rotations(H, out=out, threads=threads)
+            assert r is out
+            assert np.array_equal(out, expected), (shift, out_after)
+    # Exact in place: out is H itself.
+    H = g.standard_normal((5000, 3, 3)).astype(dtype)
+    expected = mlsdeform.fit_rotations(H, threads=threads)
+    assert mlsdeform.fit_rotations(H, out=H, threads=threads) is H
+    assert np.array_equal(H, expected)
+    # H a reversed or strided view of out's buffer (converted to a C-contiguous copy before anything is written).
+    B = g.standard_normal((2 * m, 3, 3)).astype(dtype)
+    for H in (B[::-1][:m], B[::2], B[m:][::-1], B[:, ::-1, :][:m]):
+        expected = mlsdeform.fit_rotations(H.copy(), threads=threads)
+        out = B[:m] if H.base is not None and np.shares_memory(H, B[:m]) else B[m // 2:m // 2 + m]
+        mlsdeform.fit_rotations(H, out=out, threads=threads)
+        assert np.array_equal(out, expected)
+
+
+def test_fit_rotations_overlap_refused_input_untouched():
+    # A NaN in H with out= overlapping H: ValueError and the shared buffer unchanged.
+    g = rng()
+    B = g.standard_normal((3001, 3, 3))
+    B[2500, 1, 1] = np.nan
+    before = B.copy()
+    with pytest.raises(ValueError, match=r"H\[2499, 1, 1\] is NaN"):
+        mlsdeform.fit_rotations(B[1:], out=B[:-1])
+    assert np.array_equal(B, before, equal_nan=True)
+
+
+@pytest.mark.parametrize("dtype", [np.float32, np.float64])
+def test_deform_out_overlapping_handles(dtype):
+    # deform() copies its handles before it writes: out= may hold them.
+    g = rng()
+    V, P, A, B = (x.astype(dtype) for x in scene(g, n=200, k=5, s=2))
+    d = mlsdeform.Deformer(V, points=P, segments=(A, B))
+    Q, C, D = P + dtype(0.1), A - dtype(0.05), B + dtype(0.02)
+    expected = d.deform(points=Q, segments=(C, D))
+    X = np.zeros_like(V)
+    X[:5], X[5:7], X[7:9] = Q, C, D
+    assert d.deform(points=X[:5], segments=(X[5:7], X[7:9]), out=X) is X
+    assert np.array_equal(X, expected)
+    X = np.zeros_like(V)
+    X[-5:] = Q[::-1]
+    d.deform(points=X[::-1][:5], segments=(C, D), out=X)
+    assert np.array_equal(X, expected)
