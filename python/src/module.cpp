@@ -402,6 +402,50 @@ class PyDeformer {
   }
 };
 
+/// `self` of a Deformer method, as the Python object: pybind11 hands a method the raw, never-constructed
+/// memory of an instance made by `Deformer.__new__` alone, so every method first asks whether __init__
+/// constructed the session (session() below). Named as the class in signatures and help().
+bool is_deformer(PyObject* o) { return py::isinstance<PyDeformer>(o); }
+class DeformerObject : public py::object {
+ public:
+  PYBIND11_OBJECT_DEFAULT(DeformerObject, py::object, is_deformer)
+};
+
+/// Whether pybind11 has constructed the C++ session of this Python object (its own test in the metaclass's
+/// "__init__() must be called" check).
+bool constructed(const DeformerObject& self) {
+  return reinterpret_cast<py::detail::instance*>(self.ptr())->get_value_and_holder().holder_constructed();
+}
+
+/// The session of `self`, or TypeError for an instance __init__ never constructed.
+PyDeformer& session(const DeformerObject& self) {
+  if (!constructed(self))
+    throw py::type_error(
+        "Deformer: this instance was never initialised (Deformer.__new__ without __init__); "
+        "create sessions as mlsdeform.Deformer(vertices, points=..., ...)");
+  return self.cast<PyDeformer&>();
+}
+
+}  // namespace
+
+// In signatures and help(), `self` is named as the class it must be.
+template <>
+struct pybind11::detail::handle_type_name<DeformerObject> {
+  static constexpr auto name = const_name<PyDeformer>();
+};
+
+namespace {
+
+/// A member function of PyDeformer as a binding that checks `self` first (session()).
+template <class R, class... A>
+auto on_session(R (PyDeformer::*f)(A...) const) {
+  return [f](const DeformerObject& self, A... a) -> R { return (session(self).*f)(std::forward<A>(a)...); };
+}
+template <class R, class... A>
+auto on_session(R (PyDeformer::*f)(A...)) {
+  return [f](const DeformerObject& self, A... a) -> R { return (session(self).*f)(std::forward<A>(a)...); };
+}
+
 /// (m, 3, 3) -> (m, 3, 3) through the library's 3 x 3 x m structure-of-arrays batch (scratch transposes).
 /// `out`: None (a new array) or a C-contiguous, writeable (m, 3, 3) array of T, written in place.
 template <class T>
@@ -553,7 +597,9 @@ PYBIND11_MODULE(_mlsdeform, m) {
     }
   });
 
-  py::class_<PyDeformer>(m, "Deformer", "A deformation session; see mlsdeform.Deformer in the Python package.")
+  py::class_<PyDeformer> deformer(m, "Deformer",
+                                  "A deformation session; see mlsdeform.Deformer in the Python package.");
+  deformer
       .def(py::init<const py::object&, const py::object&, const py::object&, const std::string&, double,
                     const std::string&, const std::string&, int, const std::string&, const std::string&, std::size_t,
                     const py::object&, const py::object&, int, const std::string&, const py::object&>(),
@@ -581,7 +627,7 @@ put it); centroids: "mls" (eq. 2) | "rbf" (q* = g(p*), the RBF interpolant of th
 Sec. 7-8); region: None (the whole model) or the indices of the vertices that may move (the others stay
 bitwise at rest; their neighbours next to the region are held, so the result stays continuous; not with
 arap_iterations). Raises ValueError on bad input (the library's message).)")
-      .def("deform", &PyDeformer::deform, py::kw_only(), py::arg("points") = py::none(),
+      .def("deform", on_session(&PyDeformer::deform), py::kw_only(), py::arg("points") = py::none(),
            py::arg("segments") = py::none(), py::arg("out") = py::none(),
            R"(deform(*, points=None, segments=None, out=None) -> (n, 3) array
 
@@ -590,13 +636,13 @@ session's current targets (set_point_target / set_segment_target; initially the 
 C-contiguous, writeable (n, 3) array of the session's dtype, written in place with no copy and returned;
 None allocates a new one. The GIL is released while deforming. On bad input raises ValueError/TypeError and
 writes nothing.)")
-      .def("set_point_target", &PyDeformer::set_point_target, py::arg("i"), py::arg("target"),
+      .def("set_point_target", on_session(&PyDeformer::set_point_target), py::arg("i"), py::arg("target"),
            "Move point handle i's target (3 numbers) for later deform() calls; IndexError if out of range.")
-      .def("set_segment_target", &PyDeformer::set_segment_target, py::arg("i"), py::arg("a"), py::arg("b"),
+      .def("set_segment_target", on_session(&PyDeformer::set_segment_target), py::arg("i"), py::arg("a"), py::arg("b"),
            "Move segment handle i's target end points a, b for later deform() calls.")
-      .def("transform_handles", &PyDeformer::transform_handles, py::kw_only(), py::arg("points") = py::none(),
-           py::arg("segments") = py::none(), py::arg("rotation") = py::none(), py::arg("translation") = py::none(),
-           py::arg("pivot") = py::none(),
+      .def("transform_handles", on_session(&PyDeformer::transform_handles), py::kw_only(),
+           py::arg("points") = py::none(), py::arg("segments") = py::none(), py::arg("rotation") = py::none(),
+           py::arg("translation") = py::none(), py::arg("pivot") = py::none(),
            R"(transform_handles(*, points=None, segments=None, rotation=None, translation=None, pivot=None)
 
 Move a group of handles as one rigid body: the targets of the point handles `points` and the segment
@@ -604,18 +650,34 @@ handles `segments` (integer indices) become their REST positions under x -> R (x
 rotation: a proper 3 x 3 rotation (default the identity), orthonormal to 64 eps of the session's dtype;
 translation, pivot: 3 numbers (default zero). Other targets are kept. IndexError for an index out of range,
 ValueError for a reflection, a non-orthonormal or non-finite matrix; on error no target changes.)")
-      .def_property_readonly("targets", &PyDeformer::targets,
+      .def_property_readonly("targets", on_session(&PyDeformer::targets),
                              "The current targets: {'points': (k, 3), 'segments': ((s, 3), (s, 3))} (copies).")
-      .def_property_readonly("vertex_count", &PyDeformer::vertex_count, "Number of vertices n.")
-      .def_property_readonly("point_count", &PyDeformer::point_count, "Number of point handles k.")
-      .def_property_readonly("segment_count", &PyDeformer::segment_count, "Number of segment handles s.")
-      .def_property_readonly("dtype", &PyDeformer::dtype, "The session's dtype: float32 or float64.")
-      .def_property_readonly("memory_bytes", &PyDeformer::memory_bytes, "Bytes held by the precomputation.")
-      .def_property_readonly("uses_precomputed_weights", &PyDeformer::uses_precomputed_weights,
+      .def_property_readonly("vertex_count", on_session(&PyDeformer::vertex_count), "Number of vertices n.")
+      .def_property_readonly("point_count", on_session(&PyDeformer::point_count), "Number of point handles k.")
+      .def_property_readonly("segment_count", on_session(&PyDeformer::segment_count), "Number of segment handles s.")
+      .def_property_readonly("dtype", on_session(&PyDeformer::dtype), "The session's dtype: float32 or float64.")
+      .def_property_readonly("memory_bytes", on_session(&PyDeformer::memory_bytes), "Bytes held by the precomputation.")
+      .def_property_readonly("uses_precomputed_weights", on_session(&PyDeformer::uses_precomputed_weights),
                              "Whether the weights are streamed from a table (True) or recomputed per frame.")
-      .def("_time_cpp_deform", &PyDeformer::time_cpp_deform, py::kw_only(), py::arg("points") = py::none(),
+      .def("_time_cpp_deform", on_session(&PyDeformer::time_cpp_deform), py::kw_only(), py::arg("points") = py::none(),
            py::arg("segments") = py::none(), py::arg("out") = py::none(), py::arg("reps") = 10,
            "Seconds per frame of reps C++ deform calls (no Python in the loop): for python/bench/overhead.py.");
+  {
+    // pybind11 ignores a second __init__ on a constructed instance without a word (the call returns None
+    // and the session keeps its old model): refuse it instead, and keep the constructor's docstring. The
+    // wrapper is not named "__init__": pybind11 would take it for a constructor and skip it the same way.
+    const py::object init = deformer.attr("__init__");
+    const std::string doc = py::str(init.attr("__doc__"));
+    py::options only_doc;
+    only_doc.disable_function_signatures();
+    deformer.attr("__init__") = py::cpp_function(
+        [init](const DeformerObject& self, const py::args& args, const py::kwargs& kwargs) {
+          if (constructed(self))
+            throw std::runtime_error("Deformer: __init__ called on an initialised session (make a new Deformer)");
+          init(self, *args, **kwargs);
+        },
+        py::name("Deformer"), py::is_method(deformer), py::doc(doc.c_str()));
+  }
 
   m.def("fit_rotations", &fit_rotations_py, py::arg("H"), py::kw_only(), py::arg("method") = "axis_angle",
         py::arg("threads") = 1, py::arg("out") = py::none(),

@@ -523,3 +523,61 @@ def test_deform_out_overlapping_handles(dtype):
     X[-5:] = Q[::-1]
     d.deform(points=X[::-1][:5], segments=(C, D), out=X)
     assert np.array_equal(X, expected)
+
+
+# ---- uninitialised and re-initialised sessions, pickling ------------------------------------------------------
+
+def test_uninitialised_session_refused():
+    g = rng()
+    V, P, _, _ = scene(g, n=30, k=4)
+    u = mlsdeform.Deformer.__new__(mlsdeform.Deformer)
+    calls = [lambda: u.deform(), lambda: u.deform(points=P, out=np.empty_like(V)),
+             lambda: u.set_point_target(0, [0, 0, 0]), lambda: u.set_segment_target(0, [0, 0, 0], [1, 0, 0]),
+             lambda: u.transform_handles(points=[0]), lambda: u.targets, lambda: u.vertex_count,
+             lambda: u.point_count, lambda: u.segment_count, lambda: u.dtype, lambda: u.memory_bytes,
+             lambda: u.uses_precomputed_weights, lambda: u._time_cpp_deform(reps=1)]
+    for call in calls:
+        with pytest.raises(TypeError, match="never initialised"):
+            call()
+    # __init__ after __new__ is the ordinary construction.
+    u.__init__(V, points=P)
+    assert u.vertex_count == 30 and np.abs(u.deform() - V).max() <= 1e-12
+
+
+def test_second_init_refused():
+    g = rng()
+    V, P, _, _ = scene(g, n=30, k=4)
+    d = mlsdeform.Deformer(V, points=P)
+    X = d.deform(points=P + 0.1)
+    W, R, _, _ = scene(g, n=12, k=3)
+    with pytest.raises(RuntimeError, match="initialised session"):
+        d.__init__(W, points=R)
+    with pytest.raises(RuntimeError, match="initialised session"):
+        mlsdeform.Deformer.__init__(d, W, points=R)
+    assert d.vertex_count == 30 and np.array_equal(d.deform(points=P + 0.1), X)   # unchanged
+
+    class Twice(mlsdeform.Deformer):
+        def __init__(self, *args, **kwargs):
+            super().__init__(*args, **kwargs)
+            super().__init__(*args, **kwargs)
+
+    with pytest.raises(RuntimeError, match="initialised session"):
+        Twice(V, points=P)
+
+    class Never(mlsdeform.Deformer):
+        def __init__(self):
+            pass
+
+    with pytest.raises(TypeError, match="__init__"):
+        Never()
+
+
+def test_session_cannot_be_pickled_or_copied():
+    import copy
+    import pickle
+    g = rng()
+    V, P, _, _ = scene(g, n=30, k=4)
+    for d in (mlsdeform.Deformer(V, points=P), mlsdeform.Deformer.__new__(mlsdeform.Deformer)):
+        for f in (pickle.dumps, copy.copy, copy.deepcopy):
+            with pytest.raises(TypeError, match="cannot pickle"):
+                f(d)
