@@ -104,6 +104,58 @@ bool may_share_memory(const py::array& a, const py::array& b) {
   return a0 < b1 && b0 < a1;
 }
 
+/// `threads` of every call that takes one, checked in one place so that the session and the batched fit
+/// refuse the same values with the same message (1 = the calling thread, 0 = all cores).
+int checked_threads(int threads) {
+  if (threads < 0)
+    throw py::value_error("threads: expected 0 (all cores) or a positive number of threads, got " +
+                          std::to_string(threads));
+  return threads;
+}
+
+/// Integer indices (faces, region, handle groups) from any array-like, as a C-contiguous int64 array: integer
+/// arrays as they are; float arrays (a mesh read as floats) only where every value is an integer, converted
+/// exactly. A fractional, non-finite or too large value is a ValueError naming the argument and the value,
+/// never truncated; any other dtype (bool, str, object) is a TypeError. Range checks are the caller's.
+py::array_t<long long> integer_indices(const py::object& obj, const char* name, const char* expected) {
+  using Int64 = py::array_t<long long, py::array::c_style | py::array::forcecast>;
+  py::array a;
+  try {
+    a = py::array::ensure(obj);
+  } catch (const py::error_already_set&) {
+  }
+  if (!a) {
+    PyErr_Clear();
+    throw py::type_error(std::string(name) + ": expected " + expected);
+  }
+  const char kind = a.dtype().kind();
+  if (a.size() == 0 || kind == 'i') return Int64::ensure(a);
+  if (kind == 'u') {
+    const auto u = py::array_t<unsigned long long, py::array::c_style | py::array::forcecast>::ensure(a);
+    for (py::ssize_t i = 0; i < u.size(); ++i)
+      if (u.data()[i] > static_cast<unsigned long long>(std::numeric_limits<long long>::max()))
+        throw py::value_error(std::string(name) + ": index " + std::to_string(u.data()[i]) + " is too large");
+    return Int64::ensure(a);
+  }
+  if (kind != 'f')
+    throw py::type_error(std::string(name) + ": expected " + expected + ", got dtype " +
+                         std::string(py::str(a.dtype())) + (kind == 'b' ? " (for a mask: np.flatnonzero(mask))" : ""));
+  const auto f = py::array_t<double, py::array::c_style | py::array::forcecast>::ensure(a);
+  Int64 r(std::vector<py::ssize_t>(f.shape(), f.shape() + f.ndim()));
+  // 2^63 is a double; every integral double in [-2^63, 2^63) converts to int64 exactly.
+  constexpr double limit = 9223372036854775808.0;
+  for (py::ssize_t i = 0; i < f.size(); ++i) {
+    const double x = f.data()[i];
+    if (!(std::isfinite(x) && x == std::trunc(x)))
+      throw py::value_error(std::string(name) + ": expected " + expected + ", found " +
+                            std::string(py::repr(py::float_(x))) + " (entry " + std::to_string(i) + ")");
+    if (!(x >= -limit && x < limit))
+      throw py::value_error(std::string(name) + ": index " + std::string(py::repr(py::float_(x))) + " is too large");
+    r.mutable_data()[i] = static_cast<long long>(x);
+  }
+  return r;
+}
+
 template <class E>
 E parse_enum(const std::string& value, const char* name, std::initializer_list<std::pair<const char*, E>> options) {
   std::string known;
@@ -185,7 +237,7 @@ class PyDeformer {
     o.segment_weight = parse_enum<SegmentWeight>(
         segment_weight, "segment_weight",
         {{"paper_constant", SegmentWeight::paper_constant}, {"exact_integral", SegmentWeight::exact_integral}});
-    o.threads = threads;
+    o.threads = checked_threads(threads);
     o.weight_storage = parse_enum<WeightStorage>(weight_storage, "weight_storage",
                                                  {{"automatic", WeightStorage::automatic},
                                                   {"precomputed", WeightStorage::precomputed},
@@ -307,19 +359,19 @@ class PyDeformer {
 
   /// A 1-D sequence of integer indices (region=, transform_handles): range checks are the library's.
   static std::vector<Eigen::Index> to_indices(const py::object& obj, const char* name) {
-    const py::array a = py::array::ensure(obj);
-    if (!a || a.ndim() != 1 || (a.size() > 0 && a.dtype().kind() != 'i' && a.dtype().kind() != 'u'))
-      throw py::type_error(std::string(name) + ": expected a 1-D sequence of integer indices");
-    const auto ints = py::array_t<long long, py::array::c_style | py::array::forcecast>::ensure(a);
+    const auto ints = integer_indices(obj, name, "a 1-D sequence of integer indices");
+    if (ints.ndim() != 1)
+      throw py::value_error(std::string(name) + ": expected a 1-D sequence of integer indices, got shape " +
+                            shape_of(ints));
     return std::vector<Eigen::Index>(ints.data(), ints.data() + ints.size());
   }
 
   /// faces: None or an (m, 3) array of integer vertex indices.
   static Triangles to_triangles(const py::object& faces) {
     if (faces.is_none()) return Triangles();
-    const auto a = py::array_t<long long, py::array::c_style | py::array::forcecast>::ensure(faces);
-    if (!a || a.ndim() != 2 || a.shape(1) != 3)
-      throw py::value_error("faces: expected an (m, 3) array of vertex indices");
+    const auto a = integer_indices(faces, "faces", "an (m, 3) array of integer vertex indices");
+    if (a.ndim() != 2 || a.shape(1) != 3)
+      throw py::value_error("faces: expected an (m, 3) array of vertex indices, got shape " + shape_of(a));
     Triangles t(a.shape(0), 3);
     const long long* f = a.data();
     for (Eigen::Index i = 0; i < t.size(); ++i) {
@@ -479,6 +531,7 @@ py::array_t<T> fit_rotations_t(Array<T> H, RotationMethod method, int threads, d
                                const py::object& out = py::none()) {
   if (H.ndim() != 3 || H.shape(1) != 3 || H.shape(2) != 3)
     throw py::value_error("H: expected shape (m, 3, 3), got " + shape_of(H));
+  checked_threads(threads);
   const std::size_t m = static_cast<std::size_t>(H.shape(0));
   py::array_t<T> R = rotations_out<T>(out, H.shape(0));
   // Both are C-contiguous (m, 3, 3) arrays of T here, so `out` either is H (each block below is copied out

@@ -444,7 +444,7 @@ def test_transform_handles():
         d.transform_handles(points=[0, 7], rotation=R)
     with pytest.raises(ValueError, match=r"shape \(3, 3\)"):
         d.transform_handles(points=[0], rotation=np.eye(2))
-    with pytest.raises(TypeError, match="integer indices"):
+    with pytest.raises(ValueError, match=r"points: expected .*integer indices, found 0\.5"):
         d.transform_handles(points=[0.5])
     assert np.array_equal(d.targets["points"], before["points"])
 
@@ -581,3 +581,67 @@ def test_session_cannot_be_pickled_or_copied():
         for f in (pickle.dumps, copy.copy, copy.deepcopy):
             with pytest.raises(TypeError, match="cannot pickle"):
                 f(d)
+
+
+# ---- threads and integer arguments ----------------------------------------------------------------------------
+
+def test_threads_checked_alike():
+    g = rng()
+    V, P, _, _ = scene(g, n=30, k=4)
+    messages = []
+    for call in (lambda: mlsdeform.Deformer(V, points=P, threads=-1),
+                 lambda: mlsdeform.fit_rotations(np.zeros((4, 3, 3)), threads=-1),
+                 lambda: mlsdeform.fit_rotations(np.zeros((4, 3, 3), np.float32), threads=-1)):
+        with pytest.raises(ValueError, match="threads") as info:
+            call()
+        messages.append(str(info.value))
+    assert messages[0] == messages[1] == messages[2]
+    for threads in (1.5, "2", None):
+        with pytest.raises(TypeError):
+            mlsdeform.fit_rotations(np.zeros((4, 3, 3)), threads=threads)
+        with pytest.raises(TypeError):
+            mlsdeform.Deformer(V, points=P, threads=threads)
+
+
+def test_integer_arguments_never_truncated():
+    nx, ny = 6, 4
+    V = np.array([[i / 5, j / 5, 0.0] for i in range(nx) for j in range(ny)])
+    F = np.array([[i * ny + j, (i + 1) * ny + j, (i + 1) * ny + j + 1] for i in range(nx - 1) for j in range(ny - 1)]
+                 + [[i * ny + j, (i + 1) * ny + j + 1, i * ny + j + 1] for i in range(nx - 1) for j in range(ny - 1)])
+    P = V[[0, ny - 1, len(V) - 1]]
+    Q = P + [[0, 0, 0], [0, 0, 0.3], [0, 0.2, 0]]
+    exact = mlsdeform.Deformer(V, points=P, faces=F, arap_iterations=2).deform(points=Q)
+    # Float arrays whose values are integers are those integers.
+    for faces in (F.astype(np.float64), F.astype(np.float32), F.tolist(), F.astype(np.uint16)):
+        X = mlsdeform.Deformer(V, points=P, faces=faces, arap_iterations=2).deform(points=Q)
+        assert np.array_equal(X, exact)
+    # A fraction, NaN or infinity is refused, never truncated.
+    for bad, shown in ((0.5, "0.5"), (np.nan, "nan"), (np.inf, "inf"), (2.9999999999999996, "2.9999999999999996")):
+        faces = F.astype(np.float64)
+        faces[3, 1] = bad
+        with pytest.raises(ValueError, match=r"faces: .*found " + shown + r" \(entry 10\)"):
+            mlsdeform.Deformer(V, points=P, faces=faces, arap_iterations=2)
+    with pytest.raises(ValueError, match="faces: index 1e\\+300 is too large"):
+        mlsdeform.Deformer(V, points=P, faces=np.full((2, 3), 1e300), arap_iterations=2)
+    with pytest.raises(ValueError, match="faces: index 18446744073709551615 is too large"):
+        mlsdeform.Deformer(V, points=P, faces=np.full((2, 3), 2**64 - 1, np.uint64), arap_iterations=2)
+    with pytest.raises(TypeError, match="faces: .*dtype <U1"):
+        mlsdeform.Deformer(V, points=P, faces=[["a", "b", "c"]], arap_iterations=2)
+    # region and handle groups: the same rules.
+    region = np.arange(10)
+    assert np.array_equal(mlsdeform.Deformer(V, points=P, region=region.astype(float)).deform(points=Q),
+                          mlsdeform.Deformer(V, points=P, region=region).deform(points=Q))
+    with pytest.raises(ValueError, match=r"region: .*found 1\.5"):
+        mlsdeform.Deformer(V, points=P, region=[0, 1.5])
+    with pytest.raises(TypeError, match="flatnonzero"):
+        mlsdeform.Deformer(V, points=P, region=V[:, 0] > 0.5)
+    d = mlsdeform.Deformer(V, points=P)
+    with pytest.raises(ValueError, match=r"segments: .*found 0\.25"):
+        d.transform_handles(segments=[0.25])
+    d.transform_handles(points=[2.0], translation=[0, 0, 1])
+    assert np.array_equal(d.targets["points"][2], P[2] + [0, 0, 1])
+    # A handle index is a Python integer: a float is refused by the binding (TypeError), never truncated.
+    with pytest.raises(TypeError):
+        d.set_point_target(1.0, [0, 0, 0])
+    d.set_point_target(np.int64(1), [0, 0, 0])
+    assert np.array_equal(d.targets["points"][1], [0, 0, 0])
