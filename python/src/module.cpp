@@ -37,12 +37,17 @@ std::string shape_of(const py::array& a) {
 }
 
 /// obj as a C-contiguous array of T (converted, copied only if it is not one already), or a null array with
-/// Python's error indicator cleared where it cannot be converted: the caller raises its own error.
+/// Python's error indicator cleared where it cannot be converted: the caller raises its own error. Complex
+/// numbers are refused (numpy's cast would drop the imaginary part with no more than a warning), and so are
+/// dates and durations (their raw counts are no coordinates).
 template <class T>
 Array<T> try_array(const py::handle& obj) {
   Array<T> a;
   try {
-    a = Array<T>::ensure(obj);
+    const py::array any = py::array::ensure(obj);
+    const char kind = any ? any.dtype().kind() : '?';
+    a = kind == 'c' || kind == 'm' || kind == 'M' ? py::reinterpret_steal<Array<T>>(py::handle())
+                                                  : Array<T>::ensure(any);
   } catch (const py::error_already_set&) {
     a = Array<T>();
   }
@@ -50,13 +55,19 @@ Array<T> try_array(const py::handle& obj) {
   return a;
 }
 
+/// What a refused argument was, for the message: its dtype if it is an array, else its type.
+std::string received(const py::handle& obj) {
+  if (py::isinstance<py::array>(obj))
+    return "an array of dtype " + std::string(py::str(py::reinterpret_borrow<py::array>(obj).dtype()));
+  return std::string(py::str(py::type::of(obj).attr("__name__")));
+}
+
 /// An (n, 3) array of T from any array-like.
 template <class T>
 Array<T> as_n3(const py::handle& obj, const char* name) {
   const Array<T> a = try_array<T>(obj);
   if (!a) {
-    throw py::type_error(std::string(name) + ": expected an (n, 3) array of numbers, got " +
-                         std::string(py::str(py::type::of(obj).attr("__name__"))));
+    throw py::type_error(std::string(name) + ": expected an (n, 3) array of real numbers, got " + received(obj));
   }
   if (a.ndim() != 2 || a.shape(1) != 3)
     throw py::value_error(std::string(name) + ": expected shape (n, 3), got " + shape_of(a));
@@ -340,7 +351,7 @@ class PyDeformer {
   template <class T>
   static Vector3<T> vector3(const py::object& obj, const char* name) {
     const Array<T> a = try_array<T>(obj);
-    if (!a) throw py::type_error(std::string(name) + ": expected 3 numbers");
+    if (!a) throw py::type_error(std::string(name) + ": expected 3 real numbers, got " + received(obj));
     if (a.size() != 3) throw py::value_error(std::string(name) + ": expected 3 numbers, got shape " + shape_of(a));
     return Vector3<T>(a.data()[0], a.data()[1], a.data()[2]);
   }
@@ -348,7 +359,7 @@ class PyDeformer {
   template <class T>
   static Matrix3<T> matrix3(const py::object& obj, const char* name) {
     const Array<T> a = try_array<T>(obj);
-    if (!a) throw py::type_error(std::string(name) + ": expected a 3 x 3 array");
+    if (!a) throw py::type_error(std::string(name) + ": expected a 3 x 3 array of real numbers, got " + received(obj));
     if (a.ndim() != 2 || a.shape(0) != 3 || a.shape(1) != 3)
       throw py::value_error(std::string(name) + ": expected shape (3, 3), got " + shape_of(a));
     Matrix3<T> m;
@@ -595,7 +606,7 @@ py::array fit_rotations_py(const py::object& H, const std::string& method, int t
   const RotationMethod m = parse_method(method);
   if (wants_single(H)) return fit_rotations_t<float>(Array<float>::ensure(H), m, threads, nullptr, out);
   const Array<double> a = try_array<double>(H);
-  if (!a) throw py::type_error("H: expected an (m, 3, 3) array of numbers");
+  if (!a) throw py::type_error("H: expected an (m, 3, 3) array of real numbers, got " + received(H));
   return fit_rotations_t<double>(a, m, threads, nullptr, out);
 }
 
@@ -758,7 +769,7 @@ ValueError naming the first NaN or infinite entry, with nothing written.)");
         const RotationMethod mth = parse_method(method);
         if (wants_single(H)) return fit_rotation_t<float>(Array<float>::ensure(H), mth);
         const Array<double> a = try_array<double>(H);
-        if (!a) throw py::type_error("H: expected a (3, 3) array of numbers");
+        if (!a) throw py::type_error("H: expected a (3, 3) array of real numbers, got " + received(H));
         return fit_rotation_t<double>(a, mth);
       },
       py::arg("H"), py::kw_only(), py::arg("method") = "axis_angle",

@@ -645,3 +645,25 @@ def test_integer_arguments_never_truncated():
         d.set_point_target(1.0, [0, 0, 0])
     d.set_point_target(np.int64(1), [0, 0, 0])
     assert np.array_equal(d.targets["points"][1], [0, 0, 0])
+
+
+def test_complex_and_date_arrays_refused():
+    # numpy's cast to float would drop an imaginary part with no more than a ComplexWarning.
+    g = rng()
+    V, P, _, _ = scene(g, n=30, k=4)
+    d = mlsdeform.Deformer(V, points=P)
+    for bad in (P + 1j, P + 0j, P.astype("m8[s]"), P.astype("M8[s]"), (P + 1j).tolist()):
+        with pytest.raises(TypeError, match="points: expected an .* of real numbers"):
+            d.deform(points=bad)
+        with pytest.raises(TypeError, match="vertices: expected an .* of real numbers"):
+            mlsdeform.Deformer(bad, points=P)
+    with pytest.raises(TypeError, match="complex128"):
+        mlsdeform.fit_rotations(np.eye(3)[None] * 1j)
+    with pytest.raises(TypeError, match="complex128"):
+        mlsdeform.fit_rotation(np.eye(3) * 1j)
+    with pytest.raises(TypeError, match="target: expected 3 real numbers"):
+        d.set_point_target(0, [1j, 0, 0])
+    with pytest.raises(TypeError, match="rotation: expected a 3 x 3 array of real numbers"):
+        d.transform_handles(points=[0], rotation=np.eye(3) + 0j)
+    with pytest.raises(ValueError, match="w: expected a 1-D array"):
+        mlsdeform.fit_points(P, P, np.ones(4) + 1j)
