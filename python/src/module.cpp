@@ -42,17 +42,11 @@ std::string shape_of(const py::array& a) {
 /// dates and durations (their raw counts are no coordinates).
 template <class T>
 Array<T> try_array(const py::handle& obj) {
-  Array<T> a;
-  try {
-    const py::array any = py::array::ensure(obj);
-    const char kind = any ? any.dtype().kind() : '?';
-    a = kind == 'c' || kind == 'm' || kind == 'M' ? py::reinterpret_steal<Array<T>>(py::handle())
-                                                  : Array<T>::ensure(any);
-  } catch (const py::error_already_set&) {
-    a = Array<T>();
-  }
-  if (!a) PyErr_Clear();
-  return a;
+  // ensure() gives a null array, with the error indicator cleared, where numpy cannot convert.
+  const py::array any = py::array::ensure(obj);
+  const char kind = any ? any.dtype().kind() : 'c';
+  if (kind == 'c' || kind == 'm' || kind == 'M') return py::reinterpret_steal<Array<T>>(py::handle());
+  return Array<T>::ensure(any);
 }
 
 /// What a refused argument was, for the message: its dtype if it is an array, else its type.
