@@ -2,9 +2,12 @@
 // Each returns the process exit code and throws InputError for bad input (exit code 2).
 #pragma once
 
+#include "mesh.hpp"
+
 #include <mlsdeform/batch.hpp>
 #include <mlsdeform/deformer.hpp>
 
+#include <optional>
 #include <string>
 
 namespace mlsdeform::cli {
@@ -17,6 +20,8 @@ struct DeformArgs {
   Precision precision = Precision::single;
   bool force = false;
   bool ply_ascii = false;
+  /// The output's coordinate type (WriteOptions::coordinates); none: the input's, at most the precision's.
+  std::optional<CoordinateType> output_type = std::nullopt;
   bool quiet = false;
   std::size_t max_input_bytes = std::size_t(1) << 30;  ///< mesh file, or its decompressed data (kDefaultMaxInputBytes)
 };

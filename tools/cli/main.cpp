@@ -156,6 +156,12 @@ int run(int argc, char** argv) {
       ->default_str(std::to_string(kDefaultMaxInputBytes >> 20));
   deform->add_flag("--force,-f", d.force, "overwrite existing output files");
   deform->add_flag("--ply-ascii", d.ply_ascii, "write PLY as text (default: binary little-endian)");
+  add_choice<std::optional<CoordinateType>>(
+      deform, "--output-type", d.output_type,
+      {{"auto", std::nullopt}, {"float", CoordinateType::float32}, {"double", CoordinateType::float64}},
+      "the output's coordinate type: PLY's property type; OBJ and OFF: the shortest text of a float or of a "
+      "double. auto: float with --precision float; with --precision double, the input PLY's type (float stays "
+      "float), else double");
   deform->add_flag("--quiet,-q", d.quiet, "print nothing but errors");
   deform->footer(
       "The handles file (see README.md, \"Handles file\"):\n"
