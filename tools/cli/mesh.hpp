@@ -58,7 +58,8 @@ Triangles fan_triangles(const BasicMesh<T>& mesh, const std::string& path);
 ///   read: the vertex order is the file's (for OBJ: the order of its `v` lines, counted from 0), every vertex
 ///   is kept (even one no face uses), faces are polygons as written; OBJ points and lines are dropped. Decimal
 ///   coordinates are rounded once to T (a PLY property declared float is read as float whatever T: the file
-///   says what its values are).
+///   says what its values are). OBJ and OFF may start with a UTF-8 byte-order mark, which is skipped; a PLY
+///   file must start with the bytes "ply" (its magic number), so one with a mark is refused, saying so.
 ///   Throws InputError naming the file, the line (or element) and the problem for anything malformed: a
 ///   missing or unreadable file, an unknown format, a number that is not one whole decimal number or is out of
 ///   T's range (1e39 in float: the message suggests --precision double), a non-finite coordinate, an index out

@@ -26,6 +26,9 @@ namespace mlsdeform::cli {
 
 namespace {
 
+// The UTF-8 byte-order mark, U+FEFF.
+constexpr std::string_view kBom = "\xef\xbb\xbf";
+
 std::string at_line(std::size_t line) { return "line " + std::to_string(line); }
 
 /// A token from the file as a message shows it: quoted, bytes outside printable ASCII as \xNN (a binary file
@@ -120,6 +123,14 @@ class Reader {
       std::memcpy(dst, buf_.data() + begin_, k);
       begin_ += k, consumed_ += k, dst += k, n -= k;
     }
+    return true;
+  }
+  /// Whether the input starts with `prefix`; if so, it is consumed. Only before anything else is read.
+  bool skip_prefix(std::string_view prefix) {
+    while (end_ - begin_ < prefix.size() && !eof_) fill();
+    if (std::string_view(buf_.data() + begin_, end_ - begin_).substr(0, prefix.size()) != prefix) return false;
+    begin_ += prefix.size();
+    consumed_ += prefix.size();
     return true;
   }
   bool at_end() {
@@ -536,6 +547,8 @@ BasicMesh<T> read_ply(Reader& reader, const std::string& path) {
     ++line_no;
     split(l, t);  // no comments here: '#' is a character like any other in a PLY header
   };
+  if (reader.skip_prefix(kBom))
+    throw malformed("the file starts with a UTF-8 byte-order mark; the first line must be 'ply' (remove the mark)", 1);
   header_line();
   if (t.size() != 1 || t[0] != "ply") throw malformed("the first line is not 'ply'", 1);
   std::string format;
@@ -748,9 +761,12 @@ template <class T>
 BasicMesh<T> parse_mesh(ByteSource& source, const std::string& format, const std::string& path) {
   if (source.size() == 0) throw InputError(path, "empty file");
   Reader reader(source, path);
+  if (format == "ply") return read_ply<T>(reader, path);
+  // Text a Windows editor saved may start with a byte-order mark: skipped (it is no statement of OBJ or OFF).
+  const bool bom = reader.skip_prefix(kBom);
+  if (bom && reader.at_end()) throw InputError(path, "empty file (only a UTF-8 byte-order mark)");
   if (format == "obj") return read_obj<T>(reader, path);
   if (format == "off") return read_off<T>(reader, path);
-  if (format == "ply") return read_ply<T>(reader, path);
   throw std::invalid_argument("parse_mesh: unknown format '" + format + "'");
 }
 
