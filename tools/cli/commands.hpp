@@ -41,7 +41,9 @@ struct DemoArgs {
 int run_demo(const DemoArgs& args);
 
 struct FiguresArgs {
-  std::string out_dir;  ///< empty: the source tree's docs/figures
+  /// Relative to the current folder, as demo's (never the source tree: docs/figures is regenerated on purpose,
+  /// with --out-dir docs/figures).
+  std::string out_dir = "mlsdeform-figures-out";
   std::string data_dir;
   std::string only;  ///< e.g. "1,5"; empty: all
   bool keep_spec = false;
@@ -53,7 +55,5 @@ Isa checked_active_isa();
 
 /// The bundled data folder (data/): args value, else $MLSDEFORM_DATA_DIR, else the source tree's.
 std::string data_dir(const std::string& from_args);
-/// The default for `figures --out-dir`.
-std::string default_figures_dir();
 
 }  // namespace mlsdeform::cli
