@@ -69,6 +69,11 @@ bool parse_number(std::string_view token, T& out) {
   return read_number(token, out) == std::errc();
 }
 
+std::string shortest_text(double v) {
+  char buf[32];
+  return std::string(buf, std::to_chars(buf, buf + sizeof buf, v).ptr);
+}
+
 /// A coordinate as T, or InputError: "not a number", or out of T's range (float: --precision double reads it).
 template <class T>
 T coordinate(std::string_view token, const std::string& path, const std::string& where) {
@@ -716,6 +721,12 @@ BasicMesh<T> read_ply(Reader& reader, const std::string& path) {
       if (int(e) == vertex_element) {
         // Vertex properties are all scalars (checked above): value k is property k.
         const T c[3] = {T(values[std::size_t(xyz[0])]), T(values[std::size_t(xyz[1])]), T(values[std::size_t(xyz[2])])};
+        for (int k = 0; k < 3; ++k)  // a finite double property that T cannot hold (a double beyond float's range)
+          if (std::isinf(c[k]) && std::isfinite(values[std::size_t(xyz[k])]))
+            throw InputError(path,
+                             "vertex " + std::to_string(i) + " has a coordinate beyond the range of float (" +
+                                 shortest_text(values[std::size_t(xyz[k])]) + "; --precision double reads it)",
+                             where());
         if (!finite3(c)) throw InputError(path, non_finite(std::size_t(i)), where());
         mesh.vertices.row(Eigen::Index(i)) << c[0], c[1], c[2];
       } else if (int(e) == face_element) {
