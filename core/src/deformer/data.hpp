@@ -34,12 +34,12 @@
 // Affine (Schaefer et al. 2006 normal equations, with G = sum_j A_j phat_j^T = sum_i int w phat phat^T / S):
 //   v' = q* + H G^-1 vhat = sum_j alpha_j q_j,   alpha_j = omega_j + A_j . (G^-1 vhat)   (precomputed)
 //
-// Snapped vertices (closer to a handle than 64 eps(T) times the scene size) take the map's limit at that
-// handle (precompute_table.cpp). At a point handle, or a segment with exact_integral weights: omega = 1 on that point
-// handle (or 1 - t, t on the ends of that segment, t the closest point), A = 0, vhat = 0 and D = 0: H = 0,
-// fit_rotation gives the identity, and v' = q* exactly. At a segment with paper_constant weights: the
-// coefficients of that segment alone with constant weight (omega = 1/2 at each end), as if every other
-// handle's weight had vanished.
+// Snapped vertices (closer to a handle than 64 eps(T) times their distance to the second-nearest handle;
+// snap.hpp derives the rule) take the map's limit at that handle (precompute_table.cpp). At a point handle, or a
+// segment with exact_integral weights: omega = 1 on that point handle (or 1 - t, t on the ends of that segment, t the
+// closest point), A = 0, vhat = 0 and D = 0: H = 0, fit_rotation gives the identity, and v' = q* exactly. At a segment
+// with paper_constant weights: the coefficients of that segment alone with constant weight (omega = 1/2 at each end),
+// as if every other handle's weight had vanished.
 //
 // Layout. Vertices are grouped in blocks of kLanes = 16 (padded; padding lanes carry omega = 0, A = 0,
 // vhat = 0, D = 0, alpha = 0). All arrays are 64-byte aligned.
@@ -105,7 +105,7 @@ struct DeformerData {
   bool on_the_fly = false;
   AlignedVector<T> v_local;  ///< rest vertices, local frame, SoA, padded
   AlignedVector<T> dref2;    ///< squared distance to the nearest handle, local (padding lanes: 1)
-  AlignedVector<T> snap;     ///< index of the handle a vertex sits on (closer than 64 eps the scene), else -1
+  AlignedVector<T> snap;     ///< index of the handle a vertex sits on (snap.hpp), else -1
   AlignedVector<T> p_local;  ///< point handles, local frame, SoA: x[k], y[k], z[k]
   double world_scale = 1;    ///< 2^e of the local frame
   T half_u = 1;              ///< u / 2: w = (dref2 / d2)^(u/2)
