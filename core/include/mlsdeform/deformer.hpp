@@ -119,8 +119,11 @@ class Deformer {
   /// Deform with the given moved handles (same counts as the rest handles; point handles that share a rest
   /// position must share their target too, since a vertex there cannot follow both). Writes `out` (resized
   /// only if its size is wrong); allocates nothing once `out` has its size. On invalid input throws
-  /// std::invalid_argument and leaves `out` untouched. With arap_iterations > 0 or a region, concurrent calls
-  /// on one session take turns (the refinement's or the region's scratch belongs to the session).
+  /// std::invalid_argument and leaves `out` untouched. A deformed position that T cannot hold (handles whose
+  /// targets map a vertex beyond T's range) is never returned: std::invalid_argument names the vertex, and
+  /// `out` is then unspecified (untouched with arap_iterations > 0). With arap_iterations > 0 or a region,
+  /// concurrent calls on one session take turns (the refinement's or the region's scratch belongs to the
+  /// session).
   void deform(const Handles<T>& moved_handles, Points<T>& out) const;
   /// The same, writing interleaved xyz (e.g. a mapped vertex buffer of vertex_count() * 3 values).
   void deform(const Handles<T>& moved_handles, InterleavedView<T> out) const;

@@ -9,6 +9,7 @@
 
 #include <mlsdeform/deformer.hpp>
 
+#include <cmath>
 #include <memory>
 #include <mutex>
 #include <stdexcept>
@@ -48,6 +49,23 @@ Vector3<T> rigid_image(const Vector3<T>& x, const Matrix3<T>& R, const Vector3<T
   Vector3<T> y;
   for (int i = 0; i < 3; ++i) y[i] = (((R(i, 0) * d[0] + R(i, 1) * d[1]) + R(i, 2) * d[2]) + pivot[i]) + t[i];
   return y;
+}
+
+/// Throws std::invalid_argument unless every coordinate of the n vertices at out[c * cstride + v * vstride] is
+/// finite: the moved handles may map a vertex beyond the range of T (extrapolation far from the handles, or
+/// targets near the largest coordinate), which is reported rather than returned. Allocates only on error.
+template <class T>
+void check_result(const T* out, std::size_t n, std::size_t vstride, std::size_t cstride) {
+  bool finite = true;
+  for (std::size_t c = 0; c < 3; ++c)
+    for (std::size_t v = 0; v < n; ++v) finite &= std::isfinite(out[c * cstride + v * vstride]);
+  if (finite) return;
+  for (std::size_t v = 0; v < n; ++v)
+    for (std::size_t c = 0; c < 3; ++c)
+      if (!std::isfinite(out[c * cstride + v * vstride]))
+        throw std::invalid_argument("Deformer: vertex " + std::to_string(v) + "'s deformed position overflows " +
+                                    (sizeof(T) == 4 ? "float" : "double") +
+                                    ": the moved handles map it beyond the range of the type");
 }
 
 }  // namespace detail
@@ -191,10 +209,14 @@ void Deformer<T>::deform(const Handles<T>& moved_handles, Points<T>& out) const 
   detail::check_coincident(moved_handles, impl().coincident);
   const auto n = static_cast<Eigen::Index>(impl().vertices());
   if (out.rows() != n) out.resize(n, 3);
-  if (!impl().arap) return impl().frame(moved_handles, out.data(), 1, static_cast<std::size_t>(n));
+  if (!impl().arap) {
+    impl().frame(moved_handles, out.data(), 1, static_cast<std::size_t>(n));
+    return detail::check_result(out.data(), static_cast<std::size_t>(n), 1, static_cast<std::size_t>(n));
+  }
   detail::ArapStage<T>& arap = *impl().arap;
   const std::lock_guard<std::mutex> lock(arap.mutex);
   impl().run(moved_handles, arap.mls.data(), 1, static_cast<std::size_t>(n));  // out untouched on a throw
+  detail::check_result(arap.mls.data(), static_cast<std::size_t>(n), 1, static_cast<std::size_t>(n));
   arap.run(arap.mls, impl().options.arap_iterations);
   out = arap.mls;
 }
@@ -206,10 +228,14 @@ void Deformer<T>::deform(const Handles<T>& moved_handles, InterleavedView<T> out
   if (out.rows() != static_cast<Eigen::Index>(impl().vertices()))
     throw std::invalid_argument("Deformer: the interleaved output has " + std::to_string(out.rows()) +
                                 " rows but the model has " + std::to_string(impl().vertices()) + " vertices");
-  if (!impl().arap) return impl().frame(moved_handles, out.data(), 3, 1);
+  if (!impl().arap) {
+    impl().frame(moved_handles, out.data(), 3, 1);
+    return detail::check_result(out.data(), impl().vertices(), 3, 1);
+  }
   detail::ArapStage<T>& arap = *impl().arap;
   const std::lock_guard<std::mutex> lock(arap.mutex);
   impl().run(moved_handles, arap.mls.data(), 1, static_cast<std::size_t>(impl().data.n));
+  detail::check_result(arap.mls.data(), impl().data.n, 1, impl().data.n);
   arap.run(arap.mls, impl().options.arap_iterations);
   out = arap.mls;
 }
