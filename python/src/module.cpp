@@ -496,8 +496,15 @@ py::tuple fit_points_t(const py::object& P, const py::object& Q, const py::objec
     weights = Eigen::Map<const Eigen::Matrix<T, Eigen::Dynamic, 1>>(a.data(), a.shape(0));
   }
   if (transform == Transform::affine) throw py::value_error("transform: fit_points supports 'rigid' and 'similarity'");
-  const SimilarityTransform<T> f =
-      transform == Transform::rigid ? fit_rigid<T>(p, q, weights, method) : fit_similarity<T>(p, q, weights, method);
+  SimilarityTransform<T> f;
+  try {
+    f = transform == Transform::rigid ? fit_rigid<T>(p, q, weights, method) : fit_similarity<T>(p, q, weights, method);
+  } catch (const std::invalid_argument& e) {
+    // The library names its own function (fit_rigid: ..., fit_similarity: ...); name the one called here.
+    const std::string what = e.what();
+    const std::size_t colon = what.find(": ");
+    throw py::value_error("fit_points" + (colon == std::string::npos ? ": " + what : what.substr(colon)));
+  }
   py::array_t<T> R({py::ssize_t(3), py::ssize_t(3)}), t(py::ssize_t(3));
   for (int i = 0; i < 3; ++i) {
     t.mutable_data()[i] = f.translation[i];
