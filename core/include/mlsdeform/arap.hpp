@@ -66,6 +66,10 @@ class ArapRefiner {
   /// sizes that do not match or non-finite input, and, leaving `out` unchanged, when a refined position
   /// overflows T.
   void refine(const Points<T>& start, const Points<T>& targets, int iterations, Points<T>& out);
+  /// refine() with start and targets given as the positions times 2^-exponent (exact powers of two: a caller
+  /// that holds them in a scaled frame, as the Deformer does, passes them without rounding them to its units
+  /// first); `out` is in the caller's units.
+  void refine_scaled(const Points<T>& start, const Points<T>& targets, int exponent, int iterations, Points<T>& out);
 
   /// E(x) with the optimal rotations for x (as one local step computes them), in double (in the units of the
   /// positions, squared: inf where that overflows double).

@@ -265,6 +265,12 @@ ArapRefiner<T>& ArapRefiner<T>::operator=(ArapRefiner&&) noexcept = default;
 
 template <class T>
 void ArapRefiner<T>::refine(const Points<T>& start, const Points<T>& targets, int iterations, Points<T>& out) {
+  refine_scaled(start, targets, 0, iterations, out);
+}
+
+template <class T>
+void ArapRefiner<T>::refine_scaled(const Points<T>& start, const Points<T>& targets, int exponent, int iterations,
+                                   Points<T>& out) {
   if (!impl_) throw std::logic_error("ArapRefiner: this session was moved from");
   Impl& m = *impl_;
   if (start.rows() != m.n)
@@ -281,8 +287,8 @@ void ArapRefiner<T>::refine(const Points<T>& start, const Points<T>& targets, in
   m.X = start.template cast<double>();  // row-major copy
   for (std::size_t k = 0; k < m.constrained.size(); ++k)
     m.X.row(m.constrained[k]) = targets.row(Eigen::Index(k)).template cast<double>();
-  const int f = std::max(m.rest_e, detail::exponent_of(m.X.cwiseAbs().maxCoeff()));
-  for (Eigen::Index i = 0; i < m.X.size(); ++i) m.X.data()[i] = std::ldexp(m.X.data()[i], -f);
+  const int f = std::max(m.rest_e, detail::exponent_of(m.X.cwiseAbs().maxCoeff()) + exponent);
+  for (Eigen::Index i = 0; i < m.X.size(); ++i) m.X.data()[i] = std::ldexp(m.X.data()[i], exponent - f);
   m.rest_to_x = std::ldexp(1.0, m.rest_e - f);
   for (int it = 0; it < iterations; ++it) {
     m.local_step();

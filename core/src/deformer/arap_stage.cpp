@@ -62,9 +62,9 @@ std::unique_ptr<ArapStage<T>> ArapStage<T>::make(const Points<T>& rest, const Tr
 }
 
 template <class T>
-void ArapStage<T>::run(Points<T>& x, int iterations) {
+void ArapStage<T>::run(Points<T>& x, int iterations, int exponent) {
   for (std::size_t k = 0; k < constrained.size(); ++k) targets.row(Eigen::Index(k)) = x.row(constrained[k]);
-  refiner.refine(x, targets, iterations, x);
+  refiner.refine_scaled(x, targets, exponent, iterations, x);
 }
 
 template struct ArapStage<float>;

@@ -2,6 +2,7 @@
 
 #include "validation.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <limits>
@@ -71,6 +72,7 @@ DeformerData<T> precompute(const Points<T>& vertices, const Handles<T>& handles,
   data.points = rh.k;
   data.segments = rh.s;
   data.scale = std::ldexp(1.0, scene.e);
+  data.target_limit = std::ldexp(coordinate_limit<T>(), std::min(scene.e, 0));
   const std::size_t np = data.padded();
   if (use_on_the_fly<T>(o, rh, np)) {
     precompute_on_the_fly(data, vertices, scene, rh, o, arena);
