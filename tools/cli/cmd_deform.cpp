@@ -100,10 +100,17 @@ int deform(const DeformArgs& a) {
       }
       deform_ms.push_back(ms_since(t0));
       result.vertices = out.template cast<float>();
-      if (!result.vertices.allFinite())
-        throw InputError(
-            a.handles, "the deformation produced non-finite coordinates (handles too far away or too close together?)",
-            where);
+      // The library refuses a result it cannot hold; here only a double result beyond float, the precision of
+      // the mesh written, is left to refuse.
+      if (!result.vertices.allFinite()) {
+        Eigen::Index v = 0;
+        while (result.vertices.row(v).allFinite()) ++v;
+        throw InputError(a.handles,
+                         "vertex " + std::to_string(v) +
+                             "'s deformed position overflows float, the precision of the mesh written (the moved "
+                             "handles map it beyond float's range)",
+                         where);
+      }
       t0 = Clock::now();
       write_mesh(result, outputs[f], {a.force, a.ply_ascii ? PlyEncoding::ascii : PlyEncoding::binary, true});
       written.push_back(outputs[f]);
