@@ -1,5 +1,6 @@
 // The Deformer session (deformer.hpp): construction (precompute.hpp), targets, and the per-frame driver that
 // hands a DeformFrame (kernels/contract.hpp) to the kernel table over blocks of kLanes vertices.
+#include "../all_finite.hpp"
 #include "../dispatch.hpp"
 #include "../parallel.hpp"
 #include "../pow2.hpp"
@@ -70,21 +71,18 @@ Vector3<T> rigid_image(const Vector3<T>& x, const Matrix3<T>& R, const Vector3<T
   return y;
 }
 
-/// Throws std::invalid_argument unless every coordinate of the n vertices at out[c * cstride + v * vstride] is
-/// finite: the moved handles may map a vertex beyond the range of T (extrapolation far from the handles, or
-/// targets near the largest coordinate), which is reported rather than returned. Allocates only on error.
+/// Throws std::invalid_argument unless every one of the 3n coordinates at out (n vertices, interleaved or by
+/// coordinate: `interleaved`) is finite: the moved handles may map a vertex beyond the range of T
+/// (extrapolation far from the handles, or targets near the largest coordinate), which is reported rather
+/// than returned. Allocates only on error.
 template <class T>
-void check_result(const T* out, std::size_t n, std::size_t vstride, std::size_t cstride) {
-  bool finite = true;
-  for (std::size_t c = 0; c < 3; ++c)
-    for (std::size_t v = 0; v < n; ++v) finite &= std::isfinite(out[c * cstride + v * vstride]);
-  if (finite) return;
-  for (std::size_t v = 0; v < n; ++v)
-    for (std::size_t c = 0; c < 3; ++c)
-      if (!std::isfinite(out[c * cstride + v * vstride]))
-        throw std::invalid_argument("Deformer: vertex " + std::to_string(v) + "'s deformed position overflows " +
-                                    (sizeof(T) == 4 ? "float" : "double") +
-                                    ": the moved handles map it beyond the range of the type");
+void check_result(const T* out, std::size_t n, bool interleaved) {
+  if (all_finite(out, 3 * n)) return;
+  std::size_t i = 0;
+  while (std::isfinite(out[i])) ++i;
+  throw std::invalid_argument("Deformer: vertex " + std::to_string(interleaved ? i / 3 : i % n) +
+                              "'s deformed position overflows " + (sizeof(T) == 4 ? "float" : "double") +
+                              ": the moved handles map it beyond the range of the type");
 }
 
 }  // namespace detail
@@ -230,14 +228,14 @@ void Deformer<T>::deform(const Handles<T>& moved_handles, Points<T>& out) const 
   if (out.rows() != n) out.resize(n, 3);
   if (!impl().arap) {
     impl().frame(moved_handles, out.data(), 1, static_cast<std::size_t>(n));
-    return detail::check_result(out.data(), static_cast<std::size_t>(n), 1, static_cast<std::size_t>(n));
+    return detail::check_result(out.data(), static_cast<std::size_t>(n), false);
   }
   detail::ArapStage<T>& arap = *impl().arap;
   const std::lock_guard<std::mutex> lock(arap.mutex);
   // MLS's result in the local frame, handed to the refinement as it is (no rounding to the caller's units in
   // between: the two stages together scale with the scene to the bit). out untouched on a throw.
   impl().run(moved_handles, arap.mls.data(), 1, static_cast<std::size_t>(n), true);
-  detail::check_result(arap.mls.data(), static_cast<std::size_t>(n), 1, static_cast<std::size_t>(n));
+  detail::check_result(arap.mls.data(), static_cast<std::size_t>(n), false);
   arap.run(arap.mls, impl().options.arap_iterations, std::ilogb(impl().data.scale));
   out = arap.mls;
 }
@@ -251,12 +249,12 @@ void Deformer<T>::deform(const Handles<T>& moved_handles, InterleavedView<T> out
                                 " rows but the model has " + std::to_string(impl().vertices()) + " vertices");
   if (!impl().arap) {
     impl().frame(moved_handles, out.data(), 3, 1);
-    return detail::check_result(out.data(), impl().vertices(), 3, 1);
+    return detail::check_result(out.data(), impl().vertices(), true);
   }
   detail::ArapStage<T>& arap = *impl().arap;
   const std::lock_guard<std::mutex> lock(arap.mutex);
   impl().run(moved_handles, arap.mls.data(), 1, static_cast<std::size_t>(impl().data.n), true);
-  detail::check_result(arap.mls.data(), impl().data.n, 1, impl().data.n);
+  detail::check_result(arap.mls.data(), impl().data.n, false);
   arap.run(arap.mls, impl().options.arap_iterations, std::ilogb(impl().data.scale));
   out = arap.mls;
 }
