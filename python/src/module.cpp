@@ -568,7 +568,8 @@ Deformed vertices for the moved handles: points (k, 3), segments (C, D); a kind 
 session's current targets (set_point_target / set_segment_target; initially the rest handles). out: a
 C-contiguous, writeable (n, 3) array of the session's dtype, written in place with no copy and returned;
 None allocates a new one. The GIL is released while deforming. On bad input raises ValueError/TypeError and
-writes nothing.)")
+writes nothing; a deformed position the dtype cannot hold raises ValueError naming the vertex (out has then
+been written over; with arap_iterations it is untouched).)")
       .def("set_point_target", &PyDeformer::set_point_target, py::arg("i"), py::arg("target"),
            "Move point handle i's target (3 numbers) for later deform() calls; IndexError if out of range.")
       .def("set_segment_target", &PyDeformer::set_segment_target, py::arg("i"), py::arg("a"), py::arg("b"),
