@@ -230,20 +230,23 @@ TEMPLATE_TEST_CASE("scale: regions, with and without the mesh's triangles", "[sc
   for (Eigen::Index i = 0; i < sc.vertices.rows(); ++i)
     if (std::abs(sc.vertices(i, 0) - T(15 / 32.0)) < T(0.2) && std::abs(sc.vertices(i, 1) - T(15 / 32.0)) < T(0.2))
       region.push_back(i);
-  for (const bool triangles : {true, false}) {
-    INFO(type_name<T>() << (triangles ? ", ring from the triangles" : ", ring from the nearest vertices"));
-    Options o;
-    o.region = region;
-    const Triangles f = triangles ? sc.triangles : Triangles();
-    Points<T> out0;
-    Deformer<T>(sc.vertices, f, sc.rest, o).deform(sc.moved, out0);
-    for (const int k : exponents<T>()) {
-      INFO("scale 2^" << k);
-      Points<T> out;
-      Deformer<T>(scaled(sc.vertices, k), f, scaled(sc.rest, k), o).deform(scaled(sc.moved, k), out);
-      CHECK(scaled_mismatch<T>(out, out0, k) == "");
+  for (const bool triangles : {true, false})
+    for (const Transform tr : {Transform::rigid, Transform::similarity, Transform::affine}) {
+      INFO(type_name<T>() << " " << name(tr)
+                          << (triangles ? ", ring from the triangles" : ", ring from the nearest vertices"));
+      Options o;
+      o.region = region;
+      o.transform = tr;
+      const Triangles f = triangles ? sc.triangles : Triangles();
+      Points<T> out0;
+      Deformer<T>(sc.vertices, f, sc.rest, o).deform(sc.moved, out0);
+      for (const int k : exponents<T>()) {
+        INFO("scale 2^" << k);
+        Points<T> out;
+        Deformer<T>(scaled(sc.vertices, k), f, scaled(sc.rest, k), o).deform(scaled(sc.moved, k), out);
+        CHECK(scaled_mismatch<T>(out, out0, k) == "");
+      }
     }
-  }
 }
 
 TEMPLATE_TEST_CASE("scale: ARAP refinement, in the deformer and alone", "[scale][arap]", float, double) {
