@@ -626,8 +626,15 @@ py::tuple fit_points_t(const py::object& P, const py::object& Q, const py::objec
     weights = Eigen::Map<const Eigen::Matrix<T, Eigen::Dynamic, 1>>(a.data(), a.shape(0));
   }
   if (transform == Transform::affine) throw py::value_error("transform: fit_points supports 'rigid' and 'similarity'");
-  const SimilarityTransform<T> f =
-      transform == Transform::rigid ? fit_rigid<T>(p, q, weights, method) : fit_similarity<T>(p, q, weights, method);
+  SimilarityTransform<T> f;
+  try {
+    f = transform == Transform::rigid ? fit_rigid<T>(p, q, weights, method) : fit_similarity<T>(p, q, weights, method);
+  } catch (const std::invalid_argument& e) {
+    // The library names its own function (fit_rigid: ..., fit_similarity: ...); name the one called here.
+    const std::string what = e.what();
+    const std::size_t colon = what.find(": ");
+    throw py::value_error("fit_points" + (colon == std::string::npos ? ": " + what : what.substr(colon)));
+  }
   py::array_t<T> R({py::ssize_t(3), py::ssize_t(3)}), t(py::ssize_t(3));
   for (int i = 0; i < 3; ++i) {
     t.mutable_data()[i] = f.translation[i];
@@ -693,7 +700,8 @@ Deformed vertices for the moved handles: points (k, 3), segments (C, D); a kind 
 session's current targets (set_point_target / set_segment_target; initially the rest handles). out: a
 C-contiguous, writeable (n, 3) array of the session's dtype, written in place with no copy and returned;
 None allocates a new one. The GIL is released while deforming. On bad input raises ValueError/TypeError and
-writes nothing.)")
+writes nothing; a deformed position the dtype cannot hold raises ValueError naming the vertex (out has then
+been written over; with arap_iterations it is untouched).)")
       .def("set_point_target", on_session(&PyDeformer::set_point_target), py::arg("i"), py::arg("target"),
            "Move point handle i's target (3 numbers) for later deform() calls; IndexError if out of range.")
       .def("set_segment_target", on_session(&PyDeformer::set_segment_target), py::arg("i"), py::arg("a"), py::arg("b"),

@@ -229,8 +229,8 @@ TEST_CASE("literals beyond float's range are refused in float with a reason and 
               "float"});
   CHECK(r.exit_code == 2);
   CHECK(r.err == "mlsdeform: error: " + dir / "h.json" +
-                     ": the deformed coordinates are beyond the range of float, the output's coordinate type "
-                     "(--output-type double writes them)\n");
+                     ": vertex 0's deformed position overflows float, the output's coordinate type "
+                     "(--output-type double writes it)\n");
   CHECK(!std::filesystem::exists(dir / "f.ply"));
   // Beyond double's range, in double: refused as such.
   write_text(dir / "huge.obj", "v 1e309 0 0\nv 0 1 0\nv 0 0 1\n");

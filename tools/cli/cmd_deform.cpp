@@ -102,15 +102,17 @@ int deform(const DeformArgs& a) {
       }
       deform_ms.push_back(ms_since(t0));
       result.vertices = out;
-      if (!result.vertices.allFinite())
-        throw InputError(
-            a.handles, "the deformation produced non-finite coordinates (handles too far away or too close together?)",
-            where);
-      if (narrowed && !result.vertices.template cast<float>().allFinite())
+      // The library refuses a result T cannot hold; here only a double result beyond float, the coordinate
+      // type of the mesh written, is left to refuse.
+      if (narrowed && !result.vertices.template cast<float>().allFinite()) {
+        Eigen::Index v = 0;
+        while (result.vertices.row(v).template cast<float>().allFinite()) ++v;
         throw InputError(a.handles,
-                         "the deformed coordinates are beyond the range of float, the output's coordinate type "
-                         "(--output-type double writes them)",
+                         "vertex " + std::to_string(v) +
+                             "'s deformed position overflows float, the output's coordinate type (--output-type "
+                             "double writes it)",
                          where);
+      }
       t0 = Clock::now();
       write_mesh(result, outputs[f], write);
       written.push_back(outputs[f]);

@@ -26,8 +26,9 @@ struct ArapStage {
   static std::unique_ptr<ArapStage> make(const Points<T>& rest_vertices, const Triangles& triangles,
                                          const Handles<T>& rest_handles, const Options& options);
 
-  /// `x` holds MLS's result (n x 3): refined in place, `iterations` times.
-  void run(Points<T>& x, int iterations);
+  /// `x` holds MLS's result (n x 3) times 2^-exponent (the deformer's local frame, data.hpp): refined in
+  /// place, `iterations` times, into the caller's units.
+  void run(Points<T>& x, int iterations, int exponent);
 };
 
 /// Throws std::invalid_argument unless every index of `triangles` is in [0, n).

@@ -90,6 +90,7 @@ DeformerData<T> precompute(const Points<T>& vertices, const Handles<T>& handles,
   data.points = rh.k;
   data.segments = rh.s;
   data.scale = std::ldexp(1.0, scene.e);
+  data.target_limit = std::ldexp(coordinate_limit<T>(), std::min(scene.e, 0));
   const std::size_t np = data.padded();
   if (use_on_the_fly<T>(o, rh, np)) {
     precompute_on_the_fly(data, vertices, scene, rh, o, arena);

@@ -18,7 +18,6 @@ void precompute_on_the_fly(DeformerData<T>& data, const Points<T>& vertices, con
                            const RestHandles& rh, const Options& o, tbb::task_arena* arena) {
   const std::size_t np = data.padded(), k = rh.k;
   data.on_the_fly = true;
-  data.world_scale = std::ldexp(1.0, scene.e);
   data.half_u = T(o.weight_exponent / 2);
   data.v_local.assign(3 * np, T(0));
   data.dref2.assign(np, T(1));

@@ -184,10 +184,10 @@ void precompute_block(DeformerData<T>& data, std::size_t b, const Points<T>& ver
       }
       for (int c = 0; c < 3; ++c) {
         data.p_star[c * np + i] = T(scene.centre[c] + std::ldexp(p_star[c], scene.e));
-        data.vhat[c * np + i] = T(std::ldexp(vhat[c], scene.e));
+        data.vhat[c * np + i] = T(vhat[c]);
       }
-      // Units (data.hpp): A in local units times 2^s, D as (physical D) / 2^e times 2^s.
-      if (data.transform == Transform::similarity) data.D[i] = T(std::ldexp(D, scene.e));
+      // Units (data.hpp): vhat local, A and D local times 2^s.
+      if (data.transform == Transform::similarity) data.D[i] = T(D);
     }
   }
 }
