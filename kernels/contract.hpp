@@ -58,6 +58,9 @@ enum class WeightSource { table, on_the_fly };
 /// session (core/src/deformer/session.cpp) and read by every entry of the kernel table, the scalar reference
 /// included. Targets come straight from the caller's handles: point j at (points[j], points[k + j],
 /// points[2k + j]) (column-major k x 3), then for each segment i its ends seg_a and seg_b (column-major s x 3).
+/// The kernels work in the session's local frame (data.hpp, Units): a target q enters as q * local_scale, and
+/// a result leaves as (local result) * world_scale, both exact powers of two, so that no intermediate
+/// overflows or underflows and the frame is the same, to the bit, at every scale of the scene.
 template <class T>
 struct DeformFrame {
   Transform transform;    ///< rigid, similarity or affine
@@ -75,8 +78,9 @@ struct DeformFrame {
   const T* dref2;    ///< squared nearest-handle distance [v]
   const T* snap;     ///< handle index a vertex sits on, or -1 [v]
   const T* p_local;  ///< point handles, local frame, SoA [c * k + j]
-  T world_scale;     ///< 2^e of the local frame
   T half_u;          ///< u / 2
+  T local_scale;     ///< 2^-e: the caller's units to the local frame's
+  T world_scale;     ///< 2^e: the local frame's units to the caller's
 
   // Targets.
   const T* points;  ///< k x 3 column-major
@@ -84,7 +88,7 @@ struct DeformFrame {
   const T* seg_a;  ///< s x 3 column-major
   const T* seg_b;
   std::size_t s;
-  T centre[3];  ///< c: H = sum_j (q_j - c) A_j^T
+  T centre[3];  ///< c, local frame: H = sum_j (q_j local_scale - c) A_j^T
 
   // Output: vertex v, coordinate c at out[c * out_coord_stride + v * out_vertex_stride].
   T* out;

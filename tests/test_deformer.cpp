@@ -110,9 +110,17 @@ TEMPLATE_TEST_CASE("interpolation: vertices within the snapping distance of a ha
   using T = TestType;
   std::mt19937_64 g(seed());
   INFO("seed " << seed());
+  // deformer/snap.hpp: closer than 64 eps(T) times the distance to the second-nearest handle snaps. An offset
+  // of one ulp of a coordinate below 1 (at most eps(T) / 2) is inside that when the handles are at least
+  // 1/128 apart: drawn until they are.
+  auto spacing = [](const Points<T>& p) {
+    double d = std::numeric_limits<double>::infinity();
+    for (Eigen::Index i = 0; i < p.rows(); ++i)
+      for (Eigen::Index j = 0; j < i; ++j) d = std::min(d, double((p.row(i) - p.row(j)).norm()));
+    return d;
+  };
   Scene<T> sc = random_scene<T>(g, 20, 6, 0);
-  // deformer/data.hpp: closer than 64 eps(T) times the scene size (about 3.5 here) snaps. Offsets of a few
-  // ulps of the coordinates are far inside that; the weights there would be ~eps^-u without the rule.
+  while (!(spacing(sc.rest.points) >= 1.0 / 64)) sc = random_scene<T>(g, 20, 6, 0);
   for (Eigen::Index i = 0; i < 6; ++i) {
     sc.vertices.row(i) = sc.rest.points.row(i);
     sc.vertices(i, int(i % 3)) = std::nextafter(sc.vertices(i, int(i % 3)), T(10));
@@ -136,8 +144,8 @@ TEMPLATE_TEST_CASE("extreme weight exponents and vertices close to handles stay 
   std::mt19937_64 g(seed());
   INFO("seed " << seed());
   Scene<T> sc = random_scene<T>(g, 200, 7, 2);
-  // Vertices 1e-3 of the scene from a handle, and 4 times the snapping distance (deformer/data.hpp:
-  // 64 eps(T) times the scene size; about 1e-4 in float, 2e-13 in double): weight ratios down to
+  // Vertices 1e-3 of the scene from a handle, and 4 times 64 eps(T) times the scene size (about 1e-4 in
+  // float, 2e-13 in double; beyond the snapping distance, deformer/snap.hpp): weight ratios down to
   // (1e-4 / 3.5)^20 = 1e-90 in float and (5e-14)^20 = 1e-266 in double. The first is far below the float
   // range: the per-vertex power-of-two scaling of A keeps those handles in H. (For u * log10(d_min / d)
   // below about -300 the weights leave the double range too and the farther handles stop counting.)

@@ -70,6 +70,31 @@ TEMPLATE_TEST_CASE("bad rest input is rejected with a message naming the problem
     h.segment_b.row(1) = h.segment_a.row(1);
     expect_ctor_error(sc.vertices, h, o, "segment handle 1 has zero length");
   }
+  SECTION("a segment is a point when shorter than the snapping distance at its end, whatever the vertices") {
+    // deformer/snap.hpp: |b - a| <= 64 eps(T) times the distance from a to the nearest other handle. Handles
+    // (0,0,0) and a segment from (1,0,0), so that distance is 1; a vertex far away changes nothing.
+    const T eps = std::numeric_limits<T>::epsilon();
+    Handles<T> h;
+    h.points = Points<T>::Zero(1, 3);
+    h.segment_a = Points<T>(1, 3);
+    h.segment_a << 1, 0, 0;
+    h.segment_b = h.segment_a;
+    Points<T> v = sc.vertices;
+    v.row(0) << T(1e4), T(0), T(0);  // before: 64 eps(T) times the scene's diagonal (1e4) made 1e-3 a point
+    h.segment_b(0, 1) = T(32 * eps);
+    expect_ctor_error(v, h, o, "segment handle 0 has zero length");
+    for (T len : {T(128 * eps), T(1e-3)}) {
+      h.segment_b(0, 1) = len;
+      CHECK_NOTHROW(Deformer<T>(v, h, o));
+    }
+    // A lone segment has no other handle to measure against: only a zero length is refused.
+    Handles<T> lone;
+    lone.segment_a = h.segment_a;
+    lone.segment_b = h.segment_a;
+    expect_ctor_error(v, lone, o, "segment handle 0 has zero length");
+    lone.segment_b(0, 1) = std::numeric_limits<T>::epsilon();
+    CHECK_NOTHROW(Deformer<T>(v, lone, o));
+  }
   SECTION("affine with handles that do not span 3D") {
     o.transform = Transform::affine;
     Handles<T> h;

@@ -25,12 +25,11 @@ target_link_libraries(mlsdeform_cli
   PRIVATE nlohmann_json::nlohmann_json ZLIB::ZLIB mlsdeform_warnings)
 # Where the program finds its bundled data, the shared meshes (fig. 2's fish; optional) and the figure script
 # when run from the build tree (each can be overridden at run time: MLSDEFORM_DATA_DIR, MLSDEFORM_MESHES,
-# MLSDEFORM_FIGURES_SCRIPT; `figures --out-dir`).
+# MLSDEFORM_FIGURES_SCRIPT).
 target_compile_definitions(mlsdeform_cli PRIVATE
   MLSDEFORM_DATA_DIR="${PROJECT_SOURCE_DIR}/data"
   MLSDEFORM_SHARED_MESHES="${PROJECT_SOURCE_DIR}/../shared/data/meshes"
-  MLSDEFORM_FIGURES_SCRIPT="${PROJECT_SOURCE_DIR}/tools/figures.py"
-  MLSDEFORM_FIGURES_DIR="${PROJECT_SOURCE_DIR}/docs/figures")
+  MLSDEFORM_FIGURES_SCRIPT="${PROJECT_SOURCE_DIR}/tools/figures.py")
 
 add_executable(mlsdeform ${_cli}/main.cpp)
 target_link_libraries(mlsdeform PRIVATE mlsdeform_cli CLI11::CLI11 mlsdeform_warnings)

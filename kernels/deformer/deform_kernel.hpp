@@ -6,7 +6,9 @@
 //   similarity_scale                         mu (similarity), else 1
 //   apply                                    v' = q* + mu R vhat
 // Affine: v' = sum_j alpha_j q_j. The pseudo-handles are visited in the same order as the scalar code, so a
-// vertex's sums see the same terms in the same order (its lane), whatever the thread or block schedule.
+// vertex's sums see the same terms in the same order (its lane), whatever the thread or block schedule. As
+// there, everything is in the local frame: targets times local_scale as they are read, results times
+// world_scale before they are stored.
 #pragma once
 
 #include "../contract.hpp"
@@ -24,15 +26,23 @@ struct DeformKernel : Simd<T, A> {
   using Simd<T, A>::W;
   static_assert(kLanes % W == 0, "a block holds a whole number of batches");
 
-  /// f(j, q) for every pseudo-handle in the scalar code's order: points, then each segment's ends.
+  /// f(j, q) for every pseudo-handle in the scalar code's order (points, then each segment's ends), q in the
+  /// local frame.
   template <class F>
   static void for_each_target(const DeformFrame<T>& fr, F&& f) {
+    const T ls = fr.local_scale;
     std::size_t j = 0;
-    for (std::size_t i = 0; i < fr.k; ++i, ++j) f(j, fr.points[i], fr.points[fr.k + i], fr.points[2 * fr.k + i]);
+    for (std::size_t i = 0; i < fr.k; ++i, ++j)
+      f(j, fr.points[i] * ls, fr.points[fr.k + i] * ls, fr.points[2 * fr.k + i] * ls);
     for (std::size_t i = 0; i < fr.s; ++i) {
-      f(j++, fr.seg_a[i], fr.seg_a[fr.s + i], fr.seg_a[2 * fr.s + i]);
-      f(j++, fr.seg_b[i], fr.seg_b[fr.s + i], fr.seg_b[2 * fr.s + i]);
+      f(j++, fr.seg_a[i] * ls, fr.seg_a[fr.s + i] * ls, fr.seg_a[2 * fr.s + i] * ls);
+      f(j++, fr.seg_b[i] * ls, fr.seg_b[fr.s + i] * ls, fr.seg_b[2 * fr.s + i] * ls);
     }
+  }
+
+  /// From the local frame to the caller's units.
+  MLSDEFORM_KERNEL_INLINE static void to_world(const DeformFrame<T>& fr, V (&out)[3]) {
+    for (V& x : out) x = x * V(fr.world_scale);
   }
 
   /// w = (dref2 / d2)^(u/2); u = 2 (the default) needs no power.
@@ -62,13 +72,14 @@ struct DeformKernel : Simd<T, A> {
     const V vx = V::load_aligned(fr.v_local + v0), vy = V::load_aligned(fr.v_local + fr.padded + v0),
             vz = V::load_aligned(fr.v_local + 2 * fr.padded + v0), dref2 = V::load_aligned(fr.dref2 + v0);
     const T *px = fr.p_local, *py = px + fr.k, *pz = px + 2 * fr.k;
+    const T ls = fr.local_scale;
     V S(T(0)), ps[3] = {V(T(0)), V(T(0)), V(T(0))}, qs[3] = {V(T(0)), V(T(0)), V(T(0))};
     for (std::size_t j = 0; j < fr.k; ++j) {
       const V dx = V(px[j]) - vx, dy = V(py[j]) - vy, dz = V(pz[j]) - vz;
       const V w = relative_weight(dref2 / (dx * dx + dy * dy + dz * dz), fr.half_u);
       S = S + w;
       ps[0] = ps[0] + w * dx, ps[1] = ps[1] + w * dy, ps[2] = ps[2] + w * dz;
-      weighted_centroid(qs, w, {V(fr.points[j]), V(fr.points[fr.k + j]), V(fr.points[2 * fr.k + j])});
+      weighted_centroid(qs, w, {V(fr.points[j] * ls), V(fr.points[fr.k + j] * ls), V(fr.points[2 * fr.k + j] * ls)});
     }
     const V inv_S = V(T(1)) / S;
     for (V& x : ps) x = x * inv_S;
@@ -80,8 +91,8 @@ struct DeformKernel : Simd<T, A> {
       const V w = relative_weight(dref2 / (dx * dx + dy * dy + dz * dz), fr.half_u) * inv_S;
       const V ph[3] = {dx - ps[0], dy - ps[1], dz - ps[2]};
       const V a[3] = {w * ph[0], w * ph[1], w * ph[2]};
-      const V d[3] = {V(fr.points[j] - fr.centre[0]), V(fr.points[fr.k + j] - fr.centre[1]),
-                      V(fr.points[2 * fr.k + j] - fr.centre[2])};
+      const V d[3] = {V(fr.points[j] * ls - fr.centre[0]), V(fr.points[fr.k + j] * ls - fr.centre[1]),
+                      V(fr.points[2 * fr.k + j] * ls - fr.centre[2])};
       correlation_matrix(h, d, a);
       for (int r = 0; r < 3; ++r) sum_a[r] = sum_a[r] + a[r];
       D = D + (a[0] * ph[0] + a[1] * ph[1] + a[2] * ph[2]);
@@ -90,8 +101,8 @@ struct DeformKernel : Simd<T, A> {
       for (int c = 0; c < 3; ++c) h[3 * r + c] = h[3 * r + c] - (qs[r] - V(fr.centre[r])) * sum_a[c];
     const V vh[3] = {-ps[0], -ps[1], -ps[2]};
     V out[3];
-    rotate_and_apply(fr, h, qs, vh, D, V(fr.world_scale), out);
-    // Vertices on a handle (scalar: write q_j exactly); padding lanes have snap = -1.
+    rotate_and_apply(fr, h, qs, vh, D, V(T(1)), out);
+    // Vertices on a handle (scalar: q_j exactly, in the local frame); padding lanes have snap = -1.
     const V snap = V::load_aligned(fr.snap + v0);
     if (any(snap >= V(T(0)))) {
       alignas(64) T buf[3][W], sb[W];
@@ -100,10 +111,11 @@ struct DeformKernel : Simd<T, A> {
       for (std::size_t l = 0; l < W; ++l)
         if (sb[l] >= T(0)) {
           const std::size_t j = static_cast<std::size_t>(sb[l]);
-          for (std::size_t c = 0; c < 3; ++c) buf[c][l] = fr.points[c * fr.k + j];
+          for (std::size_t c = 0; c < 3; ++c) buf[c][l] = fr.points[c * fr.k + j] * ls;
         }
       for (int c = 0; c < 3; ++c) out[c] = V::load_aligned(buf[c]);
     }
+    to_world(fr, out);
     store(fr, v0, out);
   }
 
@@ -136,6 +148,7 @@ struct DeformKernel : Simd<T, A> {
       const V D = fr.transform == Transform::similarity ? V::load_aligned(fr.D + v0) : V(T(0));
       rotate_and_apply(fr, h, qs, vh, D, V(T(1)), out);
     }
+    to_world(fr, out);
     store(fr, v0, out);
   }
 

@@ -119,17 +119,23 @@ std::string shape_of(const py::array& a) {
 }
 
 /// obj as a C-contiguous array of T (converted, copied only if it is not one already), or a null array with
-/// Python's error indicator cleared where it cannot be converted: the caller raises its own error.
+/// Python's error indicator cleared where it cannot be converted: the caller raises its own error. Complex
+/// numbers are refused (numpy's cast would drop the imaginary part with no more than a warning), and so are
+/// dates and durations (their raw counts are no coordinates).
 template <class T>
 Array<T> try_array(const py::handle& obj) {
-  Array<T> a;
-  try {
-    a = Array<T>::ensure(obj);
-  } catch (const py::error_already_set&) {
-    a = Array<T>();
-  }
-  if (!a) PyErr_Clear();
-  return a;
+  // ensure() gives a null array, with the error indicator cleared, where numpy cannot convert.
+  const py::array any = py::array::ensure(obj);
+  const char kind = any ? any.dtype().kind() : 'c';
+  if (kind == 'c' || kind == 'm' || kind == 'M') return py::reinterpret_steal<Array<T>>(py::handle());
+  return Array<T>::ensure(any);
+}
+
+/// What a refused argument was, for the message: its dtype if it is an array, else its type.
+std::string received(const py::handle& obj) {
+  if (py::isinstance<py::array>(obj))
+    return "an array of dtype " + std::string(py::str(py::reinterpret_borrow<py::array>(obj).dtype()));
+  return std::string(py::str(py::type::of(obj).attr("__name__")));
 }
 
 /// An (n, 3) array of T from any array-like.
@@ -137,8 +143,7 @@ template <class T>
 Array<T> as_n3(const py::handle& obj, const char* name) {
   const Array<T> a = try_array<T>(obj);
   if (!a) {
-    throw py::type_error(std::string(name) + ": expected an (n, 3) array of numbers, got " +
-                         std::string(py::str(py::type::of(obj).attr("__name__"))));
+    throw py::type_error(std::string(name) + ": expected an (n, 3) array of real numbers, got " + received(obj));
   }
   if (a.ndim() != 2 || a.shape(1) != 3)
     throw py::value_error(std::string(name) + ": expected shape (n, 3), got " + shape_of(a));
@@ -161,6 +166,81 @@ py::array_t<T> from_points(const Points<T>& p) {
   for (Eigen::Index i = 0; i < p.rows(); ++i)
     for (int c = 0; c < 3; ++c) d[3 * i + c] = p(i, c);
   return a;
+}
+
+/// The bytes [first, last) that an array's elements span, whatever its strides (negative, zero): the bounds
+/// numpy's may_share_memory compares. An empty array spans nothing.
+std::pair<std::uintptr_t, std::uintptr_t> byte_extent(const py::array& a) {
+  std::uintptr_t first = reinterpret_cast<std::uintptr_t>(a.data()), last = first;
+  if (a.size() == 0) return {first, first};
+  for (py::ssize_t d = 0; d < a.ndim(); ++d) {
+    const py::ssize_t step = (a.shape(d) - 1) * a.strides(d);
+    if (step < 0)
+      first -= std::uintptr_t(-step);
+    else
+      last += std::uintptr_t(step);
+  }
+  return {first, last + std::uintptr_t(a.itemsize())};
+}
+
+/// Whether two arrays' memory bounds intersect (numpy's may_share_memory): conservative for interleaved
+/// strided views, exact for the C-contiguous arrays the kernels read and write.
+bool may_share_memory(const py::array& a, const py::array& b) {
+  const auto [a0, a1] = byte_extent(a);
+  const auto [b0, b1] = byte_extent(b);
+  return a0 < b1 && b0 < a1;
+}
+
+/// `threads` of every call that takes one, checked in one place so that the session and the batched fit
+/// refuse the same values with the same message (1 = the calling thread, 0 = all cores).
+int checked_threads(int threads) {
+  if (threads < 0)
+    throw py::value_error("threads: expected 0 (all cores) or a positive number of threads, got " +
+                          std::to_string(threads));
+  return threads;
+}
+
+/// Integer indices (faces, region, handle groups) from any array-like, as a C-contiguous int64 array: integer
+/// arrays as they are; float arrays (a mesh read as floats) only where every value is an integer, converted
+/// exactly. A fractional, non-finite or too large value is a ValueError naming the argument and the value,
+/// never truncated; any other dtype (bool, str, object) is a TypeError. Range checks are the caller's.
+py::array_t<long long> integer_indices(const py::object& obj, const char* name, const char* expected) {
+  using Int64 = py::array_t<long long, py::array::c_style | py::array::forcecast>;
+  py::array a;
+  try {
+    a = py::array::ensure(obj);
+  } catch (const py::error_already_set&) {
+  }
+  if (!a) {
+    PyErr_Clear();
+    throw py::type_error(std::string(name) + ": expected " + expected);
+  }
+  const char kind = a.dtype().kind();
+  if (a.size() == 0 || kind == 'i') return Int64::ensure(a);
+  if (kind == 'u') {
+    const auto u = py::array_t<unsigned long long, py::array::c_style | py::array::forcecast>::ensure(a);
+    for (py::ssize_t i = 0; i < u.size(); ++i)
+      if (u.data()[i] > static_cast<unsigned long long>(std::numeric_limits<long long>::max()))
+        throw py::value_error(std::string(name) + ": index " + std::to_string(u.data()[i]) + " is too large");
+    return Int64::ensure(a);
+  }
+  if (kind != 'f')
+    throw py::type_error(std::string(name) + ": expected " + expected + ", got dtype " +
+                         std::string(py::str(a.dtype())) + (kind == 'b' ? " (for a mask: np.flatnonzero(mask))" : ""));
+  const auto f = py::array_t<double, py::array::c_style | py::array::forcecast>::ensure(a);
+  Int64 r(std::vector<py::ssize_t>(f.shape(), f.shape() + f.ndim()));
+  // 2^63 is a double; every integral double in [-2^63, 2^63) converts to int64 exactly.
+  constexpr double limit = 9223372036854775808.0;
+  for (py::ssize_t i = 0; i < f.size(); ++i) {
+    const double x = f.data()[i];
+    if (!(std::isfinite(x) && x == std::trunc(x)))
+      throw py::value_error(std::string(name) + ": expected " + expected + ", found " +
+                            std::string(py::repr(py::float_(x))) + " (entry " + std::to_string(i) + ")");
+    if (!(x >= -limit && x < limit))
+      throw py::value_error(std::string(name) + ": index " + std::string(py::repr(py::float_(x))) + " is too large");
+    r.mutable_data()[i] = static_cast<long long>(x);
+  }
+  return r;
 }
 
 template <class E>
@@ -244,7 +324,7 @@ class PyDeformer {
     o.segment_weight = parse_enum<SegmentWeight>(
         segment_weight, "segment_weight",
         {{"paper_constant", SegmentWeight::paper_constant}, {"exact_integral", SegmentWeight::exact_integral}});
-    o.threads = threads;
+    o.threads = checked_threads(threads);
     o.weight_storage = parse_enum<WeightStorage>(weight_storage, "weight_storage",
                                                  {{"automatic", WeightStorage::automatic},
                                                   {"precomputed", WeightStorage::precomputed},
@@ -347,7 +427,7 @@ class PyDeformer {
   template <class T>
   static Vector3<T> vector3(const py::object& obj, const char* name) {
     const Array<T> a = try_array<T>(obj);
-    if (!a) throw py::type_error(std::string(name) + ": expected 3 numbers");
+    if (!a) throw py::type_error(std::string(name) + ": expected 3 real numbers, got " + received(obj));
     if (a.size() != 3) throw py::value_error(std::string(name) + ": expected 3 numbers, got shape " + shape_of(a));
     return Vector3<T>(a.data()[0], a.data()[1], a.data()[2]);
   }
@@ -355,7 +435,7 @@ class PyDeformer {
   template <class T>
   static Matrix3<T> matrix3(const py::object& obj, const char* name) {
     const Array<T> a = try_array<T>(obj);
-    if (!a) throw py::type_error(std::string(name) + ": expected a 3 x 3 array");
+    if (!a) throw py::type_error(std::string(name) + ": expected a 3 x 3 array of real numbers, got " + received(obj));
     if (a.ndim() != 2 || a.shape(0) != 3 || a.shape(1) != 3)
       throw py::value_error(std::string(name) + ": expected shape (3, 3), got " + shape_of(a));
     Matrix3<T> m;
@@ -366,19 +446,19 @@ class PyDeformer {
 
   /// A 1-D sequence of integer indices (region=, transform_handles): range checks are the library's.
   static std::vector<Eigen::Index> to_indices(const py::object& obj, const char* name) {
-    const py::array a = py::array::ensure(obj);
-    if (!a || a.ndim() != 1 || (a.size() > 0 && a.dtype().kind() != 'i' && a.dtype().kind() != 'u'))
-      throw py::type_error(std::string(name) + ": expected a 1-D sequence of integer indices");
-    const auto ints = py::array_t<long long, py::array::c_style | py::array::forcecast>::ensure(a);
+    const auto ints = integer_indices(obj, name, "a 1-D sequence of integer indices");
+    if (ints.ndim() != 1)
+      throw py::value_error(std::string(name) + ": expected a 1-D sequence of integer indices, got shape " +
+                            shape_of(ints));
     return std::vector<Eigen::Index>(ints.data(), ints.data() + ints.size());
   }
 
   /// faces: None or an (m, 3) array of integer vertex indices.
   static Triangles to_triangles(const py::object& faces) {
     if (faces.is_none()) return Triangles();
-    const auto a = py::array_t<long long, py::array::c_style | py::array::forcecast>::ensure(faces);
-    if (!a || a.ndim() != 2 || a.shape(1) != 3)
-      throw py::value_error("faces: expected an (m, 3) array of vertex indices");
+    const auto a = integer_indices(faces, "faces", "an (m, 3) array of integer vertex indices");
+    if (a.ndim() != 2 || a.shape(1) != 3)
+      throw py::value_error("faces: expected an (m, 3) array of vertex indices, got shape " + shape_of(a));
     Triangles t(a.shape(0), 3);
     const long long* f = a.data();
     for (Eigen::Index i = 0; i < t.size(); ++i) {
@@ -458,6 +538,50 @@ class PyDeformer {
   }
 };
 
+/// `self` of a Deformer method, as the Python object: pybind11 hands a method the raw, never-constructed
+/// memory of an instance made by `Deformer.__new__` alone, so every method first asks whether __init__
+/// constructed the session (session() below). Named as the class in signatures and help().
+bool is_deformer(PyObject* o) { return py::isinstance<PyDeformer>(o); }
+class DeformerObject : public py::object {
+ public:
+  PYBIND11_OBJECT_DEFAULT(DeformerObject, py::object, is_deformer)
+};
+
+/// Whether pybind11 has constructed the C++ session of this Python object (its own test in the metaclass's
+/// "__init__() must be called" check).
+bool constructed(const DeformerObject& self) {
+  return reinterpret_cast<py::detail::instance*>(self.ptr())->get_value_and_holder().holder_constructed();
+}
+
+/// The session of `self`, or TypeError for an instance __init__ never constructed.
+PyDeformer& session(const DeformerObject& self) {
+  if (!constructed(self))
+    throw py::type_error(
+        "Deformer: this instance was never initialised (Deformer.__new__ without __init__); "
+        "create sessions as mlsdeform.Deformer(vertices, points=..., ...)");
+  return self.cast<PyDeformer&>();
+}
+
+}  // namespace
+
+// In signatures and help(), `self` is named as the class it must be.
+template <>
+struct pybind11::detail::handle_type_name<DeformerObject> {
+  static constexpr auto name = const_name<PyDeformer>();
+};
+
+namespace {
+
+/// A member function of PyDeformer as a binding that checks `self` first (session()).
+template <class R, class... A>
+auto on_session(R (PyDeformer::*f)(A...) const) {
+  return [f](const DeformerObject& self, A... a) -> R { return (session(self).*f)(std::forward<A>(a)...); };
+}
+template <class R, class... A>
+auto on_session(R (PyDeformer::*f)(A...)) {
+  return [f](const DeformerObject& self, A... a) -> R { return (session(self).*f)(std::forward<A>(a)...); };
+}
+
 /// (m, 3, 3) -> (m, 3, 3) through the library's 3 x 3 x m structure-of-arrays batch (scratch transposes).
 /// `out`: None (a new array) or a C-contiguous, writeable (m, 3, 3) array of T, written in place.
 template <class T>
@@ -487,12 +611,18 @@ template <class T>
 }
 
 template <class T>
-py::array_t<T> fit_rotations_t(const Array<T>& H, RotationMethod method, int threads, double* seconds_cpp,
+py::array_t<T> fit_rotations_t(Array<T> H, RotationMethod method, int threads, double* seconds_cpp,
                                const py::object& out = py::none()) {
   if (H.ndim() != 3 || H.shape(1) != 3 || H.shape(2) != 3)
     throw py::value_error("H: expected shape (m, 3, 3), got " + shape_of(H));
+  checked_threads(threads);
   const std::size_t m = static_cast<std::size_t>(H.shape(0));
   py::array_t<T> R = rotations_out<T>(out, H.shape(0));
+  // Both are C-contiguous (m, 3, 3) arrays of T here, so `out` either is H (each block below is copied out
+  // of H before its rotations are written back over the same rows: in place works) or overlaps it shifted,
+  // where writing block b would overwrite the H of a block not read yet: then the rotations go to the scratch
+  // array below and reach `out` only after the last block has read H.
+  const bool overlaps = !out.is_none() && R.data() != H.data() && may_share_memory(H, R);
   const T* h = H.data();
   T* r = R.mutable_data();
   SignalWatch watch;
@@ -520,7 +650,7 @@ py::array_t<T> fit_rotations_t(const Array<T>& H, RotationMethod method, int thr
         method == RotationMethod::svd || method == RotationMethod::kanatani || method == RotationMethod::horn_matrix;
     const bool watched = m > block && (out.is_none() || m > (scalar ? std::size_t(1) << 18 : std::size_t(1) << 22));
     const CancelCheck cancel = watched ? watch.check() : CancelCheck();
-    const std::unique_ptr<T[]> scratch(watched && !out.is_none() ? new T[9 * m] : nullptr);  // not zeroed
+    const std::unique_ptr<T[]> scratch((watched && !out.is_none()) || overlaps ? new T[9 * m] : nullptr);  // not zeroed
     T* dest = scratch ? scratch.get() : r;
     // A caller's `out` must stay untouched on error: all of H is checked before the first block is written
     // (the library checks each block again). On the exponent bits, so that it vectorises.
@@ -567,7 +697,7 @@ py::array fit_rotations_py(const py::object& H, const std::string& method, int t
   const RotationMethod m = parse_method(method);
   if (wants_single(H)) return fit_rotations_t<float>(Array<float>::ensure(H), m, threads, nullptr, out);
   const Array<double> a = try_array<double>(H);
-  if (!a) throw py::type_error("H: expected an (m, 3, 3) array of numbers");
+  if (!a) throw py::type_error("H: expected an (m, 3, 3) array of real numbers, got " + received(H));
   return fit_rotations_t<double>(a, m, threads, nullptr, out);
 }
 
@@ -594,9 +724,14 @@ py::tuple fit_points_t(const py::object& P, const py::object& Q, const py::objec
   }
   if (transform == Transform::affine) throw py::value_error("transform: fit_points supports 'rigid' and 'similarity'");
   SimilarityTransform<T> f;
-  {
+  try {
     const py::gil_scoped_release release;  // p, q and the weights are copies: nothing of Python's is read
     f = transform == Transform::rigid ? fit_rigid<T>(p, q, weights, method) : fit_similarity<T>(p, q, weights, method);
+  } catch (const std::invalid_argument& e) {  // the GIL is held again here
+    // The library names its own function (fit_rigid: ..., fit_similarity: ...); name the one called here.
+    const std::string what = e.what();
+    const std::size_t colon = what.find(": ");
+    throw py::value_error("fit_points" + (colon == std::string::npos ? ": " + what : what.substr(colon)));
   }
   py::array_t<T> R({py::ssize_t(3), py::ssize_t(3)}), t(py::ssize_t(3));
   for (int i = 0; i < 3; ++i) {
@@ -626,7 +761,9 @@ PYBIND11_MODULE(_mlsdeform, m) {
     }
   });
 
-  py::class_<PyDeformer>(m, "Deformer", "A deformation session; see mlsdeform.Deformer in the Python package.")
+  py::class_<PyDeformer> deformer(m, "Deformer",
+                                  "A deformation session; see mlsdeform.Deformer in the Python package.");
+  deformer
       .def(py::init<const py::object&, const py::object&, const py::object&, const std::string&, double,
                     const std::string&, const std::string&, int, const std::string&, const std::string&, std::size_t,
                     const py::object&, const py::object&, int, const std::string&, const py::object&>(),
@@ -655,7 +792,7 @@ Sec. 7-8); region: None (the whole model) or the indices of the vertices that ma
 bitwise at rest; their neighbours next to the region are held, so the result stays continuous; not with
 arap_iterations). Raises ValueError on bad input (the library's message); Ctrl-C stops the set-up
 (KeyboardInterrupt).)")
-      .def("deform", &PyDeformer::deform, py::kw_only(), py::arg("points") = py::none(),
+      .def("deform", on_session(&PyDeformer::deform), py::kw_only(), py::arg("points") = py::none(),
            py::arg("segments") = py::none(), py::arg("out") = py::none(),
            R"(deform(*, points=None, segments=None, out=None) -> (n, 3) array
 
@@ -663,15 +800,16 @@ Deformed vertices for the moved handles: points (k, 3), segments (C, D); a kind 
 session's current targets (set_point_target / set_segment_target; initially the rest handles). out: a
 C-contiguous, writeable (n, 3) array of the session's dtype, written in place with no copy and returned;
 None allocates a new one. The GIL is released while deforming. On bad input raises ValueError/TypeError and
-writes nothing. With arap_iterations > 0, Ctrl-C stops the frame between iterations: KeyboardInterrupt, out
-untouched.)")
-      .def("set_point_target", &PyDeformer::set_point_target, py::arg("i"), py::arg("target"),
+writes nothing; a deformed position the dtype cannot hold raises ValueError naming the vertex (out has then
+been written over; with arap_iterations it is untouched). With arap_iterations > 0, Ctrl-C stops the frame
+between iterations: KeyboardInterrupt, out untouched.)")
+      .def("set_point_target", on_session(&PyDeformer::set_point_target), py::arg("i"), py::arg("target"),
            "Move point handle i's target (3 numbers) for later deform() calls; IndexError if out of range.")
-      .def("set_segment_target", &PyDeformer::set_segment_target, py::arg("i"), py::arg("a"), py::arg("b"),
+      .def("set_segment_target", on_session(&PyDeformer::set_segment_target), py::arg("i"), py::arg("a"), py::arg("b"),
            "Move segment handle i's target end points a, b for later deform() calls.")
-      .def("transform_handles", &PyDeformer::transform_handles, py::kw_only(), py::arg("points") = py::none(),
-           py::arg("segments") = py::none(), py::arg("rotation") = py::none(), py::arg("translation") = py::none(),
-           py::arg("pivot") = py::none(),
+      .def("transform_handles", on_session(&PyDeformer::transform_handles), py::kw_only(),
+           py::arg("points") = py::none(), py::arg("segments") = py::none(), py::arg("rotation") = py::none(),
+           py::arg("translation") = py::none(), py::arg("pivot") = py::none(),
            R"(transform_handles(*, points=None, segments=None, rotation=None, translation=None, pivot=None)
 
 Move a group of handles as one rigid body: the targets of the point handles `points` and the segment
@@ -679,18 +817,34 @@ handles `segments` (integer indices) become their REST positions under x -> R (x
 rotation: a proper 3 x 3 rotation (default the identity), orthonormal to 64 eps of the session's dtype;
 translation, pivot: 3 numbers (default zero). Other targets are kept. IndexError for an index out of range,
 ValueError for a reflection, a non-orthonormal or non-finite matrix; on error no target changes.)")
-      .def_property_readonly("targets", &PyDeformer::targets,
+      .def_property_readonly("targets", on_session(&PyDeformer::targets),
                              "The current targets: {'points': (k, 3), 'segments': ((s, 3), (s, 3))} (copies).")
-      .def_property_readonly("vertex_count", &PyDeformer::vertex_count, "Number of vertices n.")
-      .def_property_readonly("point_count", &PyDeformer::point_count, "Number of point handles k.")
-      .def_property_readonly("segment_count", &PyDeformer::segment_count, "Number of segment handles s.")
-      .def_property_readonly("dtype", &PyDeformer::dtype, "The session's dtype: float32 or float64.")
-      .def_property_readonly("memory_bytes", &PyDeformer::memory_bytes, "Bytes held by the precomputation.")
-      .def_property_readonly("uses_precomputed_weights", &PyDeformer::uses_precomputed_weights,
+      .def_property_readonly("vertex_count", on_session(&PyDeformer::vertex_count), "Number of vertices n.")
+      .def_property_readonly("point_count", on_session(&PyDeformer::point_count), "Number of point handles k.")
+      .def_property_readonly("segment_count", on_session(&PyDeformer::segment_count), "Number of segment handles s.")
+      .def_property_readonly("dtype", on_session(&PyDeformer::dtype), "The session's dtype: float32 or float64.")
+      .def_property_readonly("memory_bytes", on_session(&PyDeformer::memory_bytes), "Bytes held by the precomputation.")
+      .def_property_readonly("uses_precomputed_weights", on_session(&PyDeformer::uses_precomputed_weights),
                              "Whether the weights are streamed from a table (True) or recomputed per frame.")
-      .def("_time_cpp_deform", &PyDeformer::time_cpp_deform, py::kw_only(), py::arg("points") = py::none(),
+      .def("_time_cpp_deform", on_session(&PyDeformer::time_cpp_deform), py::kw_only(), py::arg("points") = py::none(),
            py::arg("segments") = py::none(), py::arg("out") = py::none(), py::arg("reps") = 10,
            "Seconds per frame of reps C++ deform calls (no Python in the loop): for python/bench/overhead.py.");
+  {
+    // pybind11 ignores a second __init__ on a constructed instance without a word (the call returns None
+    // and the session keeps its old model): refuse it instead, and keep the constructor's docstring. The
+    // wrapper is not named "__init__": pybind11 would take it for a constructor and skip it the same way.
+    const py::object init = deformer.attr("__init__");
+    const std::string doc = py::str(init.attr("__doc__"));
+    py::options only_doc;
+    only_doc.disable_function_signatures();
+    deformer.attr("__init__") = py::cpp_function(
+        [init](const DeformerObject& self, const py::args& args, const py::kwargs& kwargs) {
+          if (constructed(self))
+            throw std::runtime_error("Deformer: __init__ called on an initialised session (make a new Deformer)");
+          init(self, *args, **kwargs);
+        },
+        py::name("Deformer"), py::is_method(deformer), py::doc(doc.c_str()));
+  }
 
   m.def("fit_rotations", &fit_rotations_py, py::arg("H"), py::kw_only(), py::arg("method") = "axis_angle",
         py::arg("threads") = 1, py::arg("out") = py::none(),
@@ -699,9 +853,10 @@ ValueError for a reflection, a non-orthonormal or non-finite matrix; on error no
 Batched rotation fit in SIMD lanes: for each correlation matrix H[i] = sum_j w_j qhat_j phat_j^T, the
 proper rotation R[i] maximising trace(R^T H). float32 in gives float32 out, anything else float64.
 threads: 1 = the calling thread, 0 = all cores. out: a C-contiguous (m, 3, 3) array of H's dtype to write
-into (returned). The GIL is released. ValueError naming the first NaN or infinite entry, with nothing
-written. Ctrl-C stops a batch of more than one block (2,048 matrices, 32,768 with threads): KeyboardInterrupt,
-out untouched (with out=, only batches of more than 2^22 matrices, 2^18 by the scalar methods).)");
+into (returned); it may be H itself or overlap H (the rotations then reach out after all of H is read). The
+GIL is released. ValueError naming the first NaN or infinite entry, with nothing written. Ctrl-C stops a batch
+of more than one block (2,048 matrices, 32,768 with threads): KeyboardInterrupt, out untouched (with out=, only
+batches of more than 2^22 matrices, 2^18 by the scalar methods).)");
   m.def(
       "_time_cpp_fit_rotations",
       [](const py::object& H, int threads) {
@@ -719,7 +874,7 @@ out untouched (with out=, only batches of more than 2^22 matrices, 2^18 by the s
         const RotationMethod mth = parse_method(method);
         if (wants_single(H)) return fit_rotation_t<float>(Array<float>::ensure(H), mth);
         const Array<double> a = try_array<double>(H);
-        if (!a) throw py::type_error("H: expected a (3, 3) array of numbers");
+        if (!a) throw py::type_error("H: expected a (3, 3) array of real numbers, got " + received(H));
         return fit_rotation_t<double>(a, mth);
       },
       py::arg("H"), py::kw_only(), py::arg("method") = "axis_angle",

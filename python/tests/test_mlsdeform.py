@@ -444,7 +444,7 @@ def test_transform_handles():
         d.transform_handles(points=[0, 7], rotation=R)
     with pytest.raises(ValueError, match=r"shape \(3, 3\)"):
         d.transform_handles(points=[0], rotation=np.eye(2))
-    with pytest.raises(TypeError, match="integer indices"):
+    with pytest.raises(ValueError, match=r"points: expected .*integer indices, found 0\.5"):
         d.transform_handles(points=[0.5])
     assert np.array_equal(d.targets["points"], before["points"])
 
@@ -462,3 +462,208 @@ def test_region():
         mlsdeform.Deformer(V, points=P, region=[])
     with pytest.raises(ValueError, match="vertex 300"):
         mlsdeform.Deformer(V, points=P, region=[0, 300])
+
+
+# ---- out= overlapping the input -------------------------------------------------------------------------------
+
+@pytest.mark.parametrize("dtype", [np.float32, np.float64])
+@pytest.mark.parametrize("threads", [1, 0])
+def test_fit_rotations_out_overlapping_h(dtype, threads):
+    # Shifts by one row and across the binding's block boundaries (2048 rows with threads=1, 32768 with more):
+    # with out= a view of the same buffer as H, every result must equal the fit of an independent copy of H
+    # bitwise (each matrix is fitted alone in its lane, whatever its place in the batch).
+    g = rng()
+    m = 40000
+    for shift in (1, 3, 2047, 2048, 2049, 32768):
+        for out_after in (True, False):
+            B = g.standard_normal((m + shift, 3, 3)).astype(dtype)
+            H, out = (B[:m], B[shift:]) if out_after else (B[shift:], B[:m])
+            expected = mlsdeform.fit_rotations(H.copy(), threads=threads)
+            r = mlsdeform.fit_rotations(H, out=out, threads=threads)
+            assert r is out
+            assert np.array_equal(out, expected), (shift, out_after)
+    # Exact in place: out is H itself.
+    H = g.standard_normal((5000, 3, 3)).astype(dtype)
+    expected = mlsdeform.fit_rotations(H, threads=threads)
+    assert mlsdeform.fit_rotations(H, out=H, threads=threads) is H
+    assert np.array_equal(H, expected)
+    # H a reversed or strided view of out's buffer (converted to a C-contiguous copy before anything is written).
+    B = g.standard_normal((2 * m, 3, 3)).astype(dtype)
+    for H in (B[::-1][:m], B[::2], B[m:][::-1], B[:, ::-1, :][:m]):
+        expected = mlsdeform.fit_rotations(H.copy(), threads=threads)
+        out = B[:m] if H.base is not None and np.shares_memory(H, B[:m]) else B[m // 2:m // 2 + m]
+        mlsdeform.fit_rotations(H, out=out, threads=threads)
+        assert np.array_equal(out, expected)
+
+
+def test_fit_rotations_overlap_refused_input_untouched():
+    # A NaN in H with out= overlapping H: ValueError and the shared buffer unchanged.
+    g = rng()
+    B = g.standard_normal((3001, 3, 3))
+    B[2500, 1, 1] = np.nan
+    before = B.copy()
+    with pytest.raises(ValueError, match=r"H\[2499, 1, 1\] is NaN"):
+        mlsdeform.fit_rotations(B[1:], out=B[:-1])
+    assert np.array_equal(B, before, equal_nan=True)
+
+
+@pytest.mark.parametrize("dtype", [np.float32, np.float64])
+def test_deform_out_overlapping_handles(dtype):
+    # deform() copies its handles before it writes: out= may hold them.
+    g = rng()
+    V, P, A, B = (x.astype(dtype) for x in scene(g, n=200, k=5, s=2))
+    d = mlsdeform.Deformer(V, points=P, segments=(A, B))
+    Q, C, D = P + dtype(0.1), A - dtype(0.05), B + dtype(0.02)
+    expected = d.deform(points=Q, segments=(C, D))
+    X = np.zeros_like(V)
+    X[:5], X[5:7], X[7:9] = Q, C, D
+    assert d.deform(points=X[:5], segments=(X[5:7], X[7:9]), out=X) is X
+    assert np.array_equal(X, expected)
+    X = np.zeros_like(V)
+    X[-5:] = Q[::-1]
+    d.deform(points=X[::-1][:5], segments=(C, D), out=X)
+    assert np.array_equal(X, expected)
+
+
+# ---- uninitialised and re-initialised sessions, pickling ------------------------------------------------------
+
+def test_uninitialised_session_refused():
+    g = rng()
+    V, P, _, _ = scene(g, n=30, k=4)
+    u = mlsdeform.Deformer.__new__(mlsdeform.Deformer)
+    calls = [lambda: u.deform(), lambda: u.deform(points=P, out=np.empty_like(V)),
+             lambda: u.set_point_target(0, [0, 0, 0]), lambda: u.set_segment_target(0, [0, 0, 0], [1, 0, 0]),
+             lambda: u.transform_handles(points=[0]), lambda: u.targets, lambda: u.vertex_count,
+             lambda: u.point_count, lambda: u.segment_count, lambda: u.dtype, lambda: u.memory_bytes,
+             lambda: u.uses_precomputed_weights, lambda: u._time_cpp_deform(reps=1)]
+    for call in calls:
+        with pytest.raises(TypeError, match="never initialised"):
+            call()
+    # __init__ after __new__ is the ordinary construction.
+    u.__init__(V, points=P)
+    assert u.vertex_count == 30 and np.abs(u.deform() - V).max() <= 1e-12
+
+
+def test_second_init_refused():
+    g = rng()
+    V, P, _, _ = scene(g, n=30, k=4)
+    d = mlsdeform.Deformer(V, points=P)
+    X = d.deform(points=P + 0.1)
+    W, R, _, _ = scene(g, n=12, k=3)
+    with pytest.raises(RuntimeError, match="initialised session"):
+        d.__init__(W, points=R)
+    with pytest.raises(RuntimeError, match="initialised session"):
+        mlsdeform.Deformer.__init__(d, W, points=R)
+    assert d.vertex_count == 30 and np.array_equal(d.deform(points=P + 0.1), X)   # unchanged
+
+    class Twice(mlsdeform.Deformer):
+        def __init__(self, *args, **kwargs):
+            super().__init__(*args, **kwargs)
+            super().__init__(*args, **kwargs)
+
+    with pytest.raises(RuntimeError, match="initialised session"):
+        Twice(V, points=P)
+
+    class Never(mlsdeform.Deformer):
+        def __init__(self):
+            pass
+
+    with pytest.raises(TypeError, match="__init__"):
+        Never()
+
+
+def test_session_cannot_be_pickled_or_copied():
+    import copy
+    import pickle
+    g = rng()
+    V, P, _, _ = scene(g, n=30, k=4)
+    for d in (mlsdeform.Deformer(V, points=P), mlsdeform.Deformer.__new__(mlsdeform.Deformer)):
+        for f in (pickle.dumps, copy.copy, copy.deepcopy):
+            with pytest.raises(TypeError, match="cannot pickle"):
+                f(d)
+
+
+# ---- threads and integer arguments ----------------------------------------------------------------------------
+
+def test_threads_checked_alike():
+    g = rng()
+    V, P, _, _ = scene(g, n=30, k=4)
+    messages = []
+    for call in (lambda: mlsdeform.Deformer(V, points=P, threads=-1),
+                 lambda: mlsdeform.fit_rotations(np.zeros((4, 3, 3)), threads=-1),
+                 lambda: mlsdeform.fit_rotations(np.zeros((4, 3, 3), np.float32), threads=-1)):
+        with pytest.raises(ValueError, match="threads") as info:
+            call()
+        messages.append(str(info.value))
+    assert messages[0] == messages[1] == messages[2]
+    for threads in (1.5, "2", None):
+        with pytest.raises(TypeError):
+            mlsdeform.fit_rotations(np.zeros((4, 3, 3)), threads=threads)
+        with pytest.raises(TypeError):
+            mlsdeform.Deformer(V, points=P, threads=threads)
+
+
+def test_integer_arguments_never_truncated():
+    nx, ny = 6, 4
+    V = np.array([[i / 5, j / 5, 0.0] for i in range(nx) for j in range(ny)])
+    F = np.array([[i * ny + j, (i + 1) * ny + j, (i + 1) * ny + j + 1] for i in range(nx - 1) for j in range(ny - 1)]
+                 + [[i * ny + j, (i + 1) * ny + j + 1, i * ny + j + 1] for i in range(nx - 1) for j in range(ny - 1)])
+    P = V[[0, ny - 1, len(V) - 1]]
+    Q = P + [[0, 0, 0], [0, 0, 0.3], [0, 0.2, 0]]
+    exact = mlsdeform.Deformer(V, points=P, faces=F, arap_iterations=2).deform(points=Q)
+    # Float arrays whose values are integers are those integers.
+    for faces in (F.astype(np.float64), F.astype(np.float32), F.tolist(), F.astype(np.uint16)):
+        X = mlsdeform.Deformer(V, points=P, faces=faces, arap_iterations=2).deform(points=Q)
+        assert np.array_equal(X, exact)
+    # A fraction, NaN or infinity is refused, never truncated.
+    for bad, shown in ((0.5, "0.5"), (np.nan, "nan"), (np.inf, "inf"), (2.9999999999999996, "2.9999999999999996")):
+        faces = F.astype(np.float64)
+        faces[3, 1] = bad
+        with pytest.raises(ValueError, match=r"faces: .*found " + shown + r" \(entry 10\)"):
+            mlsdeform.Deformer(V, points=P, faces=faces, arap_iterations=2)
+    with pytest.raises(ValueError, match="faces: index 1e\\+300 is too large"):
+        mlsdeform.Deformer(V, points=P, faces=np.full((2, 3), 1e300), arap_iterations=2)
+    with pytest.raises(ValueError, match="faces: index 18446744073709551615 is too large"):
+        mlsdeform.Deformer(V, points=P, faces=np.full((2, 3), 2**64 - 1, np.uint64), arap_iterations=2)
+    with pytest.raises(TypeError, match="faces: .*dtype <U1"):
+        mlsdeform.Deformer(V, points=P, faces=[["a", "b", "c"]], arap_iterations=2)
+    # region and handle groups: the same rules.
+    region = np.arange(10)
+    assert np.array_equal(mlsdeform.Deformer(V, points=P, region=region.astype(float)).deform(points=Q),
+                          mlsdeform.Deformer(V, points=P, region=region).deform(points=Q))
+    with pytest.raises(ValueError, match=r"region: .*found 1\.5"):
+        mlsdeform.Deformer(V, points=P, region=[0, 1.5])
+    with pytest.raises(TypeError, match="flatnonzero"):
+        mlsdeform.Deformer(V, points=P, region=V[:, 0] > 0.5)
+    d = mlsdeform.Deformer(V, points=P)
+    with pytest.raises(ValueError, match=r"segments: .*found 0\.25"):
+        d.transform_handles(segments=[0.25])
+    d.transform_handles(points=[2.0], translation=[0, 0, 1])
+    assert np.array_equal(d.targets["points"][2], P[2] + [0, 0, 1])
+    # A handle index is a Python integer: a float is refused by the binding (TypeError), never truncated.
+    with pytest.raises(TypeError):
+        d.set_point_target(1.0, [0, 0, 0])
+    d.set_point_target(np.int64(1), [0, 0, 0])
+    assert np.array_equal(d.targets["points"][1], [0, 0, 0])
+
+
+def test_complex_and_date_arrays_refused():
+    # numpy's cast to float would drop an imaginary part with no more than a ComplexWarning.
+    g = rng()
+    V, P, _, _ = scene(g, n=30, k=4)
+    d = mlsdeform.Deformer(V, points=P)
+    for bad in (P + 1j, P + 0j, P.astype("m8[s]"), P.astype("M8[s]"), (P + 1j).tolist()):
+        with pytest.raises(TypeError, match="points: expected an .* of real numbers"):
+            d.deform(points=bad)
+        with pytest.raises(TypeError, match="vertices: expected an .* of real numbers"):
+            mlsdeform.Deformer(bad, points=P)
+    with pytest.raises(TypeError, match="complex128"):
+        mlsdeform.fit_rotations(np.eye(3)[None] * 1j)
+    with pytest.raises(TypeError, match="complex128"):
+        mlsdeform.fit_rotation(np.eye(3) * 1j)
+    with pytest.raises(TypeError, match="target: expected 3 real numbers"):
+        d.set_point_target(0, [1j, 0, 0])
+    with pytest.raises(TypeError, match="rotation: expected a 3 x 3 array of real numbers"):
+        d.transform_handles(points=[0], rotation=np.eye(3) + 0j)
+    with pytest.raises(ValueError, match="w: expected a 1-D array"):
+        mlsdeform.fit_points(P, P, np.ones(4) + 1j)

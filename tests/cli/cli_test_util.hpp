@@ -62,9 +62,10 @@ struct Result {
   std::string out, err;
 };
 
-/// Runs `program args...` with stdout and stderr captured (through files: no pipe deadlock).
+/// Runs `program args...` with stdout and stderr captured (through files: no pipe deadlock), with `env` added to
+/// the environment, in the folder `cwd` (empty: this process's).
 inline Result run(const std::string& program, const std::vector<std::string>& args,
-                  const std::vector<std::string>& env = {}) {
+                  const std::vector<std::string>& env = {}, const std::string& cwd = {}) {
   ScratchDir io;
   const std::string out = io / "stdout", err = io / "stderr";
   std::vector<std::string> all{program};
@@ -83,6 +84,7 @@ inline Result run(const std::string& program, const std::vector<std::string>& ar
   posix_spawn_file_actions_addopen(&actions, STDIN_FILENO, "/dev/null", O_RDONLY, 0);
   posix_spawn_file_actions_addopen(&actions, STDOUT_FILENO, out.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
   posix_spawn_file_actions_addopen(&actions, STDERR_FILENO, err.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+  if (!cwd.empty()) posix_spawn_file_actions_addchdir_np(&actions, cwd.c_str());  // glibc 2.29
   pid_t pid;
   Result r;
   if (posix_spawn(&pid, program.c_str(), &actions, nullptr, argv.data(), envp.data()) == 0) {

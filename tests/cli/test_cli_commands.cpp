@@ -230,6 +230,88 @@ TEST_CASE("deform: existing outputs need --force", "[cli][commands][errors]") {
   CHECK(f.outputs() == std::vector<std::string>{"a.obj", "b_0001.obj"});
 }
 
+TEST_CASE("deform --force writes through a symbolic link and keeps the file's mode", "[cli][commands]") {
+  Fixture f;
+  const std::string m = f.in + "/cube.obj", h = f.in + "/shear.json";
+  namespace fs = std::filesystem;
+  const fs::path real = fs::path(f.dir.path()) / "real";
+  fs::create_directory(real);
+  write_text((real / "target.obj").string(), "precious\n");
+  fs::permissions(real / "target.obj", fs::perms::owner_read | fs::perms::owner_write | fs::perms::group_read);
+  fs::create_symlink("../real/target.obj", fs::path(f.out) / "link.obj");  // relative to the link's folder
+  const std::string link = f.out + "/link.obj";
+  auto r = cli_test::run(program, {"deform", "-m", m, "-H", h, "-o", link, "-q"});
+  CHECK(r.exit_code == 2);
+  CHECK(r.err == "mlsdeform: error: " + link + ": already exists (use --force to overwrite)\n");
+  r = cli_test::run(program, {"deform", "-m", m, "-H", h, "-o", link, "-q", "--force"});
+  INFO(r.err);
+  REQUIRE(r.exit_code == 0);
+  CHECK(fs::is_symlink(link));
+  CHECK(fs::read_symlink(link) == "../real/target.obj");
+  CHECK(read_mesh((real / "target.obj").string()).vertex_count() == 8);
+  CHECK(fs::status(real / "target.obj").permissions() ==
+        (fs::perms::owner_read | fs::perms::owner_write | fs::perms::group_read));
+  CHECK(f.outputs() == std::vector<std::string>{"link.obj"});  // no temporary left beside the link ...
+  std::vector<std::string> in_real;
+  for (const auto& e : fs::directory_iterator(real)) in_real.push_back(e.path().filename().string());
+  CHECK(in_real == std::vector<std::string>{"target.obj"});  // ... or beside its target
+  // A plain file keeps its mode too, a link to a link is followed to the end, and a dangling link is an
+  // existing name without --force and the file to create with it.
+  const std::string plain = f.out + "/plain.obj";
+  write_text(plain, "precious\n");
+  fs::permissions(plain, fs::perms::owner_read | fs::perms::owner_write);
+  r = cli_test::run(program, {"deform", "-m", m, "-H", h, "-o", plain, "-q", "--force"});
+  REQUIRE(r.exit_code == 0);
+  CHECK(fs::status(plain).permissions() == (fs::perms::owner_read | fs::perms::owner_write));
+  fs::create_symlink("link.obj", fs::path(f.out) / "link2.obj");
+  fs::create_symlink("../real/new.obj", fs::path(f.out) / "dangling.obj");
+  r = cli_test::run(program, {"deform", "-m", m, "-H", h, "-o", f.out + "/dangling.obj", "-q"});
+  CHECK(r.exit_code == 2);
+  CHECK(r.err == "mlsdeform: error: " + f.out + "/dangling.obj: already exists (use --force to overwrite)\n");
+  CHECK(!fs::exists(real / "new.obj"));
+  for (const char* name : {"link2.obj", "dangling.obj"}) {
+    r = cli_test::run(program, {"deform", "-m", m, "-H", h, "-o", f.out + "/" + name, "-q", "--force"});
+    INFO(name << ": " << r.err);
+    CHECK(r.exit_code == 0);
+    CHECK(fs::is_symlink(f.out + "/" + name));
+  }
+  CHECK(read_mesh((real / "new.obj").string()).vertex_count() == 8);
+  // A loop of links is an error naming the output.
+  fs::create_symlink("loop_b.obj", fs::path(f.out) / "loop_a.obj");
+  fs::create_symlink("loop_a.obj", fs::path(f.out) / "loop_b.obj");
+  r = cli_test::run(program, {"deform", "-m", m, "-H", h, "-o", f.out + "/loop_a.obj", "-q", "--force"});
+  CHECK(r.exit_code == 2);
+  CHECK(r.err == "mlsdeform: error: " + f.out + "/loop_a.obj: cannot write: too many levels of symbolic links\n");
+}
+
+TEST_CASE("deform: OBJ and OFF may start with a UTF-8 byte-order mark but PLY may not", "[cli][commands][errors]") {
+  Fixture f;
+  const std::string bom = "\xef\xbb\xbf", h = f.in + "/shear.json";
+  write_text(f.in + "/bom.obj", bom + cube_obj);
+  write_text(f.in + "/bom.off", bom + encode_mesh(cli_test::cube_mesh(), "cube.off"));
+  write_text(f.in + "/bom.obj.gz", gzip(bom + cube_obj));
+  const Mesh plain = read_mesh(f.in + "/cube.obj");
+  for (const char* name : {"bom.obj", "bom.off", "bom.obj.gz"}) {
+    INFO(name);
+    const auto r =
+        cli_test::run(program, {"deform", "-m", f.in + "/" + name, "-H", h, "-o", f.out + "/a.obj", "-q", "--force"});
+    INFO(r.err);
+    REQUIRE(r.exit_code == 0);
+    const Mesh m = read_mesh(f.in + "/" + name);
+    CHECK(m.vertices == plain.vertices);
+    CHECK(m.face_indices.size() == 24);
+  }
+  write_text(f.in + "/bom.ply", bom + encode_mesh(cli_test::cube_mesh(), "cube.ply", {false, PlyEncoding::ascii}));
+  std::filesystem::remove(f.out + "/a.obj");
+  require_bad_input(f, {"deform", "-m", f.in + "/bom.ply", "-H", h, "-o", f.out + "/a.obj"},
+                    f.in +
+                        "/bom.ply: line 1: malformed PLY: the file starts with a UTF-8 byte-order mark; the first "
+                        "line must be 'ply' (remove the mark)");
+  write_text(f.in + "/only_bom.obj", bom);
+  require_bad_input(f, {"deform", "-m", f.in + "/only_bom.obj", "-H", h, "-o", f.out + "/a.obj"},
+                    f.in + "/only_bom.obj: empty file (only a UTF-8 byte-order mark)");
+}
+
 TEST_CASE("deform: bad input files", "[cli][commands][errors]") {
   Fixture f;
   const std::string m = f.in + "/cube.obj", h = f.in + "/shear.json", o = f.out + "/a.obj";
@@ -409,6 +491,15 @@ TEST_CASE("demo and figures draw their images (where python3-matplotlib is insta
   r = cli_test::run(program, {"figures", "--only", "9"});
   CHECK(r.exit_code == 2);
   CHECK(r.err == "mlsdeform: error: --only: no figure '9' (choose from 1 to 8, arap)\n");
+  // Without --out-dir: a folder in the current one, never the source tree's docs/figures.
+  const std::filesystem::path docs_fig5 = MLSDEFORM_SOURCE_DIR "/docs/figures/fig5.png";
+  const auto docs_time = std::filesystem::last_write_time(docs_fig5);
+  std::filesystem::create_directory(dir.path() / "cwd");
+  r = cli_test::run(program, {"figures", "--only", "5"}, {}, dir / "cwd");
+  INFO(r.out << r.err);
+  REQUIRE(r.exit_code == 0);
+  CHECK(std::filesystem::exists(dir.path() / "cwd/mlsdeform-figures-out/fig5.png"));
+  CHECK(std::filesystem::last_write_time(docs_fig5) == docs_time);
 }
 
 TEST_CASE("deform: handles the library refuses end with exit 2, one line and no file", "[cli][commands][errors]") {

@@ -36,7 +36,8 @@ void check_message(const InputError& e, const std::string& name) {
   if (m.find('\n') != std::string::npos || m.find('\r') != std::string::npos) bug("message is not one line:", m);
 }
 
-void check_invariants(const Mesh& m) {
+template <class T>
+void check_invariants(const BasicMesh<T>& m) {
   const auto nv = std::uint64_t(m.vertex_count());
   if (nv == 0) bug("a mesh with no vertices was accepted");
   if (!m.vertices.allFinite()) bug("a non-finite coordinate was accepted");
@@ -48,19 +49,21 @@ void check_invariants(const Mesh& m) {
     if (i >= nv) bug("a vertex index out of range:", std::to_string(i));
 }
 
-// What is read is written and read back exactly (vertex order, faces, every coordinate bit).
-void check_round_trip(const Mesh& m, const std::string& format, PlyEncoding ply) {
+// What is read is written and read back exactly (vertex order, faces, every coordinate bit). A double mesh
+// from a float PLY is written as float: its values are floats, so this holds for it too.
+template <class T>
+void check_round_trip(const BasicMesh<T>& m, const std::string& format, PlyEncoding ply) {
   const std::string name = "round_trip." + format;
   const std::string bytes = encode_mesh(m, name, {false, ply, false});
   const auto source = memory_source(bytes);
-  Mesh back;
+  BasicMesh<T> back;
   try {
-    back = parse_mesh(*source, format, name);
+    back = parse_mesh<T>(*source, format, name);
   } catch (const InputError& e) {
     bug("what was written does not read back:", e.what());
   }
   if (back.vertices.rows() != m.vertices.rows() ||
-      std::memcmp(back.vertices.data(), m.vertices.data(), std::size_t(m.vertices.size()) * sizeof(float)) != 0)
+      std::memcmp(back.vertices.data(), m.vertices.data(), std::size_t(m.vertices.size()) * sizeof(T)) != 0)
     bug("vertices differ after a round trip");
   if (back.face_start != m.face_start || back.face_indices != m.face_indices) bug("faces differ after a round trip");
 }
@@ -101,15 +104,35 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   }
   const std::string& format = g_target;
   const std::string name = "fuzz." + format;
+  const PlyEncoding ply = size % 2 ? PlyEncoding::ascii : PlyEncoding::binary;
+  // Read as float (--precision float) and as double: what float reads, double reads too (its range holds
+  // float's), with the same vertex count and faces.
   Mesh m;
+  bool as_float = true;
   try {
     const auto source = memory_source(bytes);
     m = parse_mesh(*source, format, name);
   } catch (const InputError& e) {
     check_message(e, name);
+    as_float = false;
+  }
+  if (as_float) {
+    check_invariants(m);
+    check_round_trip(m, format, ply);
+  }
+  BasicMesh<double> d;
+  try {
+    const auto source = memory_source(bytes);
+    d = parse_mesh<double>(*source, format, name);
+  } catch (const InputError& e) {
+    check_message(e, name);
+    if (as_float) bug("read as float but refused as double:", e.what());
     return 0;
   }
-  check_invariants(m);
-  check_round_trip(m, format, size % 2 ? PlyEncoding::ascii : PlyEncoding::binary);
+  check_invariants(d);
+  if (as_float &&
+      (d.vertex_count() != m.vertex_count() || d.face_start != m.face_start || d.face_indices != m.face_indices))
+    bug("float and double read different meshes");
+  check_round_trip(d, format, ply);
   return 0;
 }

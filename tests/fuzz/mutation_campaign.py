@@ -11,7 +11,8 @@ runs `mlsdeform deform` on every mutant with a fresh output folder, and checks t
   other   a bug (exit 1, a signal, a sanitizer report, a timeout)
 
 Prints a table per format (mutants, exits, bugs, peak RSS, time) and saves every bug's input and stderr under
-OUT_DIR/bugs/. Exit status 1 if any bug. Deterministic for a given --seed.
+OUT_DIR/bugs/. Exit status 1 if any bug. Deterministic for a given --seed. --precision double runs the program's
+double readers and writers (its PLY seeds then have double properties).
 
   python3 tests/fuzz/mutation_campaign.py --program build/tools/mlsdeform --out-dir /tmp/mutation --per-format 1000
 """
@@ -58,7 +59,7 @@ def seed_mesh():
     return verts, faces
 
 
-def encode(verts, faces, kind):
+def encode(verts, faces, kind, ply_type="float"):
     if kind == "obj":
         return ("# seed\n" + "".join("v %r %r %r\n" % v for v in verts) +
                 "".join("f " + " ".join(str(i + 1) for i in f) + "\n" for f in faces)).encode()
@@ -66,19 +67,21 @@ def encode(verts, faces, kind):
         return ("OFF\n%d %d 0\n" % (len(verts), len(faces)) + "".join("%r %r %r\n" % v for v in verts) +
                 "".join("%d %s\n" % (len(f), " ".join(map(str, f))) for f in faces)).encode()
     fmt = {"ply": "ascii", "le.ply": "binary_little_endian", "be.ply": "binary_big_endian"}[kind]
-    head = ("ply\nformat %s 1.0\nelement vertex %d\nproperty float x\nproperty float y\nproperty float z\n"
-            "element face %d\nproperty list uchar int vertex_indices\nend_header\n" % (fmt, len(verts), len(faces)))
+    head = ("ply\nformat %s 1.0\nelement vertex %d\nproperty %s x\nproperty %s y\nproperty %s z\n"
+            "element face %d\nproperty list uchar int vertex_indices\nend_header\n" %
+            (fmt, len(verts), ply_type, ply_type, ply_type, len(faces)))
     if fmt == "ascii":
         return (head + "".join("%r %r %r\n" % v for v in verts) +
                 "".join("%d %s\n" % (len(f), " ".join(map(str, f))) for f in faces)).encode()
     e = "<" if fmt == "binary_little_endian" else ">"
-    body = b"".join(struct.pack(e + "3f", *v) for v in verts)
+    body = b"".join(struct.pack(e + ("3f" if ply_type == "float" else "3d"), *v) for v in verts)
     body += b"".join(struct.pack(e + "B", len(f)) + struct.pack(e + "%di" % len(f), *f) for f in faces)
     return head.encode() + body
 
 
 WEIRD = [b"-1", b"0", b"4294967295", b"4294967296", b"-2147483649", b"1e39", b"-1e39", b"nan", b"inf", b"0x1p3",
-         b"1.5.5", b"", b"+", b"1e", b"=", b"3.4028236e38", b"1e-50", b"255", b"256", b"99999999999999999999"]
+         b"1.5.5", b"", b"+", b"1e", b"=", b"3.4028236e38", b"1e-50", b"255", b"256", b"99999999999999999999",
+         b"1e-46", b"1e309", b"1e-330", b"4.9e-324", b"1.7976931348623157e308", b"5000000.123", b"\xef\xbb\xbf"]
 
 
 def mutate_bytes(data, rng):
@@ -151,7 +154,7 @@ def mutate_binary(data, rng):
     pos = data.find(b"end_header\n") + len(b"end_header\n")
     nv = int(data[:pos].split(b"element vertex ")[1].split(b"\n")[0])
     e = "<" if b"little" in data[:pos] else ">"
-    pos += 12 * nv
+    pos += (24 if b"property double x" in data[:pos] else 12) * nv
     records = []
     while pos < len(data):
         records.append(pos)
@@ -276,13 +279,15 @@ def main():
     ap.add_argument("--seed", type=int, default=1)
     ap.add_argument("--timeout", type=float, default=20)
     ap.add_argument("--jobs", type=int, default=2)
+    ap.add_argument("--precision", choices=["float", "double"], default="float",
+                    help="passed to the program; with double, the PLY seeds have double properties")
     args = ap.parse_args()
     print("command:", " ".join([sys.executable] + sys.argv), flush=True)
     shutil.rmtree(args.out_dir, ignore_errors=True)
     os.makedirs(os.path.join(args.out_dir, "bugs"))
     verts, faces = seed_mesh()
     kinds = ["obj", "off", "ply", "le.ply", "be.ply"]
-    base = {k: encode(verts, faces, k) for k in kinds}
+    base = {k: encode(verts, faces, k, args.precision) for k in kinds}
     kinds += [k + ".gz" for k in ("obj", "off", "ply", "le.ply")]
     # Two handles at different positions: vertex 0 fixed, the last one moved.
     with open(os.path.join(args.out_dir, "handles.json"), "w") as f:
@@ -300,11 +305,11 @@ def main():
 
     def work(job):
         kind, i, data = job
-        extra = []
+        extra = ["--precision", args.precision]
         if data is None:
             data = make_mutant(kind, base, random.Random("%d/%s/%d" % (args.seed, kind, i)))
         else:
-            extra = ["--max-input-mib", "64"]
+            extra += ["--max-input-mib", "64"]
         path = os.path.join(args.out_dir, "m%05d.%s" % (i, kind))
         with open(path, "wb") as f:
             f.write(data)

@@ -26,7 +26,7 @@ template <class T>
 int deform(const DeformArgs& a) {
   const Isa isa = checked_active_isa();
   check_output_format(a.out);
-  const Mesh mesh = read_mesh(a.mesh, a.max_input_bytes);
+  const BasicMesh<T> mesh = read_mesh<T>(a.mesh, a.max_input_bytes);
   const bool arap = a.options.arap_iterations > 0;
   if (arap && mesh.face_count() == 0)
     throw InputError(a.mesh, "--arap needs a surface, and the mesh has no faces (a point cloud?)");
@@ -43,7 +43,7 @@ int deform(const DeformArgs& a) {
     throw InputError(a.handles, "a region and --arap cannot be combined (give one or the other)", "/region");
   Options options = a.options;
   options.region = resolved.region;
-  const Points<T> rest = mesh.vertices.cast<T>();
+  const Points<T> rest = mesh.vertices;
   auto t0 = Clock::now();
   std::optional<Deformer<T>> deformer;
   try {
@@ -82,7 +82,9 @@ int deform(const DeformArgs& a) {
                 threads, then_arap.c_str(), setup_ms, double(deformer->memory_bytes()) / (1 << 20));
   }
 
-  Mesh result = mesh;
+  BasicMesh<T> result = mesh;
+  const WriteOptions write{a.force, a.ply_ascii ? PlyEncoding::ascii : PlyEncoding::binary, true, a.output_type};
+  const bool narrowed = std::is_same_v<T, double> && output_type(mesh, write) == CoordinateType::float32;
   Points<T> out(rest.rows(), 3);
   std::vector<double> deform_ms;
   std::vector<std::string> written;
@@ -102,13 +104,20 @@ int deform(const DeformArgs& a) {
         throw Interrupted{pending_interrupt(), written.size()};
       }
       deform_ms.push_back(ms_since(t0));
-      result.vertices = out.template cast<float>();
-      if (!result.vertices.allFinite())
-        throw InputError(
-            a.handles, "the deformation produced non-finite coordinates (handles too far away or too close together?)",
-            where);
+      result.vertices = out;
+      // The library refuses a result T cannot hold; here only a double result beyond float, the coordinate
+      // type of the mesh written, is left to refuse.
+      if (narrowed && !result.vertices.template cast<float>().allFinite()) {
+        Eigen::Index v = 0;
+        while (result.vertices.row(v).template cast<float>().allFinite()) ++v;
+        throw InputError(a.handles,
+                         "vertex " + std::to_string(v) +
+                             "'s deformed position overflows float, the output's coordinate type (--output-type "
+                             "double writes it)",
+                         where);
+      }
       t0 = Clock::now();
-      write_mesh(result, outputs[f], {a.force, a.ply_ascii ? PlyEncoding::ascii : PlyEncoding::binary, true});
+      write_mesh(result, outputs[f], write);
       written.push_back(outputs[f]);
       progress.frame(f, deform_ms.back(), ms_since(t0), outputs[f]);
     }

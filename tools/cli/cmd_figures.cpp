@@ -23,8 +23,6 @@
 
 namespace mlsdeform::cli {
 
-std::string default_figures_dir() { return MLSDEFORM_FIGURES_DIR; }
-
 namespace {
 
 namespace fs = std::filesystem;
@@ -449,7 +447,7 @@ int run_figures(const FiguresArgs& a) {
   }
   std::string why;
   if (!renderer_available(&why)) throw InputError("figures", "cannot render: " + why);
-  const std::string out_dir = a.out_dir.empty() ? default_figures_dir() : a.out_dir;
+  const std::string& out_dir = a.out_dir;
   std::error_code ec;
   fs::create_directories(out_dir, ec);
   if (ec || !fs::is_directory(out_dir)) throw InputError(out_dir, "cannot create the output folder: " + ec.message());

@@ -2,9 +2,12 @@
 // Each returns the process exit code and throws InputError for bad input (exit code 2).
 #pragma once
 
+#include "mesh.hpp"
+
 #include <mlsdeform/batch.hpp>
 #include <mlsdeform/deformer.hpp>
 
+#include <optional>
 #include <string>
 
 namespace mlsdeform::cli {
@@ -17,6 +20,8 @@ struct DeformArgs {
   Precision precision = Precision::single;
   bool force = false;
   bool ply_ascii = false;
+  /// The output's coordinate type (WriteOptions::coordinates); none: the input's, at most the precision's.
+  std::optional<CoordinateType> output_type = std::nullopt;
   bool quiet = false;
   std::size_t max_input_bytes = std::size_t(1) << 30;  ///< mesh file, or its decompressed data (kDefaultMaxInputBytes)
 };
@@ -36,7 +41,9 @@ struct DemoArgs {
 int run_demo(const DemoArgs& args);
 
 struct FiguresArgs {
-  std::string out_dir;  ///< empty: the source tree's docs/figures
+  /// Relative to the current folder, as demo's (never the source tree: docs/figures is regenerated on purpose,
+  /// with --out-dir docs/figures).
+  std::string out_dir = "mlsdeform-figures-out";
   std::string data_dir;
   std::string only;  ///< e.g. "1,5"; empty: all
   bool keep_spec = false;
@@ -48,7 +55,5 @@ Isa checked_active_isa();
 
 /// The bundled data folder (data/): args value, else $MLSDEFORM_DATA_DIR, else the source tree's.
 std::string data_dir(const std::string& from_args);
-/// The default for `figures --out-dir`.
-std::string default_figures_dir();
 
 }  // namespace mlsdeform::cli

@@ -58,6 +58,20 @@ void install_handler_once() {
 
 }  // namespace
 
+std::string replaced_path(const std::string& path) {
+  // Each link's target, relative to the link's folder; 40 links at most, as the kernel allows (ELOOP).
+  std::filesystem::path p(path);
+  for (int links = 0; links < 40; ++links) {
+    struct stat st {};
+    if (::lstat(p.c_str(), &st) != 0 || !S_ISLNK(st.st_mode)) return p.string();
+    std::error_code ec;
+    const std::filesystem::path target = std::filesystem::read_symlink(p, ec);
+    if (ec) throw InputError(path, "cannot read the symbolic link: " + ec.message());
+    p = target.is_absolute() ? target : p.parent_path() / target;
+  }
+  throw InputError(path, "cannot write: too many levels of symbolic links");
+}
+
 std::string read_file(const std::string& path, std::size_t max_bytes) {
   struct stat st {};
   if (::stat(path.c_str(), &st) != 0) throw InputError(path, "cannot open: " + errno_text(errno));
@@ -302,11 +316,10 @@ std::string gzip(std::string_view data) {
 void check_output_path(const std::string& path, bool force) {
   if (path.empty()) throw InputError(path, "empty output file name");
   struct stat st {};
-  if (::stat(path.c_str(), &st) == 0) {
-    if (S_ISDIR(st.st_mode)) throw InputError(path, "cannot write: is a directory");
-    if (!force) throw InputError(path, "already exists (use --force to overwrite)");
-  }
-  const std::string dir = parent_dir(path);
+  const std::string file = force ? replaced_path(path) : path;
+  if (::stat(file.c_str(), &st) == 0 && S_ISDIR(st.st_mode)) throw InputError(path, "cannot write: is a directory");
+  if (!force && ::lstat(path.c_str(), &st) == 0) throw InputError(path, "already exists (use --force to overwrite)");
+  const std::string dir = parent_dir(file);
   if (::stat(dir.c_str(), &st) != 0)
     throw InputError(path, "cannot write: directory '" + dir + "': " + errno_text(errno));
   if (!S_ISDIR(st.st_mode)) throw InputError(path, "cannot write: '" + dir + "' is not a directory");
@@ -317,7 +330,12 @@ void check_output_path(const std::string& path, bool force) {
 void write_file_atomic(const std::string& path, std::string_view bytes, bool force) {
   install_handler_once();
   static std::atomic<unsigned> counter{0};
-  const std::filesystem::path p(path);
+  // With force, a symbolic link stays a link: the file it points to is replaced (in that file's folder, so
+  // that the rename stays on one file system), and keeps its permission bits.
+  const std::string file = force ? replaced_path(path) : path;
+  struct stat existing {};
+  const bool replacing = force && ::stat(file.c_str(), &existing) == 0 && S_ISREG(existing.st_mode);
+  const std::filesystem::path p(file);
   std::string name = ".";
   name += p.filename().string();
   name += ".tmp-";
@@ -340,6 +358,7 @@ void write_file_atomic(const std::string& path, std::string_view bytes, bool for
     g_temp_path[0] = '\0';
     throw InputError(path, "cannot write: " + errno_text(e));
   };
+  if (replacing && ::fchmod(fd, existing.st_mode & 0777) != 0) fail(errno);
   const char* data = bytes.data();
   std::size_t left = bytes.size();
   while (left > 0) {
@@ -360,7 +379,7 @@ void write_file_atomic(const std::string& path, std::string_view bytes, bool for
 
   int rc;
   if (force) {
-    rc = ::rename(temp.c_str(), path.c_str());
+    rc = ::rename(temp.c_str(), file.c_str());
   } else {
     // No clobbering even if `path` appeared since check_output_path (another process, or a duplicate name).
     rc = ::renameat2(AT_FDCWD, temp.c_str(), AT_FDCWD, path.c_str(), RENAME_NOREPLACE);

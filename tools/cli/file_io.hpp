@@ -50,12 +50,20 @@ std::string gunzip(std::string_view compressed, const std::string& path, std::si
 /// Compresses to the gzip format (level 6).
 std::string gzip(std::string_view data);
 
-/// Throws InputError naming `path` when it cannot be an output: it exists and `force` is false, it is a
-/// directory, or its directory does not exist. Called before any work, so that a bad output path fails fast.
+/// Throws InputError naming `path` when it cannot be an output: it exists (even as a dangling symbolic link)
+/// and `force` is false, it is a directory, or its directory does not exist. Called before any work, so that
+/// a bad output path fails fast.
 void check_output_path(const std::string& path, bool force);
 
+/// The file that writing `path` with `force` replaces: `path`, or, if it is a symbolic link, the file at the
+/// end of its chain of links (which need not exist). Throws InputError for a link that cannot be read or a
+/// loop.
+std::string replaced_path(const std::string& path);
+
 /// Writes `bytes` to `path` all or nothing: into a temporary file in the same directory, then renamed over
-/// `path` (without `force`, an existing `path` is left alone and reported). On any failure the temporary file
+/// `path` (without `force`, an existing `path` is left alone and reported). With `force`, an existing file
+/// keeps its permission bits (not its owner or its other hard links: the file is a new one), and a symbolic
+/// link stays in place: the file it points to is replaced (replaced_path). On any failure the temporary file
 /// is removed and InputError names `path` and the system's reason. An interrupt (SIGINT, SIGTERM) while
 /// writing removes the temporary file too.
 void write_file_atomic(const std::string& path, std::string_view bytes, bool force);

@@ -407,8 +407,8 @@ Eigen::Matrix3d rotation(const Eigen::Vector3d& a, double degrees) {
 
 }  // namespace
 
-template <class T>
-ResolvedHandles<T> resolve_handles(const HandlesFile& h, const PointsRowMajor<float>& vertices) {
+template <class T, class V>
+ResolvedHandles<T> resolve_handles(const HandlesFile& h, const PointsRowMajor<V>& vertices) {
   const auto n = std::uint64_t(vertices.rows());
   const Converter<T> convert{h.file};
   auto vertex = [&](std::uint64_t i, const std::string& path) -> Eigen::Vector3d {
@@ -417,7 +417,7 @@ ResolvedHandles<T> resolve_handles(const HandlesFile& h, const PointsRowMajor<fl
                        "vertex index " + std::to_string(i) + " out of range (the mesh has " + std::to_string(n) +
                            " vertices" + (n ? ", 0 to " + std::to_string(n - 1) : std::string()) + ")",
                        path);
-    return vertices.row(Eigen::Index(i)).transpose().cast<double>();
+    return vertices.row(Eigen::Index(i)).transpose().template cast<double>();
   };
 
   ResolvedHandles<T> r;
@@ -518,7 +518,9 @@ ResolvedHandles<T> resolve_handles(const HandlesFile& h, const PointsRowMajor<fl
   return r;
 }
 
-template ResolvedHandles<float> resolve_handles<float>(const HandlesFile&, const PointsRowMajor<float>&);
-template ResolvedHandles<double> resolve_handles<double>(const HandlesFile&, const PointsRowMajor<float>&);
+template ResolvedHandles<float> resolve_handles<float, float>(const HandlesFile&, const PointsRowMajor<float>&);
+template ResolvedHandles<float> resolve_handles<float, double>(const HandlesFile&, const PointsRowMajor<double>&);
+template ResolvedHandles<double> resolve_handles<double, float>(const HandlesFile&, const PointsRowMajor<float>&);
+template ResolvedHandles<double> resolve_handles<double, double>(const HandlesFile&, const PointsRowMajor<double>&);
 
 }  // namespace mlsdeform::cli

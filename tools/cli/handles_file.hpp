@@ -91,13 +91,18 @@ struct ResolvedHandles {
   std::vector<Eigen::Index> region;
 };
 
-/// Looks up vertex indices in `vertices` (n x 3) and converts to T. Throws InputError (with the JSON path) on an
-/// index out of range (of a handle or of the region), a coordinate that is not finite in T, or a zero-length rest
-/// segment.
-template <class T>
-ResolvedHandles<T> resolve_handles(const HandlesFile& handles, const PointsRowMajor<float>& vertices);
+/// Looks up vertex indices in `vertices` (n x 3, float or double: the mesh as read) and converts to T. Throws
+/// InputError (with the JSON path) on an index out of range (of a handle or of the region), a coordinate that
+/// is not finite in T, or a zero-length rest segment.
+template <class T, class V>
+ResolvedHandles<T> resolve_handles(const HandlesFile& handles, const PointsRowMajor<V>& vertices);
 
-extern template ResolvedHandles<float> resolve_handles<float>(const HandlesFile&, const PointsRowMajor<float>&);
-extern template ResolvedHandles<double> resolve_handles<double>(const HandlesFile&, const PointsRowMajor<float>&);
+extern template ResolvedHandles<float> resolve_handles<float, float>(const HandlesFile&, const PointsRowMajor<float>&);
+extern template ResolvedHandles<float> resolve_handles<float, double>(const HandlesFile&,
+                                                                      const PointsRowMajor<double>&);
+extern template ResolvedHandles<double> resolve_handles<double, float>(const HandlesFile&,
+                                                                       const PointsRowMajor<float>&);
+extern template ResolvedHandles<double> resolve_handles<double, double>(const HandlesFile&,
+                                                                        const PointsRowMajor<double>&);
 
 }  // namespace mlsdeform::cli

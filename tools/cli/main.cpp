@@ -125,7 +125,7 @@ int run(int argc, char** argv) {
       "  mlsdeform demo                                   deform the bundled meshes, print frame rates\n"
       "  mlsdeform deform -m in.obj -H handles.json -o out.ply\n"
       "  mlsdeform deform -m in.obj -H handles.json -o out.ply --arap 10   MLS, then 10 ARAP iterations\n"
-      "  mlsdeform figures                                redraw the paper's figures in docs/figures/\n"
+      "  mlsdeform figures                                redraw the paper's figures in mlsdeform-figures-out/\n"
       "Run 'mlsdeform SUBCOMMAND --help' for a subcommand's options. Exit status: 0 done, 2 bad input or usage,\n"
       "1 internal error, 128 + N interrupted by signal N (the outputs of the run removed).");
 
@@ -156,6 +156,12 @@ int run(int argc, char** argv) {
       ->default_str(std::to_string(kDefaultMaxInputBytes >> 20));
   deform->add_flag("--force,-f", d.force, "overwrite existing output files");
   deform->add_flag("--ply-ascii", d.ply_ascii, "write PLY as text (default: binary little-endian)");
+  add_choice<std::optional<CoordinateType>>(
+      deform, "--output-type", d.output_type,
+      {{"auto", std::nullopt}, {"float", CoordinateType::float32}, {"double", CoordinateType::float64}},
+      "the output's coordinate type: PLY's property type; OBJ and OFF: the shortest text of a float or of a "
+      "double. auto: float with --precision float; with --precision double, the input PLY's type (float stays "
+      "float), else double");
   deform->add_flag("--quiet,-q", d.quiet, "print nothing but errors");
   deform->footer(
       "The handles file (see README.md, \"Handles file\"):\n"
@@ -190,7 +196,10 @@ int run(int argc, char** argv) {
       app.add_subcommand("figures",
                          "Redraw the paper's Fig. 1 to 8, and MLS against MLS + ARAP (arap.png), as PNG images "
                          "(with python3-matplotlib).");
-  figures->add_option("--out-dir,-o", fig_args.out_dir, "folder for the images")->default_str(default_figures_dir());
+  figures
+      ->add_option("--out-dir,-o", fig_args.out_dir,
+                   "folder for the images (created); the docs' copies: --out-dir docs/figures in the source tree")
+      ->default_str(fig_args.out_dir);
   figures->add_option("--only", fig_args.only,
                       "comma-separated figures: 1 to 8, arap (default: all; 2 needs the shared fish.obj, "
                       "$MLSDEFORM_MESHES)");

@@ -26,6 +26,9 @@ namespace mlsdeform::cli {
 
 namespace {
 
+// The UTF-8 byte-order mark, U+FEFF.
+constexpr std::string_view kBom = "\xef\xbb\xbf";
+
 std::string at_line(std::size_t line) { return "line " + std::to_string(line); }
 
 /// A token from the file as a message shows it: quoted, bytes outside printable ASCII as \xNN (a binary file
@@ -51,13 +54,38 @@ std::string shown(std::string_view token) {
 }
 
 /// Whole-token number parsing: the token must be a number and nothing else (correctly rounded for floats).
+/// std::errc::result_out_of_range: a whole number that T cannot hold (1e39 or 1e-46 as a float).
 template <class T>
-bool parse_number(std::string_view token, T& out) {
-  if (token.empty()) return false;
+std::errc read_number(std::string_view token, T& out) {
+  if (token.empty()) return std::errc::invalid_argument;
   const char* first = token.data();
   if (*first == '+') ++first;  // from_chars refuses a leading '+', which text formats use
   const auto r = std::from_chars(first, token.data() + token.size(), out);
-  return r.ec == std::errc() && r.ptr == token.data() + token.size();
+  if (r.ptr != token.data() + token.size()) return std::errc::invalid_argument;
+  return r.ec;
+}
+template <class T>
+bool parse_number(std::string_view token, T& out) {
+  return read_number(token, out) == std::errc();
+}
+
+std::string shortest_text(double v) {
+  char buf[32];
+  return std::string(buf, std::to_chars(buf, buf + sizeof buf, v).ptr);
+}
+
+/// A coordinate as T, or InputError: "not a number", or out of T's range (float: --precision double reads it).
+template <class T>
+T coordinate(std::string_view token, const std::string& path, const std::string& where) {
+  T v = 0;
+  const std::errc ec = read_number(token, v);
+  if (ec == std::errc()) return v;
+  if (ec == std::errc::result_out_of_range)
+    throw InputError(path,
+                     "number out of the range of " + std::string(std::is_same_v<T, float> ? "float" : "double") + ": " +
+                         shown(token) + (std::is_same_v<T, float> ? " (--precision double reads it)" : ""),
+                     where);
+  throw InputError(path, "not a number: " + shown(token), where);
 }
 
 /// A ByteSource read through a buffer: whole lines (text formats) or bytes (binary PLY), counting what was
@@ -100,6 +128,14 @@ class Reader {
       std::memcpy(dst, buf_.data() + begin_, k);
       begin_ += k, consumed_ += k, dst += k, n -= k;
     }
+    return true;
+  }
+  /// Whether the input starts with `prefix`; if so, it is consumed. Only before anything else is read.
+  bool skip_prefix(std::string_view prefix) {
+    while (end_ - begin_ < prefix.size() && !eof_) fill();
+    if (std::string_view(buf_.data() + begin_, end_ - begin_).substr(0, prefix.size()) != prefix) return false;
+    begin_ += prefix.size();
+    consumed_ += prefix.size();
     return true;
   }
   bool at_end() {
@@ -181,7 +217,10 @@ std::vector<T> to_vector(std::deque<T>& blocks) {
   return v;
 }
 
-bool finite3(const float* c) { return std::isfinite(c[0]) && std::isfinite(c[1]) && std::isfinite(c[2]); }
+template <class T>
+bool finite3(const T* c) {
+  return std::isfinite(c[0]) && std::isfinite(c[1]) && std::isfinite(c[2]);
+}
 
 std::string non_finite(std::size_t vertex) {
   return "vertex " + std::to_string(vertex) + " has a non-finite coordinate";
@@ -205,9 +244,10 @@ std::string out_of_range(std::size_t face, std::int64_t v, std::uint64_t nv) {
 
 // ---- OBJ ---------------------------------------------------------------------------------------------------
 
-Mesh read_obj(Reader& reader, const std::string& path) {
-  Mesh mesh;
-  std::deque<float> coords;
+template <class T>
+BasicMesh<T> read_obj(Reader& reader, const std::string& path) {
+  BasicMesh<T> mesh;
+  std::deque<T> coords;
   std::deque<std::uint32_t> corners, face_start{0};  // corners 0-based; relative (negative) ones resolved
   std::uint64_t max_corner = 0;                      // the largest 1-based index, checked at the end
   std::size_t max_corner_line = 0;
@@ -222,12 +262,10 @@ Mesh read_obj(Reader& reader, const std::string& path) {
         throw InputError(
             path, "a vertex needs 3 coordinates (x y z, optionally w, or x y z r g b), found " + std::to_string(n),
             at_line(lines.line()));
-      float c[6];
-      for (std::size_t k = 0; k < n; ++k)
-        if (!parse_number(t[k + 1], c[k]))
-          throw InputError(path, "not a number: " + shown(t[k + 1]), at_line(lines.line()));
+      T c[6];
+      for (std::size_t k = 0; k < n; ++k) c[k] = coordinate<T>(t[k + 1], path, at_line(lines.line()));
       if (n == 4) {
-        if (c[3] == 0.0f) throw InputError(path, "vertex with w = 0", at_line(lines.line()));
+        if (c[3] == 0) throw InputError(path, "vertex with w = 0", at_line(lines.line()));
         for (int k = 0; k < 3; ++k) c[k] /= c[3];
       }
       if (!finite3(c)) throw InputError(path, non_finite(coords.size() / 3), at_line(lines.line()));
@@ -285,7 +323,7 @@ Mesh read_obj(Reader& reader, const std::string& path) {
         at_line(max_corner_line));
   mesh.vertices.resize(Eigen::Index(n), 3);
   std::copy(coords.begin(), coords.end(), mesh.vertices.data());
-  std::deque<float>().swap(coords);
+  std::deque<T>().swap(coords);
   mesh.face_indices = to_vector(corners);
   mesh.face_start = to_vector(face_start);
   return mesh;
@@ -293,7 +331,8 @@ Mesh read_obj(Reader& reader, const std::string& path) {
 
 // ---- OFF ---------------------------------------------------------------------------------------------------
 
-Mesh read_off(Reader& reader, const std::string& path) {
+template <class T>
+BasicMesh<T> read_off(Reader& reader, const std::string& path) {
   std::vector<std::string_view> t;
   Lines lines(reader);
   if (!lines.next_content(t) || t[0] != "OFF")
@@ -315,17 +354,15 @@ Mesh read_off(Reader& reader, const std::string& path) {
                      "the header promises " + std::to_string(nv) + " vertices and " + std::to_string(nf) +
                          " faces, but only " + std::to_string(reader.remaining()) + " bytes follow",
                      at_line(lines.line()));
-  Mesh mesh;
+  BasicMesh<T> mesh;
   mesh.vertices.resize(Eigen::Index(nv), 3);
   for (std::uint64_t i = 0; i < nv; ++i) {
     if (!lines.next_content(t))
       throw InputError(path, "malformed OFF: truncated in vertex " + std::to_string(i) + " of " + std::to_string(nv));
-    float c[3];
+    T c[3];
     if (t.size() != 3)
       throw InputError(path, "a vertex needs 3 coordinates, found " + std::to_string(t.size()), at_line(lines.line()));
-    for (int k = 0; k < 3; ++k)
-      if (!parse_number(t[std::size_t(k)], c[k]))
-        throw InputError(path, "not a number: " + shown(t[std::size_t(k)]), at_line(lines.line()));
+    for (int k = 0; k < 3; ++k) c[k] = coordinate<T>(t[std::size_t(k)], path, at_line(lines.line()));
     if (!finite3(c)) throw InputError(path, non_finite(i), at_line(lines.line()));
     mesh.vertices.row(Eigen::Index(i)) << c[0], c[1], c[2];
   }
@@ -354,10 +391,7 @@ Mesh read_off(Reader& reader, const std::string& path) {
       if (v < 0 || std::uint64_t(v) >= nv) throw InputError(path, out_of_range(f, v, nv), at_line(lines.line()));
       corners.push_back(std::uint32_t(v));
     }
-    for (std::size_t j = std::size_t(k) + 1; j < t.size(); ++j) {
-      float colour = 0;
-      if (!parse_number(t[j], colour)) throw InputError(path, "not a number: " + shown(t[j]), at_line(lines.line()));
-    }
+    for (std::size_t j = std::size_t(k) + 1; j < t.size(); ++j) coordinate<T>(t[j], path, at_line(lines.line()));
     mesh.face_start.push_back(std::uint32_t(corners.size()));
   }
   if (lines.next_content(t)) throw InputError(path, "malformed OFF: data after the last face", at_line(lines.line()));
@@ -504,7 +538,8 @@ bool read_binary(Reader& reader, Scalar s, bool big_endian, double& out) {
   return true;
 }
 
-Mesh read_ply(Reader& reader, const std::string& path) {
+template <class T>
+BasicMesh<T> read_ply(Reader& reader, const std::string& path) {
   auto malformed = [&](const std::string& why, std::size_t line = 0) -> InputError {
     return InputError(path, "malformed PLY: " + why, line ? at_line(line) : std::string());
   };
@@ -517,6 +552,8 @@ Mesh read_ply(Reader& reader, const std::string& path) {
     ++line_no;
     split(l, t);  // no comments here: '#' is a character like any other in a PLY header
   };
+  if (reader.skip_prefix(kBom))
+    throw malformed("the file starts with a UTF-8 byte-order mark; the first line must be 'ply' (remove the mark)", 1);
   header_line();
   if (t.size() != 1 || t[0] != "ply") throw malformed("the first line is not 'ply'", 1);
   std::string format;
@@ -600,7 +637,11 @@ Mesh read_ply(Reader& reader, const std::string& path) {
                          std::to_string(body) + " follow",
                      "header");
 
-  Mesh mesh;
+  BasicMesh<T> mesh;
+  const auto& vertex_properties = elements[std::size_t(vertex_element)].properties;
+  mesh.stored_type = CoordinateType::float32;
+  for (int c = 0; c < 3; ++c)
+    if (vertex_properties[std::size_t(xyz[c])].type == Scalar::f64) mesh.stored_type = CoordinateType::float64;
   const std::uint64_t nv = elements[std::size_t(vertex_element)].count;
   mesh.vertices.resize(Eigen::Index(nv), 3);
   if (face_element >= 0) mesh.face_start.reserve(std::size_t(elements[std::size_t(face_element)].count) + 1);
@@ -645,21 +686,22 @@ Mesh read_ply(Reader& reader, const std::string& path) {
         auto take = [&](Scalar s) {
           if (tok >= t.size()) throw InputError(path, "too few values for " + item(), where());
           double v = 0;
-          bool ok;
+          std::errc ec;
           if (is_integer(s)) {
             std::int64_t n = 0;
-            ok = parse_number(t[tok], n);
-            if (ok && !fits(s, n))
-              throw InputError(path, shown(t[tok]) + " in " + item() + " is out of the range of its type", where());
+            ec = read_number(t[tok], n);
+            if (ec == std::errc() && !fits(s, n)) ec = std::errc::result_out_of_range;
             v = double(n);
           } else if (s == Scalar::f32) {
             float f = 0;  // parsed as float: correctly rounded once (decimal -> double -> float could round twice)
-            ok = parse_number(t[tok], f);
+            ec = read_number(t[tok], f);
             v = f;
           } else {
-            ok = parse_number(t[tok], v);
+            ec = read_number(t[tok], v);
           }
-          if (!ok) throw InputError(path, "not a number: " + shown(t[tok]) + " in " + item(), where());
+          if (ec == std::errc::result_out_of_range)
+            throw InputError(path, shown(t[tok]) + " in " + item() + " is out of the range of its type", where());
+          if (ec != std::errc()) throw InputError(path, "not a number: " + shown(t[tok]) + " in " + item(), where());
           ++tok;
           return v;
         };
@@ -678,8 +720,13 @@ Mesh read_ply(Reader& reader, const std::string& path) {
       }
       if (int(e) == vertex_element) {
         // Vertex properties are all scalars (checked above): value k is property k.
-        const float c[3] = {float(values[std::size_t(xyz[0])]), float(values[std::size_t(xyz[1])]),
-                            float(values[std::size_t(xyz[2])])};
+        const T c[3] = {T(values[std::size_t(xyz[0])]), T(values[std::size_t(xyz[1])]), T(values[std::size_t(xyz[2])])};
+        for (int k = 0; k < 3; ++k)  // a finite double property that T cannot hold (a double beyond float's range)
+          if (std::isinf(c[k]) && std::isfinite(values[std::size_t(xyz[k])]))
+            throw InputError(path,
+                             "vertex " + std::to_string(i) + " has a coordinate beyond the range of float (" +
+                                 shortest_text(values[std::size_t(xyz[k])]) + "; --precision double reads it)",
+                             where());
         if (!finite3(c)) throw InputError(path, non_finite(std::size_t(i)), where());
         mesh.vertices.row(Eigen::Index(i)) << c[0], c[1], c[2];
       } else if (int(e) == face_element) {
@@ -711,22 +758,32 @@ std::string readable_formats() {
   return "obj, off, ply (ASCII or binary), and each gzip-compressed (.obj.gz, .off.gz, .ply.gz)";
 }
 
-Mesh read_mesh(const std::string& path, std::size_t max_bytes) {
+template <class T>
+BasicMesh<T> read_mesh(const std::string& path, std::size_t max_bytes) {
   const std::string ext = format_extension(path);
   if (ext != "obj" && ext != "off" && ext != "ply")
     throw InputError(path, "unknown mesh format" + (ext.empty() ? std::string() : " " + shown("." + ext)) +
                                " (readable: " + readable_formats() + ")");
   const auto source = open_input(path, max_bytes);
-  return parse_mesh(*source, ext, path);
+  return parse_mesh<T>(*source, ext, path);
 }
 
-Mesh parse_mesh(ByteSource& source, const std::string& format, const std::string& path) {
+template <class T>
+BasicMesh<T> parse_mesh(ByteSource& source, const std::string& format, const std::string& path) {
   if (source.size() == 0) throw InputError(path, "empty file");
   Reader reader(source, path);
-  if (format == "obj") return read_obj(reader, path);
-  if (format == "off") return read_off(reader, path);
-  if (format == "ply") return read_ply(reader, path);
+  if (format == "ply") return read_ply<T>(reader, path);
+  // Text a Windows editor saved may start with a byte-order mark: skipped (it is no statement of OBJ or OFF).
+  const bool bom = reader.skip_prefix(kBom);
+  if (bom && reader.at_end()) throw InputError(path, "empty file (only a UTF-8 byte-order mark)");
+  if (format == "obj") return read_obj<T>(reader, path);
+  if (format == "off") return read_off<T>(reader, path);
   throw std::invalid_argument("parse_mesh: unknown format '" + format + "'");
 }
+
+template BasicMesh<float> read_mesh<float>(const std::string&, std::size_t);
+template BasicMesh<double> read_mesh<double>(const std::string&, std::size_t);
+template BasicMesh<float> parse_mesh<float>(ByteSource&, const std::string&, const std::string&);
+template BasicMesh<double> parse_mesh<double>(ByteSource&, const std::string&, const std::string&);
 
 }  // namespace mlsdeform::cli

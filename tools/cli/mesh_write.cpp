@@ -16,17 +16,17 @@
 namespace mlsdeform::cli {
 namespace {
 
-// The shortest decimal text that reads back to v (correctly rounded, as the readers parse).
-std::string_view float_text(float v, char (&buf)[64]) {
-  const auto r = std::to_chars(buf, buf + sizeof buf, v);
-  return {buf, std::size_t(r.ptr - buf)};
-}
-
 struct TextOut {
   std::string s;
-  void num(float v) {
+  // The shortest decimal text that reads back to v (correctly rounded, as the readers parse): at most 17
+  // significant digits for a double, 9 for a float.
+  void num(float v) { real(v); }
+  void num(double v) { real(v); }
+  template <class R>
+  void real(R v) {
     char buf[64];
-    s.append(float_text(v, buf));
+    const auto r = std::to_chars(buf, buf + sizeof buf, v);
+    s.append(buf, r.ptr);
   }
   void num(std::uint64_t v) {
     char buf[24];
@@ -57,27 +57,29 @@ std::string comment() {
          std::to_string(MLSDEFORM_VERSION_MINOR) + "." + std::to_string(MLSDEFORM_VERSION_PATCH);
 }
 
-std::string encode_obj(const Mesh& m, const PointsRowMajor<float>* normals) {
+// O: the type written (WriteOptions::coordinates); T's values are converted to it (exactly, or rounded once).
+template <class O, class T>
+std::string encode_obj(const BasicMesh<T>& m, const PointsRowMajor<T>* normals) {
   TextOut o;
   o.s.reserve(std::size_t(m.vertex_count()) * (normals ? 70 : 35) + m.face_indices.size() * 16);
   o << "# " << comment() << '\n';
   for (Eigen::Index i = 0; i < m.vertex_count(); ++i) {
     o << "v ";
-    o.num(m.vertices(i, 0));
+    o.num(O(m.vertices(i, 0)));
     o << ' ';
-    o.num(m.vertices(i, 1));
+    o.num(O(m.vertices(i, 1)));
     o << ' ';
-    o.num(m.vertices(i, 2));
+    o.num(O(m.vertices(i, 2)));
     o << '\n';
   }
   if (normals)
     for (Eigen::Index i = 0; i < normals->rows(); ++i) {
       o << "vn ";
-      o.num((*normals)(i, 0));
+      o.num(O((*normals)(i, 0)));
       o << ' ';
-      o.num((*normals)(i, 1));
+      o.num(O((*normals)(i, 1)));
       o << ' ';
-      o.num((*normals)(i, 2));
+      o.num(O((*normals)(i, 2)));
       o << '\n';
     }
   for (std::size_t f = 0; f < m.face_count(); ++f) {
@@ -96,7 +98,8 @@ std::string encode_obj(const Mesh& m, const PointsRowMajor<float>* normals) {
   return std::move(o.s);
 }
 
-std::string encode_off(const Mesh& m) {
+template <class O, class T>
+std::string encode_off(const BasicMesh<T>& m) {
   TextOut o;
   o.s.reserve(std::size_t(m.vertex_count()) * 35 + m.face_indices.size() * 8);
   o << "OFF\n# " << comment() << '\n';
@@ -105,11 +108,11 @@ std::string encode_off(const Mesh& m) {
   o.num(std::uint64_t(m.face_count()));
   o << " 0\n";
   for (Eigen::Index i = 0; i < m.vertex_count(); ++i) {
-    o.num(m.vertices(i, 0));
+    o.num(O(m.vertices(i, 0)));
     o << ' ';
-    o.num(m.vertices(i, 1));
+    o.num(O(m.vertices(i, 1)));
     o << ' ';
-    o.num(m.vertices(i, 2));
+    o.num(O(m.vertices(i, 2)));
     o << '\n';
   }
   for (std::size_t f = 0; f < m.face_count(); ++f) {
@@ -123,7 +126,8 @@ std::string encode_off(const Mesh& m) {
   return std::move(o.s);
 }
 
-std::string encode_ply(const Mesh& m, const PointsRowMajor<float>* normals, PlyEncoding encoding) {
+template <class O, class T>
+std::string encode_ply(const BasicMesh<T>& m, const PointsRowMajor<T>* normals, PlyEncoding encoding) {
   std::size_t largest_face = 0;
   for (std::size_t f = 0; f < m.face_count(); ++f)
     largest_face = std::max<std::size_t>(largest_face, m.face_start[f + 1] - m.face_start[f]);
@@ -131,18 +135,21 @@ std::string encode_ply(const Mesh& m, const PointsRowMajor<float>* normals, PlyE
 
   TextOut o;
   const bool binary = encoding == PlyEncoding::binary;
-  o.s.reserve(256 + std::size_t(m.vertex_count()) * (binary ? 24 : 70) + m.face_indices.size() * (binary ? 5 : 8));
+  o.s.reserve(256 + std::size_t(m.vertex_count()) * (binary ? 6 * sizeof(O) : 70) +
+              m.face_indices.size() * (binary ? 5 : 8));
+  const std::string_view type = std::is_same_v<O, float> ? "float" : "double";
   o << "ply\nformat " << (binary ? "binary_little_endian" : "ascii") << " 1.0\ncomment " << comment()
     << "\nelement vertex ";
   o.num(std::uint64_t(m.vertex_count()));
-  o << "\nproperty float x\nproperty float y\nproperty float z\n";
-  if (normals) o << "property float nx\nproperty float ny\nproperty float nz\n";
+  o << '\n';
+  for (const char* name : {"x", "y", "z", "nx", "ny", "nz"})
+    if (name[0] != 'n' || normals) o << "property " << type << ' ' << name << '\n';
   o << "element face ";
   o.num(std::uint64_t(m.face_count()));
   o << "\nproperty list " << (uchar_counts ? "uchar" : "uint") << " int vertex_indices\nend_header\n";
   for (Eigen::Index i = 0; i < m.vertex_count(); ++i) {
     for (int k = 0; k < 3 + (normals ? 3 : 0); ++k) {
-      const float v = k < 3 ? m.vertices(i, k) : (*normals)(i, k - 3);
+      const O v = O(k < 3 ? m.vertices(i, k) : (*normals)(i, k - 3));
       if (binary) {
         put_le(o.s, v);
       } else {
@@ -174,32 +181,37 @@ std::string encode_ply(const Mesh& m, const PointsRowMajor<float>* normals, PlyE
 
 }  // namespace
 
-PointsRowMajor<float> vertex_normals(const Mesh& mesh) {
-  Eigen::Matrix<double, Eigen::Dynamic, 3, Eigen::RowMajor> acc = decltype(acc)::Zero(mesh.vertex_count(), 3);
+template <class T>
+PointsRowMajor<T> vertex_normals(const BasicMesh<T>& mesh) {
+  // Newell's products are of squared coordinates: in double for float input (no overflow or underflow from
+  // float's range), in long double for double input (on x86, 15 exponent bits hold the square of any double).
+  using Acc = std::conditional_t<std::is_same_v<T, float>, double, long double>;
+  using Vec = Eigen::Matrix<Acc, 3, 1>;
+  Eigen::Matrix<Acc, Eigen::Dynamic, 3, Eigen::RowMajor> acc = decltype(acc)::Zero(mesh.vertex_count(), 3);
   for (std::size_t f = 0; f < mesh.face_count(); ++f) {
     // Newell's method: the polygon's normal scaled by twice its area.
-    Eigen::Vector3d n = Eigen::Vector3d::Zero();
+    Vec n = Vec::Zero();
     const auto b = mesh.face_start[f], e = mesh.face_start[f + 1];
     for (auto c = b; c < e; ++c) {
-      const Eigen::Vector3d p = mesh.vertices.row(mesh.face_indices[c]).cast<double>();
-      const Eigen::Vector3d q = mesh.vertices.row(mesh.face_indices[c + 1 < e ? c + 1 : b]).cast<double>();
-      n += Eigen::Vector3d((p.y() - q.y()) * (p.z() + q.z()), (p.z() - q.z()) * (p.x() + q.x()),
-                           (p.x() - q.x()) * (p.y() + q.y()));
+      const Vec p = mesh.vertices.row(mesh.face_indices[c]).template cast<Acc>();
+      const Vec q = mesh.vertices.row(mesh.face_indices[c + 1 < e ? c + 1 : b]).template cast<Acc>();
+      n += Vec((p.y() - q.y()) * (p.z() + q.z()), (p.z() - q.z()) * (p.x() + q.x()), (p.x() - q.x()) * (p.y() + q.y()));
     }
     for (auto c = b; c < e; ++c) acc.row(mesh.face_indices[c]) += n.transpose();
   }
-  PointsRowMajor<float> out(mesh.vertex_count(), 3);
+  PointsRowMajor<T> out(mesh.vertex_count(), 3);
   for (Eigen::Index i = 0; i < acc.rows(); ++i) {
-    const double len = acc.row(i).norm();
+    const Acc len = acc.row(i).norm();
     if (len > 0 && std::isfinite(len))
-      out.row(i) = (acc.row(i) / len).cast<float>();
+      out.row(i) = (acc.row(i) / len).template cast<T>();
     else
       out.row(i).setZero();
   }
   return out;
 }
 
-std::vector<std::uint32_t> triangulate(const Mesh& mesh) {
+template <class T>
+std::vector<std::uint32_t> triangulate(const BasicMesh<T>& mesh) {
   std::vector<std::uint32_t> t;
   t.reserve(mesh.face_indices.size() * 3);
   for (std::size_t f = 0; f < mesh.face_count(); ++f)
@@ -208,7 +220,8 @@ std::vector<std::uint32_t> triangulate(const Mesh& mesh) {
   return t;
 }
 
-Triangles fan_triangles(const Mesh& mesh, const std::string& path) {
+template <class T>
+Triangles fan_triangles(const BasicMesh<T>& mesh, const std::string& path) {
   if (mesh.vertex_count() > std::numeric_limits<int>::max())
     throw InputError(path, "too many vertices for --arap (" + std::to_string(mesh.vertex_count()) +
                                "; its triangles index vertices by int)");
@@ -229,20 +242,46 @@ void check_output_format(const std::string& path) {
                                " (writable: " + writable_formats() + ")");
 }
 
-std::string encode_mesh(const Mesh& mesh, const std::string& path, const WriteOptions& options) {
+template <class T>
+CoordinateType output_type(const BasicMesh<T>& mesh, const WriteOptions& options) {
+  if (options.coordinates) return *options.coordinates;
+  if constexpr (std::is_same_v<T, float>)
+    return CoordinateType::float32;
+  else
+    return mesh.stored_type.value_or(CoordinateType::float64);
+}
+
+template <class T>
+std::string encode_mesh(const BasicMesh<T>& mesh, const std::string& path, const WriteOptions& options) {
   check_output_format(path);
   const std::string ext = format_extension(path);
-  PointsRowMajor<float> normals;
+  PointsRowMajor<T> normals;
   if (options.normals && ext != "off") normals = vertex_normals(mesh);
-  const PointsRowMajor<float>* n = options.normals && ext != "off" ? &normals : nullptr;
-  std::string bytes = ext == "obj"   ? encode_obj(mesh, n)
-                      : ext == "off" ? encode_off(mesh)
-                                     : encode_ply(mesh, n, options.ply);
+  const PointsRowMajor<T>* n = options.normals && ext != "off" ? &normals : nullptr;
+  auto encode = [&](auto as) {
+    using O = decltype(as);
+    return ext == "obj"   ? encode_obj<O>(mesh, n)
+           : ext == "off" ? encode_off<O>(mesh)
+                          : encode_ply<O>(mesh, n, options.ply);
+  };
+  std::string bytes = output_type(mesh, options) == CoordinateType::float32 ? encode(float()) : encode(double());
   return is_gzip_path(path) ? gzip(bytes) : bytes;
 }
 
-void write_mesh(const Mesh& mesh, const std::string& path, const WriteOptions& options) {
+template <class T>
+void write_mesh(const BasicMesh<T>& mesh, const std::string& path, const WriteOptions& options) {
   write_file_atomic(path, encode_mesh(mesh, path, options), options.force);
 }
+
+#define MLSDEFORM_CLI_MESH_WRITE(T)                                                               \
+  template PointsRowMajor<T> vertex_normals(const BasicMesh<T>&);                                 \
+  template std::vector<std::uint32_t> triangulate(const BasicMesh<T>&);                           \
+  template Triangles fan_triangles(const BasicMesh<T>&, const std::string&);                      \
+  template CoordinateType output_type(const BasicMesh<T>&, const WriteOptions&);                  \
+  template std::string encode_mesh(const BasicMesh<T>&, const std::string&, const WriteOptions&); \
+  template void write_mesh(const BasicMesh<T>&, const std::string&, const WriteOptions&);
+MLSDEFORM_CLI_MESH_WRITE(float)
+MLSDEFORM_CLI_MESH_WRITE(double)
+#undef MLSDEFORM_CLI_MESH_WRITE
 
 }  // namespace mlsdeform::cli

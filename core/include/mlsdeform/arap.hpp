@@ -46,6 +46,9 @@ struct ArapOptions {
 /// cotangents, from obtuse angles, make the energy indefinite) plus 1e-6 of the mean weight on every edge, so that a
 /// sliver or a clamped edge never disconnects a vertex; degenerate triangles (zero area) contribute nothing.
 /// Vertices in a connected component with no constrained vertex keep their start position.
+/// Scale: the session works in frames scaled by powers of two to the rest pose and to the positions
+/// (arap_refiner.cpp), so any input scale works, and scaling rest, start and targets by 2^k scales the result
+/// by 2^k bitwise (only a result in T's subnormal range is rounded once more).
 template <class T>
 class ArapRefiner {
  public:
@@ -61,12 +64,19 @@ class ArapRefiner {
   /// constrained[k] held at targets.row(k). Writes `out` (resized only if its size is wrong; it may be `start`
   /// itself); allocates nothing once `out` has its size. Not for concurrent calls (the session holds the
   /// scratch). iterations = 0 copies `start` with the constraints applied. Throws std::invalid_argument on
-  /// sizes that do not match or non-finite input. Any iteration count is allowed, each one costs the same:
-  /// `cancel` (cancel.hpp) is checked before every iteration and throws Cancelled with `out` untouched.
+  /// sizes that do not match or non-finite input, and, leaving `out` unchanged, when a refined position
+  /// overflows T. Any iteration count is allowed, each one costs the same: `cancel` (cancel.hpp) is checked
+  /// before every iteration and throws Cancelled with `out` untouched.
   void refine(const Points<T>& start, const Points<T>& targets, int iterations, Points<T>& out,
               const CancelCheck& cancel = {});
+  /// refine() with start and targets given as the positions times 2^-exponent (exact powers of two: a caller
+  /// that holds them in a scaled frame, as the Deformer does, passes them without rounding them to its units
+  /// first); `out` is in the caller's units.
+  void refine_scaled(const Points<T>& start, const Points<T>& targets, int exponent, int iterations, Points<T>& out,
+                     const CancelCheck& cancel = {});
 
-  /// E(x) with the optimal rotations for x (as one local step computes them), in double.
+  /// E(x) with the optimal rotations for x (as one local step computes them), in double (in the units of the
+  /// positions, squared: inf where that overflows double).
   double energy(const Points<T>& x) const;
 
   Eigen::Index vertex_count() const;

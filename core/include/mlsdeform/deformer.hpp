@@ -124,11 +124,13 @@ class Deformer {
   /// Deform with the given moved handles (same counts as the rest handles; point handles that share a rest
   /// position must share their target too, since a vertex there cannot follow both). Writes `out` (resized
   /// only if its size is wrong); allocates nothing once `out` has its size. On invalid input throws
-  /// std::invalid_argument and leaves `out` untouched. With arap_iterations > 0 or a region, concurrent calls
-  /// on one session take turns (the refinement's or the region's scratch belongs to the session). `cancel`
-  /// (cancel.hpp) is checked before each ARAP iteration, where a frame's time is the iteration count's, and
-  /// throws Cancelled with `out` untouched; the MLS pass itself is not interrupted (its time is that of one
-  /// pass over the table, about what reading the table once costs).
+  /// std::invalid_argument and leaves `out` untouched. A deformed position that T cannot hold (handles whose
+  /// targets map a vertex beyond T's range) is never returned: std::invalid_argument names the vertex, and
+  /// `out` is then unspecified (untouched with arap_iterations > 0). With arap_iterations > 0 or a region,
+  /// concurrent calls on one session take turns (the refinement's or the region's scratch belongs to the
+  /// session). `cancel` (cancel.hpp) is checked before each ARAP iteration, where a frame's time is the
+  /// iteration count's, and throws Cancelled with `out` untouched; the MLS pass itself is not interrupted (its
+  /// time is that of one pass over the table, about what reading the table once costs).
   void deform(const Handles<T>& moved_handles, Points<T>& out, const CancelCheck& cancel = {}) const;
   /// The same, writing interleaved xyz (e.g. a mapped vertex buffer of vertex_count() * 3 values).
   void deform(const Handles<T>& moved_handles, InterleavedView<T> out, const CancelCheck& cancel = {}) const;
@@ -140,8 +142,11 @@ class Deformer {
   /// Moves a group of handles as one rigid body: the targets of the point handles `point_indices` and the
   /// segment handles `segment_indices` (an index may repeat) become their REST positions under
   /// x -> R (x - pivot) + pivot + t; other targets are kept. Computed in T, coordinate i of the image as
-  /// (((R_i0 d_0 + R_i1 d_1) + R_i2 d_2) + pivot_i) + t_i with d = x - pivot, so a group of one handle sets
-  /// bitwise what set_point_target / set_segment_target would set from that expression. Throws, changing
+  /// (((R_i0 d_0 + R_i1 d_1) + R_i2 d_2) + pivot_i) + t_i with d = x - pivot, on the coordinates scaled by an
+  /// exact power of two 2^-g (g the exponent of the largest coordinate of t, pivot and the group's rest
+  /// positions) and scaled back: so the images of a scene scaled by 2^k are the images times 2^k, rounded
+  /// once, and in the normal range (no subnormal intermediate) a group of one handle sets bitwise what
+  /// set_point_target / set_segment_target would set from that expression in the caller's units. Throws, changing
   /// nothing: std::out_of_range for an index out of range; std::invalid_argument if R has a non-finite entry,
   /// is not orthonormal to 64 eps(T) (largest entry of |R^T R - I|, computed in T; fit_rotation's own bound)
   /// or is a reflection, if t or pivot is not finite, or if an image has a non-finite coordinate or one

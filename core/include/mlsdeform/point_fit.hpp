@@ -22,7 +22,10 @@ struct SimilarityTransform {
 
 /// The rigid motion minimising sum_i w_i |R p_i + t - q_i|^2 (paper eqs. 1-4; scale is 1).
 /// p, q: n x 3 with n >= 1; w: n non-negative weights with a positive sum (empty w means all ones).
-/// Throws std::invalid_argument on mismatched sizes, non-finite input, negative weights or a zero weight sum.
+/// Throws std::invalid_argument on mismatched sizes, non-finite input, negative weights or a zero weight sum,
+/// and where the translation (or fit_similarity's scale) is beyond T's range. Any scale of p and q works (the
+/// fit runs on them scaled by powers of two: point_fit.cpp); scaling both by 2^k leaves rotation and scale
+/// unchanged and scales the translation by 2^k, bitwise (rounded once more only in T's subnormal range).
 template <class T>
 SimilarityTransform<T> fit_rigid(const Eigen::Ref<const Points<T>>& p, const Eigen::Ref<const Points<T>>& q,
                                  const Eigen::Ref<const Eigen::Matrix<T, Eigen::Dynamic, 1>>& w,

@@ -3,8 +3,17 @@
 // by the active ISA's batched fit (SIMD lanes), chunk by chunk. Global step: the reduced cotangent Laplacian of the
 // free vertices, factorised once and solved for the three right-hand sides per iteration (subtree_ldlt.hpp),
 // with nothing allocated.
+//
+// Units. The session works on the rest pose scaled by 2^-e, e = ilogb of its largest coordinate, and each
+// refine() on the positions scaled by 2^-f, f = max(e, ilogb of their largest coordinate): every number of
+// the problem (cotangent weights, the one-ring vectors w_ij (p_i - p_j), S_i, the right-hand sides, the
+// solution) is then of order one, so nothing overflows or underflows at any scale, and scaling the whole
+// input by a power of two 2^k shifts e and f by k and changes no bit of the scaled problem: the result is
+// the unscaled one times 2^k, rounded once to T. (The rest terms of b, in units of 2^e, enter the system in
+// units of 2^f through the factor 2^(e - f) <= 1, which is itself scale-free.)
 #include "../dispatch.hpp"
 #include "../parallel.hpp"
+#include "../pow2.hpp"
 #include "one_rings.hpp"
 #include "subtree_ldlt.hpp"
 
@@ -17,6 +26,8 @@
 #include <Eigen/SparseCore>
 
 #include <algorithm>
+#include <cmath>
+#include <limits>
 #include <span>
 #include <stdexcept>
 #include <string>
@@ -42,7 +53,8 @@ struct ArapRefiner<T>::Impl {
   Eigen::Index n = 0;
   ArapOptions options;
   std::unique_ptr<tbb::task_arena> arena;
-  PointsD P;  ///< rest positions
+  int rest_e = 0;  ///< the rest pose's exponent e (Units above)
+  PointsD P;       ///< rest positions times 2^-e
   /// One-rings, CSR: the neighbours of i are nbr[start[i] .. start[i + 1]) with weights w, ascending.
   std::vector<Eigen::Index> start, nbr;
   std::vector<double> w;
@@ -53,11 +65,12 @@ struct ArapRefiner<T>::Impl {
   std::vector<Eigen::Index> row;
   std::vector<Eigen::Index> free_vertices;
   detail::SubtreeLdlt solver;  ///< L_ff, factorised
-  std::vector<double> we;      ///< w_ij (p_i - p_j) per directed edge (3 values), in the CSR order
-  std::vector<double> c;       ///< c_i = sum_j w_ij (p_i - p_j) per vertex (3 values)
+  std::vector<double> we;      ///< w_ij (p_i - p_j) per directed edge (3 values), in the CSR order; units 2^e
+  std::vector<double> c;       ///< c_i = sum_j w_ij (p_i - p_j) per vertex (3 values); units 2^e
 
   // Scratch, sized once.
-  RowPoints X;             ///< current positions
+  RowPoints X;             ///< current positions times 2^-f (refine)
+  double rest_to_x = 1;    ///< 2^(e - f): the rest terms of b in the units of X
   std::vector<T> H, R;     ///< 3 x 3 x n, SoA, for fit_rotations
   std::vector<double> Rd;  ///< R_i in double, row-major, 9 values per vertex
   std::vector<double> y;   ///< the three right-hand sides, permuted and interleaved (3 values per row)
@@ -87,7 +100,22 @@ struct ArapRefiner<T>::Impl {
                                   s3 += d1 * a[0], s4 += d1 * a[1], s5 += d1 * a[2];
                                   s6 += d2 * a[0], s7 += d2 * a[1], s8 += d2 * a[2];
                                 }
-                                const double s[9] = {s0, s1, s2, s3, s4, s5, s6, s7, s8};
+                                // The fit is invariant under positive scaling of S_i: by a power of two to
+                                // max |S_i| in [1, 2), exactly, so that rounding to T neither overflows nor
+                                // drops a ring whose deformation is small against the mesh.
+                                double s[9] = {s0, s1, s2, s3, s4, s5, s6, s7, s8};
+                                double m = 0;
+                                for (const double x : s) m = std::max(m, std::abs(x));
+                                if (m > 0) {
+                                  const int k = std::ilogb(m);
+                                  // 2^-k is a double for k >= -1023; below, two factors.
+                                  if (k < -1000) {
+                                    for (double& x : s) x *= 0x1p1000;
+                                    m *= 0x1p1000;
+                                  }
+                                  const double to_unit = std::ldexp(1.0, -std::ilogb(m));
+                                  for (double& x : s) x *= to_unit;
+                                }
                                 for (int k = 0; k < 9; ++k) H[std::size_t(k) * nn + i] = T(s[k]);
                               }
                               fit(H.data(), R.data(), nn, i0, i1, nullptr);  // S_i is finite: X is
@@ -96,9 +124,9 @@ struct ArapRefiner<T>::Impl {
                             });
   }
 
-  /// b_i = sum_j (w_ij / 2)(R_i + R_j)(p_i - p_j) = (R_i c_i + sum_j R_j w_ij (p_i - p_j)) / 2, plus w_ij x_j
-  /// for each held neighbour; then L_ff x = b by the factor (forward, diagonal, backward substitution on the
-  /// three interleaved right-hand sides at once).
+  /// b_i = sum_j (w_ij / 2)(R_i + R_j)(p_i - p_j) = (R_i c_i + sum_j R_j w_ij (p_i - p_j)) / 2, in the units
+  /// of X (times rest_to_x), plus w_ij x_j for each held neighbour; then L_ff x = b by the factor (forward, diagonal,
+  /// backward substitution on the three interleaved right-hand sides at once).
   void global_step() {
     const std::size_t nf = free_vertices.size();
     auto rotate_add = [](const double* Rm, const double* v, double(&b)[3]) {
@@ -113,6 +141,10 @@ struct ArapRefiner<T>::Impl {
                                 for (Eigen::Index e = start[i]; e < start[i + 1]; ++e) {
                                   const auto j = std::size_t(nbr[std::size_t(e)]);
                                   rotate_add(Rd.data() + 9 * j, we.data() + 3 * e, b);
+                                }
+                                for (double& x : b) x *= rest_to_x;
+                                for (Eigen::Index e = start[i]; e < start[i + 1]; ++e) {
+                                  const auto j = std::size_t(nbr[std::size_t(e)]);
                                   if (row[j] < 0)  // held: to the right-hand side
                                     for (int k = 0; k < 3; ++k) b[k] += w[std::size_t(e)] * X(Eigen::Index(j), k);
                                 }
@@ -147,6 +179,8 @@ ArapRefiner<T>::ArapRefiner(const Points<T>& rest, const Triangles& triangles,
   if (!rest.allFinite()) throw std::invalid_argument("ArapRefiner: non-finite rest vertex coordinate");
   m.arena = detail::make_arena(options.threads);
   m.P = rest.template cast<double>();
+  m.rest_e = detail::exponent_of(m.P.cwiseAbs().maxCoeff());
+  for (Eigen::Index i = 0; i < m.P.size(); ++i) m.P.data()[i] = std::ldexp(m.P.data()[i], -m.rest_e);
   const std::size_t nn = std::size_t(m.n);
 
   detail::OneRings rings = detail::cotangent_one_rings(m.P, triangles);
@@ -232,6 +266,12 @@ ArapRefiner<T>& ArapRefiner<T>::operator=(ArapRefiner&&) noexcept = default;
 template <class T>
 void ArapRefiner<T>::refine(const Points<T>& start, const Points<T>& targets, int iterations, Points<T>& out,
                             const CancelCheck& cancel) {
+  refine_scaled(start, targets, 0, iterations, out, cancel);
+}
+
+template <class T>
+void ArapRefiner<T>::refine_scaled(const Points<T>& start, const Points<T>& targets, int exponent, int iterations,
+                                   Points<T>& out, const CancelCheck& cancel) {
   if (!impl_) throw std::logic_error("ArapRefiner: this session was moved from");
   Impl& m = *impl_;
   if (start.rows() != m.n)
@@ -248,10 +288,24 @@ void ArapRefiner<T>::refine(const Points<T>& start, const Points<T>& targets, in
   m.X = start.template cast<double>();  // row-major copy
   for (std::size_t k = 0; k < m.constrained.size(); ++k)
     m.X.row(m.constrained[k]) = targets.row(Eigen::Index(k)).template cast<double>();
+  const int f = std::max(m.rest_e, detail::exponent_of(m.X.cwiseAbs().maxCoeff()) + exponent);
+  for (Eigen::Index i = 0; i < m.X.size(); ++i) m.X.data()[i] = std::ldexp(m.X.data()[i], exponent - f);
+  m.rest_to_x = std::ldexp(1.0, m.rest_e - f);
   for (int it = 0; it < iterations; ++it) {
     detail::throw_if_cancelled(cancel);  // before `out` is written: the strong guarantee
     m.local_step();
     m.global_step();
+  }
+  // Back to the caller's units, refusing (before `out` changes) what T cannot hold: the iterations can move a
+  // vertex beyond its start (a rotated one-ring reaches past the targets' bounding box).
+  for (Eigen::Index i = 0; i < m.X.size(); ++i) {
+    const double x = std::ldexp(m.X.data()[i], f);
+    if (!(std::abs(x) <= double(std::numeric_limits<T>::max())))
+      throw std::invalid_argument("ArapRefiner::refine: vertex " + std::to_string(i / 3) +
+                                  "'s refined position overflows " + (sizeof(T) == 4 ? "float" : "double") +
+                                  " (a coordinate of magnitude 2^" + std::to_string(std::ilogb(m.X.data()[i]) + f) +
+                                  ")");
+    m.X.data()[i] = x;
   }
   if (out.rows() != m.n) out.resize(m.n, 3);
   out = m.X.template cast<T>();
@@ -262,7 +316,8 @@ double ArapRefiner<T>::energy(const Points<T>& x) const {
   if (!impl_) throw std::logic_error("ArapRefiner: this session was moved from");
   const Impl& m = *impl_;
   if (x.rows() != m.n) throw std::invalid_argument("ArapRefiner::energy: wrong number of rows");
-  const PointsD X = x.template cast<double>();
+  PointsD X = x.template cast<double>();
+  for (Eigen::Index i = 0; i < X.size(); ++i) X.data()[i] = std::ldexp(X.data()[i], -m.rest_e);  // the units of P
   double E = 0;
   for (Eigen::Index i = 0; i < m.n; ++i) {
     const auto ring = [&](auto&& f) {
@@ -275,7 +330,7 @@ double ArapRefiner<T>::energy(const Points<T>& x) const {
     const Eigen::Matrix3d Ri = fit_rotation<double>(S);  // the local step's rotation, in double
     ring([&](double we, const Vec3d& d, const Vec3d& p) { E += we * (d - Ri * p).squaredNorm(); });
   }
-  return E;
+  return std::ldexp(E, 2 * m.rest_e);
 }
 
 template <class T>

@@ -1,5 +1,9 @@
 #include "arap_stage.hpp"
 
+#include "../pow2.hpp"
+
+#include <algorithm>
+#include <cmath>
 #include <limits>
 #include <stdexcept>
 #include <string>
@@ -27,11 +31,21 @@ std::unique_ptr<ArapStage<T>> ArapStage<T>::make(const Points<T>& rest, const Tr
     throw std::invalid_argument("Deformer: arap_iterations > 0 needs the mesh's triangles (none given)");
   std::vector<char> taken(std::size_t(rest.rows()), 0);
   std::vector<Eigen::Index> constrained;
+  // Squared distances in a frame scaled by a power of two to the largest coordinate: they cannot overflow,
+  // and the choice is the same at every scale.
+  double m = 0;
+  for (const Points<T>* h : {&rest, &handles.points, &handles.segment_a, &handles.segment_b})
+    if (h->size()) m = std::max(m, double(h->cwiseAbs().maxCoeff()));
+  const int e = exponent_of(m);
   auto nearest = [&](const auto& p) {
     Eigen::Index best = 0;
     double d_best = std::numeric_limits<double>::infinity();
     for (Eigen::Index i = 0; i < rest.rows(); ++i) {
-      const double d = (rest.row(i).template cast<double>() - p.template cast<double>()).squaredNorm();
+      double d = 0;
+      for (int c = 0; c < 3; ++c) {
+        const double x = std::ldexp(double(rest(i, c)), -e) - std::ldexp(double(p(c)), -e);
+        d += x * x;
+      }
       if (d < d_best) d_best = d, best = i;
     }
     if (!taken[std::size_t(best)]) taken[std::size_t(best)] = 1, constrained.push_back(best);
@@ -48,9 +62,9 @@ std::unique_ptr<ArapStage<T>> ArapStage<T>::make(const Points<T>& rest, const Tr
 }
 
 template <class T>
-void ArapStage<T>::run(Points<T>& x, int iterations, const CancelCheck& cancel) {
+void ArapStage<T>::run(Points<T>& x, int iterations, int exponent, const CancelCheck& cancel) {
   for (std::size_t k = 0; k < constrained.size(); ++k) targets.row(Eigen::Index(k)) = x.row(constrained[k]);
-  refiner.refine(x, targets, iterations, x, cancel);
+  refiner.refine_scaled(x, targets, exponent, iterations, x, cancel);
 }
 
 template struct ArapStage<float>;

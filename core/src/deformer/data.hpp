@@ -14,8 +14,8 @@
 // S the total weight (point weights plus segment integrals), so that H = sum_i int w qhat(t) phat(t)^T dt / S
 // exactly as in Sec. 6.2 (the paper's W_i split into the two end points).
 //
-// Per-frame evaluation of vertex v (rigid and similarity; Algorithm 1 steps 2-10):
-//   q*  = sum_j omega_j q_j                                 (targets as given: exact at snapped vertices)
+// Per-frame evaluation of vertex v (rigid and similarity; Algorithm 1 steps 2-10), in the local frame (Units):
+//   q*  = sum_j omega_j q_j                                 (exact at snapped vertices)
 //   H   = sum_j (q_j - c) A_j^T                             (c: any per-frame point, e.g. the mean target;
 //                                                            equal to sum_j q_j A_j^T since sum_j A_j = 0, but
 //                                                            without cancellation when the scene is far from
@@ -23,23 +23,29 @@
 //   R   = fit_rotation(H, method)
 //   mu  = 1 (rigid), trace(R^T H) / D (similarity, Sec. 6.1; 1 where D = 0)
 //   v'  = q* + mu R vhat
-// Units: H matters only up to a positive factor (fit_rotation is scale-invariant, and mu = trace(R^T H) / D
+// Units. Everything, the rest pose and every frame, is computed in the local frame (local_frame.hpp): the
+// caller's coordinates times 2^-e (`scale` = 2^e, an exact power of two close to the scene size; rest
+// positions are also moved to the scene's centre). The kernels read a target q as q 2^-e and write a result
+// x as x 2^e (DeformFrame's local_scale and world_scale): products with powers of two, exact in the normal
+// range, so that a scene scaled by 2^k runs on the same bits, and its output is the unscaled output times
+// 2^k, rounded once where it is subnormal. Targets may be at most coordinate_limit 2^e from the origin
+// (`target_limit`), so that they and their sums stay finite in the local frame. vhat is stored in the local
+// frame; H matters only up to a positive factor (fit_rotation is scale-invariant, and mu = trace(R^T H) / D
 // when D carries the same factor), so each vertex's A_j and D are stored multiplied by a power of two: the
-// stored A_j are the local-frame A_j (physical A_j divided by `scale`, an exact power of two close to the
-// scene size) times 2^s_v, with s_v chosen per vertex so that sum_j |A_j|_1 is in [1, 2); D is stored as
-// (physical D) / scale * 2^s_v. So |H_rs| <= 2 max_j |q_j - c| never overflows, and near a handle, where every
-// A_j is about (d_min / d)^u (below the float range for u = 8 a few 1e-5 of the scene away), nothing
-// underflows either. trace(R^T H) / D is still the paper's mu_s.
+// stored A_j are the local-frame A_j times 2^s_v, with s_v chosen per vertex so that sum_j |A_j|_1 is in
+// [1, 2); D is stored as (local-frame D) * 2^s_v. So |H_rs| <= 2 max_j |q_j - c| never overflows, and near a
+// handle, where every A_j is about (d_min / d)^u (below the float range for u = 8 a few 1e-5 of the scene
+// away), nothing underflows either. trace(R^T H) / D is still the paper's mu_s.
 //
 // Affine (Schaefer et al. 2006 normal equations, with G = sum_j A_j phat_j^T = sum_i int w phat phat^T / S):
 //   v' = q* + H G^-1 vhat = sum_j alpha_j q_j,   alpha_j = omega_j + A_j . (G^-1 vhat)   (precomputed)
 //
-// Snapped vertices (closer to a handle than 64 eps(T) times the scene size) take the map's limit at that
-// handle (precompute_table.cpp). At a point handle, or a segment with exact_integral weights: omega = 1 on that point
-// handle (or 1 - t, t on the ends of that segment, t the closest point), A = 0, vhat = 0 and D = 0: H = 0,
-// fit_rotation gives the identity, and v' = q* exactly. At a segment with paper_constant weights: the
-// coefficients of that segment alone with constant weight (omega = 1/2 at each end), as if every other
-// handle's weight had vanished.
+// Snapped vertices (closer to a handle than 64 eps(T) times their distance to the second-nearest handle;
+// snap.hpp derives the rule) take the map's limit at that handle (precompute_table.cpp). At a point handle, or a
+// segment with exact_integral weights: omega = 1 on that point handle (or 1 - t, t on the ends of that segment, t the
+// closest point), A = 0, vhat = 0 and D = 0: H = 0, fit_rotation gives the identity, and v' = q* exactly. At a segment
+// with paper_constant weights: the coefficients of that segment alone with constant weight (omega = 1/2 at each end),
+// as if every other handle's weight had vanished.
 //
 // Layout. Vertices are grouped in blocks of kLanes = 16 (padded; padding lanes carry omega = 0, A = 0,
 // vhat = 0, D = 0, alpha = 0). All arrays are 64-byte aligned.
@@ -96,21 +102,21 @@ struct DeformerData {
   /// Fixed point handles (a region's ring) folded into kFoldedHandles pseudo-handles (fold.hpp), 0 if none:
   /// then `points` counts the four in their place.
   std::size_t folded = 0;
-  double scale = 1;         ///< the local frame's power of two (see Units above)
-  AlignedVector<T> table;   ///< omega, A (rigid, similarity) or alpha (affine), blocked as above
-  AlignedVector<T> p_star;  ///< rigid, similarity: weighted centroid of the rest handles, SoA, padded
-  AlignedVector<T> vhat;    ///< rigid, similarity: v - p*, SoA, padded
-  AlignedVector<T> D;       ///< similarity: sum_j A_j . phat_j (= sum_i w_i |phat_i|^2 / S), padded
+  double scale = 1;          ///< the local frame's power of two 2^e (see Units above)
+  T target_limit = 0;        ///< the largest magnitude of a target coordinate (see Units above)
+  AlignedVector<T> table;    ///< omega, A (rigid, similarity) or alpha (affine), blocked as above
+  AlignedVector<T> p_star;   ///< rigid, similarity: weighted centroid of the rest handles, SoA, padded
+  AlignedVector<T> vhat;     ///< rigid, similarity: v - p*, local frame, SoA, padded
+  AlignedVector<T> D;        ///< similarity: sum_j A_j . phat_j (= sum_i w_i |phat_i|^2 / S), local, padded
 
   // WeightStorage::on_the_fly (rigid and similarity with point handles only): no table; per frame the
   // weights are recomputed from the distances (reference.hpp, deform_block_on_the_fly). Local frame:
-  // x_local = (x - centre) / world_scale.
+  // x_local = (x - centre) / scale.
   bool on_the_fly = false;
   AlignedVector<T> v_local;  ///< rest vertices, local frame, SoA, padded
   AlignedVector<T> dref2;    ///< squared distance to the nearest handle, local (padding lanes: 1)
-  AlignedVector<T> snap;     ///< index of the handle a vertex sits on (closer than 64 eps the scene), else -1
+  AlignedVector<T> snap;     ///< index of the handle a vertex sits on (snap.hpp), else -1
   AlignedVector<T> p_local;  ///< point handles, local frame, SoA: x[k], y[k], z[k]
-  double world_scale = 1;    ///< 2^e of the local frame
   T half_u = 1;              ///< u / 2: w = (dref2 / d2)^(u/2)
 
   std::size_t pseudo_handles() const { return points + 2 * segments; }

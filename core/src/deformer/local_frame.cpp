@@ -1,7 +1,9 @@
 #include "local_frame.hpp"
 
+#include "../pow2.hpp"
 #include "validation.hpp"
 
+#include <algorithm>
 #include <limits>
 #include <stdexcept>
 
@@ -24,17 +26,26 @@ LocalFrame make_local_frame(const Points<T>& vertices, const Handles<T>& handles
   add(handles.segment_a);
   add(handles.segment_b);
   LocalFrame s;
+  s.e0 = exponent_of(std::max(hi.cwiseAbs().maxCoeff(), lo.cwiseAbs().maxCoeff()));
+  for (int c = 0; c < 3; ++c) hi[c] = std::ldexp(hi[c], -s.e0), lo[c] = std::ldexp(lo[c], -s.e0);
   const Vec3d half = 0.5 * hi - 0.5 * lo;  // halves first: no overflow
-  s.centre = 0.5 * hi + 0.5 * lo;
+  s.centre0 = 0.5 * hi + 0.5 * lo;
+  for (int c = 0; c < 3; ++c) s.centre[c] = std::ldexp(s.centre0[c], s.e0);
   const double m = half.maxCoeff();
-  const double diag = m > 0 ? 2 * m * (half / m).norm() : 0.0;
+  const double diag0 = m > 0 ? 2 * m * (half / m).norm() : 0.0, diag = std::ldexp(diag0, s.e0);
   if (!(diag <= double(coordinate_limit<T>())))
     throw std::invalid_argument(
         "Deformer: the scene (bounding box of rest vertices and handles) is too large for the "
         "precision: diagonal " +
         num(diag));
-  s.e = diag > 0 ? std::ilogb(diag) : 0;
-  s.size_local = std::ldexp(diag, -s.e);
+  if (diag > 0 && !(diag >= double(std::numeric_limits<T>::min())))
+    throw std::invalid_argument(
+        "Deformer: the scene (bounding box of rest vertices and handles) is too small for the precision: "
+        "diagonal " +
+        num(diag) + ", below the smallest normal " + (sizeof(T) == 4 ? "float" : "double") + " " +
+        num(double(std::numeric_limits<T>::min())));
+  s.e = diag > 0 ? s.e0 + std::ilogb(diag0) : 0;
+  s.size_local = std::ldexp(diag0, s.e0 - s.e);
   return s;
 }
 

@@ -13,20 +13,27 @@ namespace mlsdeform::detail {
 
 /// The local frame of the precomputation: the scene (rest vertices and handles) translated to its
 /// bounding-box centre and scaled by 2^-e, e = ilogb(diagonal), an exact power of two. Distances in it are
-/// O(1): no overflow or underflow, and scaling the scene by a power of two changes nothing at all.
+/// O(1): no overflow or underflow, and scaling the scene by a power of two changes nothing at all. The box's
+/// centre and diagonal, and the translation, are computed on the coordinates scaled by 2^-e0 (e0 the exponent
+/// of the largest), so that this holds for subnormal coordinates too; in the normal range every such scaling
+/// is exact, and local(x) is (x - centre) 2^-e to the bit.
 struct LocalFrame {
-  Eigen::Vector3d centre = Eigen::Vector3d::Zero();
+  Eigen::Vector3d centre = Eigen::Vector3d::Zero();  ///< the box's centre, in the caller's units (rounded)
   int e = 0;
   double size_local = 0;  ///< bounding-box diagonal in local units: in [1, 2), or 0 for a single point
+  int e0 = 0;             ///< the exponent of the largest coordinate
+  Eigen::Vector3d centre0 = Eigen::Vector3d::Zero();  ///< the box's centre times 2^-e0
 
   Eigen::Vector3d local(const Eigen::Vector3d& x) const {
-    const Eigen::Vector3d d = x - centre;
-    return Eigen::Vector3d(std::ldexp(d[0], -e), std::ldexp(d[1], -e), std::ldexp(d[2], -e));
+    Eigen::Vector3d r;
+    for (int c = 0; c < 3; ++c) r[c] = std::ldexp(std::ldexp(x[c], -e0) - centre0[c], e0 - e);
+    return r;
   }
 };
 
 /// The local frame of rest vertices and handles; throws std::invalid_argument when the scene is too large
-/// for the precision.
+/// for the precision, or smaller than its smallest normal number (the scales 2^-e and 2^e the kernels
+/// multiply by must both be numbers of T).
 template <class T>
 LocalFrame make_local_frame(const Points<T>& vertices, const Handles<T>& handles);
 

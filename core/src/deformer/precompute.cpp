@@ -1,8 +1,11 @@
 #include "precompute.hpp"
 
 #include "fold.hpp"
+#include "snap.hpp"
 #include "validation.hpp"
+#include "weights.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <limits>
@@ -45,6 +48,27 @@ bool use_on_the_fly(const Options& o, const RestHandles& rh, std::size_t padded,
   throw std::invalid_argument(msg);
 }
 
+/// A segment whose end b would snap onto its end a (snap.hpp: |b - a| <= 64 eps(T) times the distance from a
+/// to the nearest other handle; alone, |b - a| = 0) is a point: refused, rather than divided by its length.
+/// So is one whose squared length underflows (below 1e-154 of the scene), which segment_geometry divides by.
+template <class T>
+void check_segment_lengths(const RestHandles& rh) {
+  const std::size_t k = rh.k;
+  for (std::size_t q = 0; q < rh.s; ++q) {
+    const Eigen::Vector3d& a = rh.P[k + 2 * q];
+    const double L = (rh.P[k + 2 * q + 1] - a).norm();
+    double other = std::numeric_limits<double>::infinity();
+    for (std::size_t p = 0; p < k; ++p) other = std::min(other, (rh.P[p] - a).norm());
+    for (std::size_t r = 0; r < rh.s; ++r)
+      if (r != q && (rh.P[k + 2 * r + 1] - rh.P[k + 2 * r]).squaredNorm() >= std::numeric_limits<double>::min())
+        other = std::min(other, segment_geometry(a, rh.P[k + 2 * r], rh.P[k + 2 * r + 1]).d);
+    if (snaps<T>(L, other) || !(L * L >= std::numeric_limits<double>::min()))
+      throw std::invalid_argument("Deformer: segment handle " + std::to_string(q) +
+                                  " has zero length (|b - a| <= 64 eps times its distance to the nearest other "
+                                  "handle); use a point handle");
+  }
+}
+
 }  // namespace
 
 template <class T>
@@ -57,12 +81,7 @@ DeformerData<T> precompute(const Points<T>& vertices, const Handles<T>& handles,
     throw std::invalid_argument("Deformer: no handles (need at least one point or segment handle)");
   const LocalFrame scene = make_local_frame(vertices, handles);
   const RestHandles rh = make_rest_handles(handles, scene);
-  // A segment shorter than the snapping distance is a point: reject it rather than divide by its length.
-  const double snap = 64 * double(std::numeric_limits<T>::epsilon()) * scene.size_local;
-  for (std::size_t q = 0; q < rh.s; ++q)
-    if (!((rh.P[rh.k + 2 * q + 1] - rh.P[rh.k + 2 * q]).norm() > snap))
-      throw std::invalid_argument("Deformer: segment handle " + std::to_string(q) +
-                                  " has zero length (|b - a| <= 64 eps times the scene size); use a point handle");
+  check_segment_lengths<T>(rh);
   if (o.transform == Transform::affine) check_affine_rank<T>(rh.P);
 
   DeformerData<T> data;
@@ -72,6 +91,7 @@ DeformerData<T> precompute(const Points<T>& vertices, const Handles<T>& handles,
   data.points = rh.k;
   data.segments = rh.s;
   data.scale = std::ldexp(1.0, scene.e);
+  data.target_limit = std::ldexp(coordinate_limit<T>(), std::min(scene.e, 0));
   const std::size_t np = data.padded();
   // Fixed handles cost a table column each unless folded (fold.hpp), which only the table can do.
   const std::size_t fold = fixed.count > kFoldedHandles ? fixed.count : 0;

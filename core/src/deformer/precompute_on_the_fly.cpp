@@ -3,6 +3,7 @@
 #include "precompute.hpp"
 
 #include "../parallel.hpp"
+#include "snap.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -17,7 +18,6 @@ void precompute_on_the_fly(DeformerData<T>& data, const Points<T>& vertices, con
                            const RestHandles& rh, const Options& o, tbb::task_arena* arena, const CancelCheck& cancel) {
   const std::size_t np = data.padded(), k = rh.k;
   data.on_the_fly = true;
-  data.world_scale = std::ldexp(1.0, scene.e);
   data.half_u = T(o.weight_exponent / 2);
   data.v_local.assign(3 * np, T(0));
   data.dref2.assign(np, T(1));
@@ -25,22 +25,24 @@ void precompute_on_the_fly(DeformerData<T>& data, const Points<T>& vertices, con
   data.p_local.assign(3 * k, T(0));
   for (std::size_t j = 0; j < k; ++j)
     for (int c = 0; c < 3; ++c) data.p_local[std::size_t(c) * k + j] = T(rh.P[j][c]);
-  const double snap = 64 * double(std::numeric_limits<T>::epsilon()) * scene.size_local;
   parallel_ranges(data.blocks, o.threads, arena, [&](std::size_t b0, std::size_t b1) {
     for (std::size_t i = b0 * kLanes; i < std::min(data.n, b1 * kLanes); ++i) {
       if (i % kLanes == 0) throw_if_cancelled(cancel);
       const Vec3d v = scene.local(vertices.row(static_cast<Eigen::Index>(i)).transpose().template cast<double>());
-      double d2 = std::numeric_limits<double>::infinity();
-      std::size_t nearest = 0;
+      NearestTwo near;  // of the squared distances
       for (std::size_t j = 0; j < k; ++j) {
         // The same rounded coordinates the per-frame pass uses, so that the nearest handle gets w = 1.
         const Vec3d p(double(data.p_local[j]), double(data.p_local[k + j]), double(data.p_local[2 * k + j]));
-        const double dj = (p - Vec3d(double(T(v[0])), double(T(v[1])), double(T(v[2])))).squaredNorm();
-        if (dj < d2) d2 = dj, nearest = j;
+        near.add((p - Vec3d(double(T(v[0])), double(T(v[1])), double(T(v[2])))).squaredNorm(), j);
       }
+      const double d2 = near.d_min;
       for (int c = 0; c < 3; ++c) data.v_local[std::size_t(c) * np + i] = T(v[c]);
       data.dref2[i] = T(d2);
-      if (!(std::sqrt(d2) > snap) || !(T(d2) > T(0))) data.snap[i] = T(nearest);
+      // The rule of snap.hpp; and where d2 is not a normal number in T, the per-frame sum of squares in T
+      // (whose terms are each rounded by up to half of T's smallest subnormal) could be 0 and the nearest
+      // handle's weight dref2 / d2 infinite.
+      if (snaps<T>(std::sqrt(d2), std::sqrt(near.d_second)) || !(T(d2) >= std::numeric_limits<T>::min()))
+        data.snap[i] = T(near.nearest);
     }
   });
 }

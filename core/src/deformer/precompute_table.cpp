@@ -5,6 +5,7 @@
 #include "../parallel.hpp"
 #include "fold.hpp"
 #include "rbf_centroids.hpp"
+#include "snap.hpp"
 #include "weights.hpp"
 
 #include <Eigen/Eigenvalues>
@@ -30,8 +31,6 @@ void precompute_block(DeformerData<T>& data, std::size_t b, const Points<T>& ver
                       const std::vector<std::array<double, kFoldedHandles>>& fold) {
   const std::size_t J = rh.P.size(), k = rh.k, s = rh.s;
   const double u = o.weight_exponent;
-  // A vertex this close to a handle maps exactly to its target (no 0 * inf, no overflow of w = d^-u).
-  const double snap = 64 * double(std::numeric_limits<T>::epsilon()) * scene.size_local;
   const bool affine = data.transform == Transform::affine;
   const bool exact = o.segment_weight == SegmentWeight::exact_integral;
   std::vector<double> dist(k), omega(J);
@@ -46,30 +45,31 @@ void precompute_block(DeformerData<T>& data, std::size_t b, const Points<T>& ver
   for (std::size_t lane = 0; lane < count; ++lane) {
     const std::size_t i = first + lane;
     const Vec3d v = scene.local(vertices.row(static_cast<Eigen::Index>(i)).transpose().template cast<double>());
-    // Distances to every handle; the nearest one.
-    double d_min = std::numeric_limits<double>::infinity();
-    std::size_t nearest = 0;  // point index, or k + segment index
+    // Distances to every handle; the nearest two (snap.hpp).
+    NearestTwo near;  // nearest: point index, or k + segment index
     for (std::size_t p = 0; p < k; ++p) {
       dist[p] = (rh.P[p] - v).norm();
-      if (dist[p] < d_min) d_min = dist[p], nearest = p;
+      near.add(dist[p], p);
     }
     for (std::size_t q = 0; q < s; ++q) {
       geo[q] = segment_geometry(v, rh.P[k + 2 * q], rh.P[k + 2 * q + 1]);
-      if (geo[q].d < d_min) d_min = geo[q].d, nearest = k + q;
+      near.add(geo[q].d, k + q);
     }
+    const double d_min = near.d_min;
+    const std::size_t nearest = near.nearest;
     std::fill(omega.begin(), omega.end(), 0.0);
     std::fill(A.begin(), A.end(), Vec3d::Zero());
     Vec3d p_star, vhat = Vec3d::Zero();
     double D = 0;
     Eigen::Matrix3d G_vertex = Eigen::Matrix3d::Zero();  // G = sum_j A_j phat_j^T, symmetric (affine; D = trace)
-    // At a handle (closer than `snap`) the vertex takes the map's limit there, so that the map is continuous:
+    // At a handle (snap.hpp) the vertex takes the map's limit there, so that the map is continuous:
     //   point handle, or segment with exact_integral weights: the weight concentrates at the closest point,
     //     and the limit is the interpolation f(p_i) = q_i (Sec. 3), (1 - t) c + t d on a segment;
     //   segment with paper_constant weights: the segment's weight is constant along it (Sec. 6.2), so the
     //     limit is the fit to that segment alone (every other weight vanishes relative to it): p* and q* its
     //     midpoints, H = (d - c)(b - a)^T / 12. Rigid maps a stretched segment rigidly, not onto c..d, so
     //     interpolating there would be a jump; similarity and affine reproduce (1 - t) c + t d.
-    const bool snapped = d_min <= snap;
+    const bool snapped = snaps<T>(d_min, near.d_second);
     const bool interpolate = snapped && (nearest < k || exact);
     if (interpolate) {
       // All weight on the nearest handle, A = 0, vhat = 0.
@@ -197,10 +197,10 @@ void precompute_block(DeformerData<T>& data, std::size_t b, const Points<T>& ver
       }
       for (int c = 0; c < 3; ++c) {
         data.p_star[c * np + i] = T(scene.centre[c] + std::ldexp(p_star[c], scene.e));
-        data.vhat[c * np + i] = T(std::ldexp(vhat[c], scene.e));
+        data.vhat[c * np + i] = T(vhat[c]);
       }
-      // Units (data.hpp): A in local units times 2^s, D as (physical D) / 2^e times 2^s.
-      if (data.transform == Transform::similarity) data.D[i] = T(std::ldexp(D, scene.e));
+      // Units (data.hpp): vhat local, A and D local times 2^s.
+      if (data.transform == Transform::similarity) data.D[i] = T(D);
     }
   }
 }

@@ -1,10 +1,12 @@
 #include "region.hpp"
 
 #include "../parallel.hpp"
+#include "../pow2.hpp"
 #include "fold.hpp"
 
 #include <algorithm>
 #include <array>
+#include <cmath>
 #include <limits>
 #include <stdexcept>
 #include <string>
@@ -48,6 +50,11 @@ std::vector<Eigen::Index> ring(const Points<T>& v, const Triangles& triangles, c
     // all vertices: O(region x n), in parallel over the region. Sessions over large meshes should pass
     // the triangles.
     const std::size_t K = kRingNeighbours;
+    // Squared distances on the vertices scaled by 2^-e, e the exponent of the largest coordinate: they cannot
+    // overflow or underflow, and the choice is the same at every scale (pow2.hpp).
+    const int e = exponent_of(v.size() ? double(v.cwiseAbs().maxCoeff()) : 0.0);
+    Points<double> vs(v.rows(), 3);
+    for (Eigen::Index i = 0; i < v.size(); ++i) vs.data()[i] = std::ldexp(double(v.data()[i]), -e);
     std::vector<std::array<std::size_t, kRingNeighbours>> near(inside.size());
     parallel_ranges(inside.size(), threads, nullptr, [&](std::size_t r0, std::size_t r1) {
       for (std::size_t r = r0; r < r1; ++r) {
@@ -57,8 +64,7 @@ std::vector<Eigen::Index> ring(const Points<T>& v, const Triangles& triangles, c
         best.fill({std::numeric_limits<double>::infinity(), n});
         for (std::size_t j = 0; j < n; ++j) {
           if (Eigen::Index(j) == i) continue;
-          const double d =
-              (v.row(Eigen::Index(j)).template cast<double>() - v.row(i).template cast<double>()).squaredNorm();
+          const double d = (vs.row(Eigen::Index(j)) - vs.row(i)).squaredNorm();
           if (!(d < best[K - 1].first)) continue;
           std::size_t at = K - 1;
           while (at > 0 && d < best[at - 1].first) best[at] = best[at - 1], --at;

@@ -1,7 +1,9 @@
 // The Deformer session (deformer.hpp): construction (precompute.hpp), targets, and the per-frame driver that
 // hands a DeformFrame (kernels/contract.hpp) to the kernel table over blocks of kLanes vertices.
+#include "../all_finite.hpp"
 #include "../dispatch.hpp"
 #include "../parallel.hpp"
+#include "../pow2.hpp"
 #include "arap_stage.hpp"
 #include "precompute.hpp"
 #include "region.hpp"
@@ -9,6 +11,8 @@
 
 #include <mlsdeform/deformer.hpp>
 
+#include <algorithm>
+#include <cmath>
 #include <memory>
 #include <mutex>
 #include <stdexcept>
@@ -21,33 +25,64 @@ namespace mlsdeform {
 
 namespace detail {
 
-/// The centring point c of the correlation matrix: the mean target, summed in pseudo-handle order in T.
+/// The centring point c of the correlation matrix, in the local frame: the mean of the targets q_j 2^-e
+/// (`local_scale` = 2^-e), summed in pseudo-handle order in T, each term also divided by 2^m >= J so that
+/// the sum cannot overflow (in the normal range those scalings are exact: the same bits as the plain mean of
+/// the q_j, times 2^-e). Throws std::invalid_argument for a target beyond `limit` (data.hpp, Units).
 template <class T>
-Vector3<T> target_centre(const Handles<T>& q) {
-  T sx = 0, sy = 0, sz = 0;
-  std::size_t J = 0;
-  auto add = [&](const Points<T>& p) {
-    for (Eigen::Index i = 0; i < p.rows(); ++i) sx += p(i, 0), sy += p(i, 1), sz += p(i, 2), ++J;
-  };
-  add(q.points);
-  for (Eigen::Index i = 0; i < q.segment_a.rows(); ++i) {
-    sx += q.segment_a(i, 0), sy += q.segment_a(i, 1), sz += q.segment_a(i, 2);
-    sx += q.segment_b(i, 0), sy += q.segment_b(i, 1), sz += q.segment_b(i, 2);
-    J += 2;
-  }
+Vector3<T> local_target_centre(const Handles<T>& q, T local_scale, T limit) {
+  const std::size_t J = std::size_t(q.points.rows() + 2 * q.segment_a.rows());
   if (J == 0) return Vector3<T>::Zero();
-  const T inv = T(1) / T(J);
+  const int m = std::ilogb(T(J)) + 1;
+  const T down = std::ldexp(T(1), -m);
+  T sx = 0, sy = 0, sz = 0;
+  auto check = [&](const Points<T>& p, Eigen::Index i, const char* what) {
+    for (int c = 0; c < 3; ++c)
+      if (!(std::abs(p(i, c)) <= limit))
+        throw std::invalid_argument(
+            std::string("Deformer: coordinate too large in moved handles ") + what + " (row " + std::to_string(i) +
+            ": " + num(double(p(i, c))) + ", limit " + num(double(limit)) + " = max/64 times the scene's size 2^" +
+            std::to_string(std::ilogb(1 / local_scale)) + ": the deformer computes relative to the scene, and " +
+            (sizeof(T) == 4 ? "float" : "double") + " holds no more)");
+  };
+  auto add = [&](const Points<T>& p, Eigen::Index i) {
+    sx += p(i, 0) * local_scale * down, sy += p(i, 1) * local_scale * down, sz += p(i, 2) * local_scale * down;
+  };
+  for (Eigen::Index i = 0; i < q.points.rows(); ++i) check(q.points, i, "points"), add(q.points, i);
+  for (Eigen::Index i = 0; i < q.segment_a.rows(); ++i) {
+    check(q.segment_a, i, "segment_a"), check(q.segment_b, i, "segment_b");
+    add(q.segment_a, i), add(q.segment_b, i);
+  }
+  const T inv = T(1) / T(J) / down;
   return Vector3<T>(sx * inv, sy * inv, sz * inv);
 }
 
 /// The image of x under x -> R (x - pivot) + pivot + t, in T and in the order deformer.hpp documents
-/// (transform_handles).
+/// (transform_handles), on the coordinates scaled by 2^-g (exact powers of two), so that no product
+/// underflows at any scale of the scene: the image of a scene scaled by 2^k is the image times 2^k, rounded
+/// once. In the normal range the scalings are exact, and so is the expression in the caller's units.
 template <class T>
-Vector3<T> rigid_image(const Vector3<T>& x, const Matrix3<T>& R, const Vector3<T>& t, const Vector3<T>& pivot) {
-  const Vector3<T> d = x - pivot;
+Vector3<T> rigid_image(const Vector3<T>& x, const Matrix3<T>& R, const Vector3<T>& t, const Vector3<T>& pivot, int g) {
+  const auto down = [g](T v) { return std::ldexp(v, -g); };
+  const Vector3<T> d(down(x[0]) - down(pivot[0]), down(x[1]) - down(pivot[1]), down(x[2]) - down(pivot[2]));
   Vector3<T> y;
-  for (int i = 0; i < 3; ++i) y[i] = (((R(i, 0) * d[0] + R(i, 1) * d[1]) + R(i, 2) * d[2]) + pivot[i]) + t[i];
+  for (int i = 0; i < 3; ++i)
+    y[i] = std::ldexp((((R(i, 0) * d[0] + R(i, 1) * d[1]) + R(i, 2) * d[2]) + down(pivot[i])) + down(t[i]), g);
   return y;
+}
+
+/// Throws std::invalid_argument unless every one of the 3n coordinates at out (n vertices, interleaved or by
+/// coordinate: `interleaved`) is finite: the moved handles may map a vertex beyond the range of T
+/// (extrapolation far from the handles, or targets near the largest coordinate), which is reported rather
+/// than returned. Allocates only on error.
+template <class T>
+void check_result(const T* out, std::size_t n, bool interleaved) {
+  if (all_finite(out, 3 * n)) return;
+  std::size_t i = 0;
+  while (std::isfinite(out[i])) ++i;
+  throw std::invalid_argument("Deformer: vertex " + std::to_string(interleaved ? i / 3 : i % n) +
+                              "'s deformed position overflows " + (sizeof(T) == 4 ? "float" : "double") +
+                              ": the moved handles map it beyond the range of the type");
 }
 
 }  // namespace detail
@@ -109,9 +144,10 @@ struct Deformer<T>::Impl {
       return k.deform_d;
   }
 
-  /// One frame for validated `moved`: vertex v, coordinate c goes to out[c * cstride + v * vstride]. Nothing
-  /// is allocated here; scratch lives on the stack of each block.
-  void run(const Handles<T>& moved, T* out, std::size_t vstride, std::size_t cstride) const {
+  /// One frame for validated `moved`: vertex v, coordinate c goes to out[c * cstride + v * vstride], in the
+  /// caller's units or, with `local`, the local frame's (times 2^-e: data.hpp, Units). Nothing is allocated
+  /// here; scratch lives on the stack of each block.
+  void run(const Handles<T>& moved, T* out, std::size_t vstride, std::size_t cstride, bool local = false) const {
     kernels::DeformFrame<T> fr{};
     fr.transform = data.transform;
     fr.method = options.method;
@@ -126,18 +162,17 @@ struct Deformer<T>::Impl {
       fr.dref2 = data.dref2.data();
       fr.snap = data.snap.data();
       fr.p_local = data.p_local.data();
-      fr.world_scale = T(data.world_scale);
       fr.half_u = data.half_u;
     }
+    fr.local_scale = T(1 / data.scale);  // 2^-e and 2^e: both numbers of T (local_frame.hpp)
+    fr.world_scale = local ? T(1) : T(data.scale);
     fr.points = moved.points.data();
     fr.k = static_cast<std::size_t>(moved.points.rows());
     fr.seg_a = moved.segment_a.data();
     fr.seg_b = moved.segment_b.data();
     fr.s = static_cast<std::size_t>(moved.segment_a.rows());
-    if (data.transform != Transform::affine) {
-      const Vector3<T> c = detail::target_centre(moved);
-      for (int i = 0; i < 3; ++i) fr.centre[i] = c[i];
-    }
+    const Vector3<T> c = detail::local_target_centre(moved, fr.local_scale, data.target_limit);
+    for (int i = 0; i < 3; ++i) fr.centre[i] = c[i];
     fr.out = out;
     fr.out_vertex_stride = vstride;
     fr.out_coord_stride = cstride;
@@ -194,11 +229,17 @@ void Deformer<T>::deform(const Handles<T>& moved_handles, Points<T>& out, const 
   detail::check_coincident(moved_handles, impl().coincident);
   const auto n = static_cast<Eigen::Index>(impl().vertices());
   if (out.rows() != n) out.resize(n, 3);
-  if (!impl().arap) return impl().frame(moved_handles, out.data(), 1, static_cast<std::size_t>(n));
+  if (!impl().arap) {
+    impl().frame(moved_handles, out.data(), 1, static_cast<std::size_t>(n));
+    return detail::check_result(out.data(), static_cast<std::size_t>(n), false);
+  }
   detail::ArapStage<T>& arap = *impl().arap;
   const std::lock_guard<std::mutex> lock(arap.mutex);
-  impl().run(moved_handles, arap.mls.data(), 1, static_cast<std::size_t>(n));  // out untouched on a throw
-  arap.run(arap.mls, impl().options.arap_iterations, cancel);
+  // MLS's result in the local frame, handed to the refinement as it is (no rounding to the caller's units in
+  // between: the two stages together scale with the scene to the bit). out untouched on a throw.
+  impl().run(moved_handles, arap.mls.data(), 1, static_cast<std::size_t>(n), true);
+  detail::check_result(arap.mls.data(), static_cast<std::size_t>(n), false);
+  arap.run(arap.mls, impl().options.arap_iterations, std::ilogb(impl().data.scale), cancel);
   out = arap.mls;
 }
 
@@ -209,11 +250,15 @@ void Deformer<T>::deform(const Handles<T>& moved_handles, InterleavedView<T> out
   if (out.rows() != static_cast<Eigen::Index>(impl().vertices()))
     throw std::invalid_argument("Deformer: the interleaved output has " + std::to_string(out.rows()) +
                                 " rows but the model has " + std::to_string(impl().vertices()) + " vertices");
-  if (!impl().arap) return impl().frame(moved_handles, out.data(), 3, 1);
+  if (!impl().arap) {
+    impl().frame(moved_handles, out.data(), 3, 1);
+    return detail::check_result(out.data(), impl().vertices(), true);
+  }
   detail::ArapStage<T>& arap = *impl().arap;
   const std::lock_guard<std::mutex> lock(arap.mutex);
-  impl().run(moved_handles, arap.mls.data(), 1, static_cast<std::size_t>(impl().data.n));
-  arap.run(arap.mls, impl().options.arap_iterations, cancel);
+  impl().run(moved_handles, arap.mls.data(), 1, static_cast<std::size_t>(impl().data.n), true);
+  detail::check_result(arap.mls.data(), impl().data.n, false);
+  arap.run(arap.mls, impl().options.arap_iterations, std::ilogb(impl().data.scale), cancel);
   out = arap.mls;
 }
 
@@ -254,8 +299,14 @@ void Deformer<T>::transform_handles(std::span<const Eigen::Index> point_indices,
   for (const Eigen::Index i : point_indices) check_index(i, p.points.rows(), "point");
   for (const Eigen::Index i : segment_indices) check_index(i, p.segment_a.rows(), "segment");
   detail::check_rigid_motion(R, t, pivot, what);
+  // The frame of rigid_image: g, the exponent of the largest coordinate involved.
+  T largest = std::max(t.cwiseAbs().maxCoeff(), pivot.cwiseAbs().maxCoeff());
+  for (const Eigen::Index i : point_indices) largest = std::max(largest, p.points.row(i).cwiseAbs().maxCoeff());
+  for (const Eigen::Index i : segment_indices)
+    largest = std::max({largest, p.segment_a.row(i).cwiseAbs().maxCoeff(), p.segment_b.row(i).cwiseAbs().maxCoeff()});
+  const int g = detail::exponent_of(largest);
   const auto image = [&](const Points<T>& m, Eigen::Index i) {
-    const Vector3<T> y = detail::rigid_image<T>(m.row(i).transpose(), R, t, pivot);
+    const Vector3<T> y = detail::rigid_image<T>(m.row(i).transpose(), R, t, pivot, g);
     if (!y.allFinite() || y.cwiseAbs().maxCoeff() > detail::coordinate_limit<T>())
       throw std::invalid_argument(std::string(what) + ": the image of " + (&m == &p.points ? "point" : "segment") +
                                   " handle " + std::to_string(i) + " has a non-finite or too large coordinate");

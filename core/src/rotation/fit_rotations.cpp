@@ -1,10 +1,10 @@
+#include "../all_finite.hpp"
 #include "../dispatch.hpp"
 #include "../parallel.hpp"
 
 #include <mlsdeform/batch.hpp>
 
 #include <atomic>
-#include <bit>
 #include <cmath>
 #include <cstdint>
 #include <limits>
@@ -20,24 +20,10 @@ namespace {
 // scheduling, small enough to balance two to a few dozen cores on 10^5+ fits.
 constexpr std::size_t kChunk = 2048;
 
-/// True when every x[i] is finite, i.e. no exponent field is all ones: adding one unit of the exponent's
-/// lowest bit to (bits & exponent mask) carries into the sign bit exactly then. Only and/add/or on the bit
-/// patterns, which the compiler vectorises even for baseline x86-64 (the element-wise std::isfinite loop
-/// with an early exit cost about 3 ns per matrix in float, 5 in double: 7% of a batched fit).
-template <class T>
-bool all_finite(const T* x, std::size_t count) {
-  using U = std::conditional_t<sizeof(T) == 4, std::uint32_t, std::uint64_t>;
-  constexpr int mantissa = std::numeric_limits<T>::digits - 1;
-  constexpr U sign = U(1) << (8 * sizeof(T) - 1), exponent = (sign - 1) & ~((U(1) << mantissa) - 1);
-  U bad = 0;
-  for (std::size_t i = 0; i < count; ++i) bad |= (std::bit_cast<U>(x[i]) & exponent) + (U(1) << mantissa);
-  return (bad & sign) == 0;
-}
-
 template <class T>
 void validate(const T* H, const T* R, std::size_t n) {
   if (!H || !R) throw std::invalid_argument("fit_rotations: null pointer");
-  if (all_finite(H, 9 * n)) return;
+  if (detail::all_finite(H, 9 * n)) return;
   for (std::size_t e = 0; e < 9; ++e)  // name the first culprit
     for (std::size_t i = 0; i < n; ++i)
       if (!std::isfinite(H[e * n + i]))
