@@ -12,6 +12,8 @@ Where CMake builds:
   configured, only the two targets are built (CI packages the build it has just tested this way). Its
   MLSDEFORM_CHOLMOD decides the licence.
 The licence in the metadata follows what is linked: MIT, or GPL-2.0-or-later when CHOLMOD (GPL-2+) is.
+MLSDEFORM_WHEEL_PROGRAM=OFF leaves the program and its meshes out (the Blender extension's wheel: Blender unpacks
+a wheel as it is into its site-packages, where a program has no use).
 
 An editable install (pip install -e .) links python/mlsdeform/_mlsdeform*.so to the module in the CMake build
 directory: rebuilding there (cmake --build <dir> --target _mlsdeform) is what the next `import mlsdeform` loads.
@@ -81,6 +83,7 @@ class Build:
                 sys.exit(f"setup.py: MLSDEFORM_BUILD_DIR={self.dir} cannot be packaged: " + "; ".join(problems))
         else:
             self.cholmod = (wanted or "OFF").upper() in ON
+        self.program = os.environ.get("MLSDEFORM_WHEEL_PROGRAM", "ON").upper() in ON
         self._built = None
 
     def license(self):
@@ -104,14 +107,14 @@ class Build:
         subprocess.run(args, check=True)
 
     def build(self):
-        """Builds the two targets; returns (module, program)."""
+        """Builds the module and (unless left out) the program; returns (module, program or None)."""
         if self._built:
             return self._built
         if not self.reuse:
             self._configure()
         jobs = os.environ.get("CMAKE_BUILD_PARALLEL_LEVEL") or str(os.cpu_count() or 1)
-        subprocess.run(["cmake", "--build", str(self.dir), "--parallel", jobs, "--target", "_mlsdeform",
-                        "mlsdeform"], check=True)
+        targets = ["_mlsdeform"] + (["mlsdeform"] if self.program else [])
+        subprocess.run(["cmake", "--build", str(self.dir), "--parallel", jobs, "--target", *targets], check=True)
         suffix = sysconfig.get_config_var("EXT_SUFFIX")
         modules = sorted((self.dir / "python" / "mlsdeform").glob("_mlsdeform*.so"))
         module = next((m for m in modules if m.name == "_mlsdeform" + suffix), None)
@@ -119,8 +122,8 @@ class Build:
             sys.exit(f"setup.py: no _mlsdeform{suffix} for this Python ({sys.executable}) in {self.dir}/python/"
                      f"mlsdeform (found: {[m.name for m in modules]}): that build was configured for another "
                      "Python; configure it with -DPython3_EXECUTABLE=<this python>")
-        program = self.dir / "tools" / "mlsdeform"
-        if not program.exists():
+        program = self.dir / "tools" / "mlsdeform" if self.program else None
+        if program is not None and not program.exists():
             sys.exit(f"setup.py: the mlsdeform program was not built ({program})")
         self._built = (module, program)
         return self._built
@@ -192,8 +195,9 @@ setup(
     package_dir={"mlsdeform": "python/mlsdeform"},
     package_data={"mlsdeform": ["*.pyi", "py.typed"]},
     ext_modules=[Extension("mlsdeform._mlsdeform", sources=[])],
-    scripts=["mlsdeform"],  # built by BuildProgram
-    data_files=[("share/mlsdeform/data", ["data/human_man.obj", "data/human_bend.json", "data/LICENSES.txt"])],
+    scripts=["mlsdeform"] if BUILD.program else [],  # built by BuildProgram
+    data_files=[("share/mlsdeform/data", ["data/human_man.obj", "data/human_bend.json", "data/LICENSES.txt"])]
+    if BUILD.program else [],
     cmdclass={"build_ext": CMakeBuildExt, "build_scripts": BuildProgram},
     zip_safe=False,
     # setuptools' own build folders beside CMake's, not in the project's build/

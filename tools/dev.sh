@@ -7,7 +7,8 @@
 #                       (made if missing; editable: it loads the module of build/, so a rebuild is picked up)
 #                       and run the Python tests against it
 #   tools/dev.sh blender  install what is missing (Blender too), build build/mlsdeform_blender.zip (the add-on with
-#                       the compiled module inside) and run its headless test
+#                       the compiled module inside, Blender 3.4 to 4.1) and build/mlsdeform_blender_extension.zip
+#                       (the Blender 4.2+ extension, the module as a bundled wheel), and run their headless tests
 #   tools/dev.sh format rewrite every C++ file as .clang-format says (Debian 12's clang-format 14; CI checks it)
 # Extra arguments after `demo` go to the demo.
 set -euo pipefail
@@ -44,8 +45,10 @@ case "${1:-}" in
     ;;
   blender)
     build build -DMLSDEFORM_BUILD_PYTHON=ON
-    echo "add-on: $root/build/mlsdeform_blender.zip (Blender > Preferences > Add-ons > Install...)"
-    exec ctest --test-dir build --output-on-failure -R blender_addon
+    ctest --test-dir build --output-on-failure -R 'blender_(addon|extension)'
+    echo "add-on (Blender 3.4 to 4.1): $root/build/mlsdeform_blender.zip (Preferences > Add-ons > Install...)"
+    echo "extension (Blender 4.2+): $root/build/mlsdeform_blender_extension.zip (Preferences > Get Extensions >" \
+      "Install from Disk...)"
     ;;
   format)
     find core kernels tests bench tools python \( -name '*.cpp' -o -name '*.hpp' -o -name '*.inc' -o -name '*.h' \) \
