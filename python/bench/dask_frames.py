@@ -1,8 +1,10 @@
 """Frames/s of mlsdeform.dask.render_animation on the 737,986-vertex spot_loop3 (../shared/data/meshes, or
 MLSDEFORM_MESHES) on a LocalCluster: one worker of one thread against two of one thread (and one worker of two
-threads: the library's own parallelism), for each output format, with the share of the tasks' time spent writing.
+threads: the library's own parallelism), for each output format, with the share of the tasks' time spent writing,
+the worker processes' CPU time per frame and the cores they had (CPU time / wall-clock time after the set-up: on a
+machine shared with other work, fewer than asked for).
 
-    python3 python/bench/dask_frames.py [frames] [out_dir]
+    python3 python/bench/dask_frames.py [frames] [out_dir] [formats, e.g. .npy,.ply]
 
 The handles are docs/cli.md's spot example (4 point handles, offsets growing over the frames). Each
 configuration runs twice on a fresh cluster; the faster run is reported (the machine may be shared).
@@ -60,10 +62,10 @@ def main(argv):
                "?")
     print(f"spot_loop3, {frames} frames, {os.cpu_count()} cores ({cpu}), ISA {mlsdeform.active_isa()}; "
           "seconds include reading the mesh and resolving the handles on the client (once)")
-    print("| output | workers x threads | frames/s | speed-up | frames/s after set-up | speed-up | writing share of "
-          "task time | run |")
-    print("|---|---|---|---|---|---|---|---|")
-    for ext in (".npy", ".ply"):
+    print("| output | workers x threads | frames/s | speed-up | frames/s after set-up | speed-up | CPU ms per frame | "
+          "cores used | writing share of task time | run |")
+    print("|---|---|---|---|---|---|---|---|---|---|")
+    for ext in (argv[3].split(",") if len(argv) > 3 else (".npy", ".ply")):
         base = None
         for workers, threads in ((1, 1), (2, 1), (1, 2)):
             t = time.perf_counter()
@@ -71,7 +73,8 @@ def main(argv):
             base = base or (s.frames_per_second, s.frames_per_second_after_setup)
             print(f"| {ext} | {workers} x {threads} | {s.frames_per_second:.2f} | "
                   f"{s.frames_per_second / base[0]:.2f}x | {s.frames_per_second_after_setup:.2f} | "
-                  f"{s.frames_per_second_after_setup / base[1]:.2f}x | {100 * s.write_share:.0f}% | "
+                  f"{s.frames_per_second_after_setup / base[1]:.2f}x | {1000 * s.cpu_seconds / s.frames:.1f} | "
+                  f"{s.cpu_seconds / (s.seconds - s.seconds_setup):.2f} | {100 * s.write_share:.0f}% | "
                   f"{s.seconds:.1f} s (set-up {s.seconds_setup:.1f} s; tasks: deform {s.seconds_deform:.1f} s, "
                   f"write {s.seconds_write:.1f} s; {time.perf_counter() - t:.0f} s with the clusters) |", flush=True)
     shutil.rmtree(os.path.join(out_root, "out"), ignore_errors=True)

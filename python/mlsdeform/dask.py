@@ -53,7 +53,8 @@ class Summary:
     `seconds`: wall-clock time of the whole run on the client; `seconds_deform`, `seconds_write`: summed over the
     tasks (the share of the work spent writing files is seconds_write / (seconds_deform + seconds_write));
     `seconds_setup`: of `seconds`, the client's part before the first task (render_animation: reading the mesh,
-    resolving the handles, sending the rest pose); `sessions_built`: sessions built on the workers (one per worker for render_animation, one per mesh for
+    resolving the handles, sending the rest pose); `cpu_seconds`: the CPU time of the worker processes while they
+    ran the frames (render_animation; with the worker's other threads, if any); `sessions_built`: sessions built on the workers (one per worker for render_animation, one per mesh for
     deform_meshes, more when a worker died and its replacement built its own); `temporaries_removed`: files of
     attempts that died."""
     written: list = field(default_factory=list)
@@ -62,6 +63,7 @@ class Summary:
     bytes: int = 0
     seconds: float = 0.0
     seconds_setup: float = 0.0
+    cpu_seconds: float = 0.0
     seconds_deform: float = 0.0
     seconds_write: float = 0.0
     tasks: int = 0
@@ -137,6 +139,7 @@ def _render_shard(run, V, faces, rest, options, frames, targets, paths):
     out = np.empty((len(V), 3), dtype=session.dtype)
     seconds_deform = seconds_write = 0.0
     written, nbytes = [], 0
+    cpu = time.process_time()
     for frame, target, path in zip(frames, targets, paths):
         t0 = time.perf_counter()
         session.deform(**target, out=out)
@@ -145,7 +148,8 @@ def _render_shard(run, V, faces, rest, options, frames, targets, paths):
         seconds_deform += t1 - t0
         seconds_write += time.perf_counter() - t1
         written.append((frame, path))
-    return {"written": written, "bytes": nbytes, "deform": seconds_deform, "write": seconds_write, "built": built}
+    return {"written": written, "bytes": nbytes, "deform": seconds_deform, "write": seconds_write, "built": built,
+            "cpu": time.process_time() - cpu}
 
 
 def _forget(run):
@@ -198,6 +202,7 @@ def render_animation(client, mesh, handles, out, *, frames_per_task=None, overwr
         summary.seconds_deform += r["deform"]
         summary.seconds_write += r["write"]
         summary.sessions_built += r["built"]
+        summary.cpu_seconds += r["cpu"]
     summary.written = [written[i] for i in range(n)]
     summary.frames = n
     summary.seconds = time.perf_counter() - start
