@@ -66,13 +66,14 @@ class Build:
         self.dir = Path(given).resolve() if given else ROOT / "build-wheel"
         self.reuse = bool(given) and (self.dir / "CMakeCache.txt").exists()
         wanted = os.environ.get("MLSDEFORM_CHOLMOD")
+        self.program = os.environ.get("MLSDEFORM_WHEEL_PROGRAM", "ON").upper() in ON
         if self.reuse:
             cache = cmake_cache(self.dir)
             self.cholmod = cache.get("MLSDEFORM_CHOLMOD", "OFF").upper() in ON
             problems = []
             if cache.get("MLSDEFORM_BUILD_PYTHON", "OFF").upper() not in ON:
                 problems.append("MLSDEFORM_BUILD_PYTHON is not ON")
-            if cache.get("MLSDEFORM_BUILD_TOOLS", "OFF").upper() not in ON:
+            if self.program and cache.get("MLSDEFORM_BUILD_TOOLS", "OFF").upper() not in ON:
                 problems.append("MLSDEFORM_BUILD_TOOLS is not ON (the wheel ships the mlsdeform program)")
             if cache.get("MLSDEFORM_SANITIZE", "OFF").upper() in ON:
                 problems.append("it is a sanitizer build")
@@ -83,7 +84,6 @@ class Build:
                 sys.exit(f"setup.py: MLSDEFORM_BUILD_DIR={self.dir} cannot be packaged: " + "; ".join(problems))
         else:
             self.cholmod = (wanted or "OFF").upper() in ON
-        self.program = os.environ.get("MLSDEFORM_WHEEL_PROGRAM", "ON").upper() in ON
         self._built = None
 
     def license(self):
