@@ -165,7 +165,7 @@ def render_animation(client, mesh, handles, out, *, frames_per_task=None, overwr
     precision. `frames_per_task`: the shard size (default: about four tasks per worker thread). Returns a
     Summary. ValueError for bad input or outputs that exist, before anything is sent to the cluster."""
     start = time.perf_counter()
-    V, faces = files.read_mesh(mesh)
+    V, faces = files.read_mesh(mesh, dtype)  # in the session's precision, as the program's --precision
     anim = files.read_handles(handles, V, dtype)
     if "arap_iterations" in options:
         raise ValueError("render_animation: arap_iterations is not supported here (use the program's --arap)")
@@ -214,7 +214,7 @@ def _deform_one(run, mesh, handles, outs_for, options, dtype, overwrite):
     any other exception propagates (Dask retries the task), after removing what this attempt wrote."""
     t0 = time.perf_counter()
     try:
-        V, faces = files.read_mesh(mesh)
+        V, faces = files.read_mesh(mesh, dtype)
         anim = files.read_handles(handles, V, dtype)
         paths = outs_for(len(anim.frames), anim.animated)
         # A path that exists was there before the run unless this mesh's earlier attempt wrote it.

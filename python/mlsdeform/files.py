@@ -5,7 +5,8 @@
     files.write_mesh("out.ply", X, faces)            # all or nothing: a temporary file, then a rename
 
 Formats by file name: `.obj`, `.ply` (ASCII or binary, read; binary little-endian, written), `.gz` of either
-(read), and `.npy` (written: the vertices only). Coordinates are read as float32, as the program reads them.
+(read), and `.npy` (written: the vertices only). Coordinates are read as the program reads them: in the
+precision asked for (float32 by default, as its `--precision`), decimal text correctly rounded to it.
 The handles file is resolved as the program resolves it (targets in double, rounded once to the session's
 precision), so the same file gives bitwise the same handles here and in `mlsdeform deform`.
 Bad input raises ValueError naming the file and, for a handles file, the JSON path of the problem.
@@ -13,6 +14,7 @@ Bad input raises ValueError naming the file and, for a handles file, the JSON pa
 import gzip
 import json
 import math
+from fractions import Fraction
 import os
 import re
 import uuid
@@ -60,8 +62,8 @@ def _open(path):
     return gzip.open(path, "rb") if magic == b"\x1f\x8b" else open(path, "rb")
 
 
-def read_mesh(path):
-    """Reads an OBJ or PLY file (or its .gz): (vertices float32 (n, 3), Faces)."""
+def read_mesh(path, dtype=np.float32):
+    """Reads an OBJ or PLY file (or its .gz): (vertices (n, 3) of `dtype`, Faces)."""
     name = path[:-3] if path.endswith(".gz") else path
     ext = os.path.splitext(name)[1].lower()
     if ext not in (".obj", ".ply"):
@@ -71,7 +73,8 @@ def read_mesh(path):
             data = f.read()
     except OSError as e:
         raise ValueError(f"{path}: cannot read: {e.strerror or e}") from e
-    V, faces = (_read_obj if ext == ".obj" else _read_ply)(data, path)
+    coords, faces = (_read_obj if ext == ".obj" else _read_ply)(data, path)
+    V = _decimals(coords, dtype) if coords.dtype.kind in "SU" else coords.astype(dtype)
     if not np.isfinite(V).all():
         raise ValueError(f"{path}: a vertex has a non-finite coordinate")
     if len(faces.indices) and (faces.indices.min() < 0 or faces.indices.max() >= len(V)):
@@ -89,7 +92,8 @@ def _read_obj(data, path):
             if len(parts) not in (4, 5, 7):
                 raise ValueError(f"{path}: line {number}: a vertex needs 3 coordinates (or 4, or 6 with a colour)")
             try:
-                vertices.append([float(x) for x in parts[1:4]])
+                [float(x) for x in parts[1:4]]  # noqa: B018 - checks that they are numbers
+                vertices.append(parts[1:4])
             except ValueError:
                 raise ValueError(f"{path}: line {number}: a coordinate is not a number") from None
         elif parts[0] == "f":
@@ -106,7 +110,24 @@ def _read_obj(data, path):
                 raise ValueError(f"{path}: line {number}: vertex index out of range")
             counts.append(len(face))
             indices.extend(face)
-    return np.array(vertices, dtype=np.float32).reshape(-1, 3), Faces(counts, indices)
+    return np.array(vertices, dtype=str).reshape(-1, 3), Faces(counts, indices)
+
+
+def _decimals(text, dtype):
+    """Decimal strings to `dtype`, correctly rounded (as std::from_chars). Through double, which is correctly
+    rounded; to float32 that is right except where the double lands exactly halfway between two floats, where
+    the decimal itself may lie on either side: those are settled exactly."""
+    x = text.astype(np.float64)
+    if np.dtype(dtype) == np.float64:
+        return x
+    f = x.astype(np.float32)
+    other = np.where(x > f, np.nextafter(f, np.float32(np.inf)), np.nextafter(f, np.float32(-np.inf)))
+    tie = (x != f) & ((f.astype(np.float64) + other.astype(np.float64)) / 2 == x)
+    for i in zip(*np.nonzero(tie)):
+        exact, half = Fraction(str(text[i], "ascii") if text.dtype.kind == "S" else text[i]), Fraction(x[i])
+        if exact != half and (exact > half) == (other[i] > f[i]):
+            f[i] = other[i]
+    return f.astype(dtype, copy=False)
 
 
 _PLY_TYPES = {"char": "i1", "int8": "i1", "uchar": "u1", "uint8": "u1", "short": "i2", "int16": "i2",
@@ -149,7 +170,7 @@ def _read_ply(data, path):
             pos -= body
         if name == "vertex":
             try:
-                V = np.stack([values[c] for c in ("x", "y", "z")], axis=1).astype(np.float32)
+                V = np.stack([values[c] for c in ("x", "y", "z")], axis=1)
             except KeyError:
                 raise ValueError(f"{path}: the vertex element has no x, y and z") from None
         elif name == "face":
@@ -172,16 +193,18 @@ def _ply_ascii_element(tokens, pos, count, props, path, name):
         if len(block) != count * width:
             raise ValueError(f"{path}: malformed PLY: truncated in element {name}")
         try:
-            table = np.array(block, dtype=np.float64).reshape(count, width)
+            np.array(block, dtype=np.float64)
         except ValueError:
             raise ValueError(f"{path}: malformed PLY: a value of element {name} is not a number") from None
+        table = np.array(block, dtype="S").reshape(count, width)  # the text: rounded to the precision later
         return {p: table[:, i] for i, (p, _, _) in enumerate(props)}, pos + count * width
     columns = {p: [] for p, _, _ in props}
     try:
         for _ in range(count):
             for p, _, ctype in props:
                 if ctype is None:
-                    columns[p].append(float(tokens[pos]))
+                    float(tokens[pos])  # a number, or ValueError
+                    columns[p].append(tokens[pos])
                     pos += 1
                 else:
                     n = int(tokens[pos])
@@ -190,7 +213,9 @@ def _ply_ascii_element(tokens, pos, count, props, path, name):
     except (IndexError, ValueError):
         raise ValueError(f"{path}: malformed PLY: truncated or not a number in element {name}") from None
     for p, _, ctype in props:
-        if ctype is not None:
+        if ctype is None:
+            columns[p] = np.array(columns[p], dtype="S")
+        else:
             lists = columns[p]
             columns[p] = (np.array([len(x) for x in lists], np.int64),
                           np.fromiter((i for x in lists for i in x), np.int64))

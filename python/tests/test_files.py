@@ -1,6 +1,6 @@
 """mlsdeform.files: mesh files round-trip exactly, bad files are refused with the file's name, and a handles file
 resolves to bitwise the handles the `mlsdeform` program uses (the program's own output is the reference, where
-the program is found: MLSDEFORM_PROGRAM, or `mlsdeform` on PATH)."""
+the program is found: MLSDEFORM_CLI, or `mlsdeform` on PATH)."""
 import gzip
 import json
 import os
@@ -19,9 +19,9 @@ HUMAN = os.path.join(DATA, "human_man.obj")
 
 
 def program():
-    path = os.environ.get("MLSDEFORM_PROGRAM") or shutil.which("mlsdeform")
+    path = os.environ.get("MLSDEFORM_CLI") or shutil.which("mlsdeform")
     if not path or not os.path.exists(path):
-        pytest.skip("the mlsdeform program is not found (MLSDEFORM_PROGRAM, or on PATH)")
+        pytest.skip("the mlsdeform program is not found (MLSDEFORM_CLI, or on PATH)")
     return path
 
 
@@ -57,6 +57,23 @@ def test_ascii_ply_and_npy(tmp_path):
     assert np.array_equal(V, V2) and np.array_equal(F.indices, F2.indices)
     files.write_mesh(str(tmp_path / "v.npy"), V)
     assert np.array_equal(np.load(tmp_path / "v.npy"), V)
+
+
+def test_decimal_text_is_rounded_once(tmp_path):
+    """1 + 2^-24 is halfway between the floats 1 and 1 + 2^-23: a decimal a little above it is 1 + 2^-23 when
+    rounded once (std::from_chars, the program), but 1 when rounded to double (exactly the half) and then to float
+    (the tie to even); a little below, 1 either way. Likewise in double for 1 + 2^-53."""
+    half = "1.000000059604644775390625"
+    above, below = half + "0000001", "1.0000000596046447753906249999"
+    for ext, text in ((".obj", f"v {above} {below} {half}\n"),
+                      (".ply", "ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nproperty float y\n"
+                               f"property float z\nend_header\n{above} {below} {half}\n")):
+        path = tmp_path / ("tie" + ext)
+        path.write_text(text)
+        V, _ = files.read_mesh(str(path))
+        assert V.tolist() == [[1 + 2**-23, 1.0, 1.0]], ext      # the exact half itself: to even
+        V, _ = files.read_mesh(str(path), dtype=np.float64)
+        assert V.dtype == np.float64 and V[0, 0] == float(above) and V[0, 2] == 1 + 2**-24
 
 
 @pytest.mark.parametrize("text, problem", [
