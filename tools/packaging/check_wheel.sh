@@ -87,5 +87,5 @@ program=$(PATH=$work/venv/bin:$PATH command -v mlsdeform)
 [ -s "$work/run/human_0000.obj" ] && [ -s "$work/run/human_0023.obj" ] || fail "the program wrote no animation"
 echo "program: $program deformed the human (24 frames)"
 # With the venv's bin/ first on PATH, as after `activate`: test_files.py compares with the installed program.
-PATH=$work/venv/bin:$PATH MLSDEFORM_PY_REFERENCE=$build/python/mlsdeform_py_reference \
+PATH=$work/venv/bin:$PATH MLSDEFORM_PY_REFERENCE=$build/python/mlsdeform_py_reference MLSDEFORM_CLI=$program \
   "$work/venv/bin/python" -m pytest -q -p no:cacheprovider "$root/python/tests"
