@@ -3,10 +3,12 @@
 #   tools/dev.sh demo   install what is missing, build (Release), run `mlsdeform demo`
 #   tools/dev.sh test   install what is missing, build, run the whole test suite through ctest, then the
 #                       same suite again under AddressSanitizer + UndefinedBehaviorSanitizer
-#   tools/dev.sh python install what is missing, build the Python package (Release), install it where Debian's
-#                       /usr/bin/python3 imports it from any directory, and run the Python tests against it
+#   tools/dev.sh python install what is missing, build (Release), install the Python package into the venv .venv/
+#                       (made if missing; editable: it loads the module of build/, so a rebuild is picked up)
+#                       and run the Python tests against it
 #   tools/dev.sh blender  install what is missing (Blender too), build build/mlsdeform_blender.zip (the add-on with
-#                       the compiled module inside) and run its headless test
+#                       the compiled module inside, Blender 3.4 to 4.1) and build/mlsdeform_blender_extension.zip
+#                       (the Blender 4.2+ extension, the module as a bundled wheel), and run their headless tests
 #   tools/dev.sh format rewrite every C++ file as .clang-format says (Debian 12's clang-format 14; CI checks it)
 # Extra arguments after `demo` go to the demo.
 set -euo pipefail
@@ -32,16 +34,21 @@ case "${1:-}" in
     ;;
   python)
     build build -DMLSDEFORM_BUILD_PYTHON=ON
-    cmake --install build --component python
+    # A venv that sees Debian's numpy and pytest; nothing is written outside the checkout.
+    [ -x .venv/bin/python ] || /usr/bin/python3 -m venv --system-site-packages .venv
+    MLSDEFORM_BUILD_DIR="$root/build" .venv/bin/python -m pip install -q --no-build-isolation -e .
     cd /tmp
-    /usr/bin/python3 -c "import mlsdeform; print('mlsdeform', mlsdeform.__version__, 'from', mlsdeform.__file__)"
+    "$root/.venv/bin/python" -c "import mlsdeform; print('mlsdeform', mlsdeform.__version__, 'from', mlsdeform.__file__)"
+    echo "use it: . $root/.venv/bin/activate (python, and the mlsdeform program)"
     MLSDEFORM_PY_REFERENCE="$root/build/python/mlsdeform_py_reference" \
-      exec /usr/bin/python3 -m pytest -q -p no:cacheprovider "$root/python/tests"
+      exec "$root/.venv/bin/python" -m pytest -q -p no:cacheprovider "$root/python/tests"
     ;;
   blender)
     build build -DMLSDEFORM_BUILD_PYTHON=ON
-    echo "add-on: $root/build/mlsdeform_blender.zip (Blender > Preferences > Add-ons > Install...)"
-    exec ctest --test-dir build --output-on-failure -R blender_addon
+    ctest --test-dir build --output-on-failure -R 'blender_(addon|extension)'
+    echo "add-on (Blender 3.4 to 4.1): $root/build/mlsdeform_blender.zip (Preferences > Add-ons > Install...)"
+    echo "extension (Blender 4.2+): $root/build/mlsdeform_blender_extension.zip (Preferences > Get Extensions >" \
+      "Install from Disk...)"
     ;;
   format)
     find core kernels tests bench tools python \( -name '*.cpp' -o -name '*.hpp' -o -name '*.inc' -o -name '*.h' \) \

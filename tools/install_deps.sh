@@ -8,6 +8,8 @@ packages=(cmake g++ make pkg-config
   nlohmann-json3-dev libcli11-dev zlib1g-dev                               # the command-line tool
   python3 python3-matplotlib                                              # figures and benchmark plots
   python3-dev python3-numpy python3-pytest pybind11-dev python3-pybind11  # the Python package (python/)
+  python3-pip python3-venv python3-setuptools python3-wheel python3-build  # ... as a wheel (pyproject.toml)
+  python3-dask python3-distributed                                        # mlsdeform.dask and its tests
   clang libclang-rt-14-dev                                                # the libFuzzer targets
   clang-format)                                                           # the format check (tests/format.cmake)
 # `install_deps.sh blender` adds Debian's Blender 3.4 for the add-on's headless test (tools/blender/).

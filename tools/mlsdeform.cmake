@@ -40,3 +40,8 @@ set_target_properties(mlsdeform PROPERTIES RUNTIME_OUTPUT_DIRECTORY ${PROJECT_BI
 install(TARGETS mlsdeform RUNTIME DESTINATION ${CMAKE_INSTALL_BINDIR})
 install(FILES ${PROJECT_SOURCE_DIR}/LICENSE ${PROJECT_SOURCE_DIR}/data/LICENSES.txt
         DESTINATION ${CMAKE_INSTALL_DOCDIR})
+# The bundled meshes, where the installed program looks first (cmd_demo.cpp, data_dir); the Python wheel puts
+# them in the same place relative to its bin/mlsdeform.
+install(FILES ${PROJECT_SOURCE_DIR}/data/human_man.obj ${PROJECT_SOURCE_DIR}/data/human_bend.json
+              ${PROJECT_SOURCE_DIR}/data/LICENSES.txt
+        DESTINATION ${CMAKE_INSTALL_DATADIR}/mlsdeform/data)

@@ -8,6 +8,12 @@ vertex, three Empties, one pair of them a segment handle), binds, moves Empties,
 evaluated vertices with the add-on's own Python module (mlsdeform.Deformer) on the same data, bitwise in float.
 Then: object transforms, frame changes of keyframed Empties, bake, a deleted Empty, undo, save and reopen,
 unbind (restores the rest mesh exactly). Prints "N passed, M failed" and exits non-zero on a failure.
+
+    ... --python tests/blender/test_addon.py -- addon.zip SITE_PACKAGES
+
+is the Blender 4.2+ extension as this Blender can run it (tools/blender/test_extension.sh): an add-on without
+the compiled package inside, which imports the one unpacked from the extension's wheel into SITE_PACKAGES, as
+Blender 4.2+ unpacks it into its extensions' site-packages.
 """
 import math
 import os
@@ -19,7 +25,10 @@ import traceback
 import bpy
 import numpy as np
 
-ZIP = sys.argv[sys.argv.index("--") + 1] if "--" in sys.argv else None
+ARGS = sys.argv[sys.argv.index("--") + 1:] if "--" in sys.argv else []
+ZIP = ARGS[0] if ARGS else None
+if len(ARGS) > 1:
+    sys.path.insert(0, ARGS[1])
 results = {"passed": 0, "failed": 0}
 
 
@@ -128,6 +137,10 @@ def main():
     bpy.ops.preferences.addon_enable(module="mlsdeform_blender")
     import mlsdeform_blender as addon
     check("add-on enabled, module imported", hasattr(bpy.ops.mlsdeform, "bind"))
+    if len(ARGS) > 1:
+        check("the compiled package is the wheel's, unpacked into the site-packages",
+              os.path.realpath(addon.mlsdeform.__file__).startswith(os.path.realpath(ARGS[1]) + os.sep),
+              addon.mlsdeform.__file__)
     for o in list(bpy.data.objects):
         bpy.data.objects.remove(o)
     obj = cylinder()

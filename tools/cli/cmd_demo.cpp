@@ -20,6 +20,14 @@ namespace mlsdeform::cli {
 std::string data_dir(const std::string& from_args) {
   if (!from_args.empty()) return from_args;
   if (const char* env = std::getenv("MLSDEFORM_DATA_DIR"); env && *env) return env;
+  // An installed program (`cmake --install`, or the Python wheel's bin/mlsdeform) has its data beside it in
+  // <prefix>/share/mlsdeform/data: the source tree it was built from may be gone.
+  std::error_code ec;
+  const std::filesystem::path exe = std::filesystem::read_symlink("/proc/self/exe", ec);
+  if (!ec) {
+    const std::filesystem::path installed = exe.parent_path().parent_path() / "share" / "mlsdeform" / "data";
+    if (std::filesystem::is_directory(installed, ec)) return installed.string();
+  }
   return MLSDEFORM_DATA_DIR;
 }
 

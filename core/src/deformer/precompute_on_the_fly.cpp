@@ -29,14 +29,16 @@ void precompute_on_the_fly(DeformerData<T>& data, const Points<T>& vertices, con
     for (std::size_t i = b0 * kLanes; i < std::min(data.n, b1 * kLanes); ++i) {
       if (i % kLanes == 0) throw_if_cancelled(cancel);
       const Vec3d v = scene.local(vertices.row(static_cast<Eigen::Index>(i)).transpose().template cast<double>());
+      for (int c = 0; c < 3; ++c) data.v_local[std::size_t(c) * np + i] = T(v[c]);
+      // The same rounded coordinates the per-frame pass uses, read back from where it reads them, so that the
+      // nearest handle gets w = 1 and a vertex on a handle is at distance 0.
+      const Vec3d vt(double(data.v_local[i]), double(data.v_local[np + i]), double(data.v_local[2 * np + i]));
       NearestTwo near;  // of the squared distances
       for (std::size_t j = 0; j < k; ++j) {
-        // The same rounded coordinates the per-frame pass uses, so that the nearest handle gets w = 1.
         const Vec3d p(double(data.p_local[j]), double(data.p_local[k + j]), double(data.p_local[2 * k + j]));
-        near.add((p - Vec3d(double(T(v[0])), double(T(v[1])), double(T(v[2])))).squaredNorm(), j);
+        near.add((p - vt).squaredNorm(), j);
       }
       const double d2 = near.d_min;
-      for (int c = 0; c < 3; ++c) data.v_local[std::size_t(c) * np + i] = T(v[c]);
       data.dref2[i] = T(d2);
       // The rule of snap.hpp; and where d2 is not a normal number in T, the per-frame sum of squares in T
       // (whose terms are each rounded by up to half of T's smallest subnormal) could be 0 and the nearest

@@ -25,13 +25,19 @@ bl_info = {
     "category": "Animation",
 }
 
+import importlib.util
 import time
 
 import bpy
 import numpy as np
 from bpy.app.handlers import persistent
 
-from . import mlsdeform
+# The compiled package: inside the add-on in the legacy zip (Blender 3.4 to 4.1); in the extension (Blender 4.2+),
+# a wheel that Blender installs into its extensions' site-packages, imported from there.
+if importlib.util.find_spec(".mlsdeform", __package__) is not None:
+    from . import mlsdeform
+else:
+    import mlsdeform
 
 KEY_NAME = "MLS Deform"
 PROP_HANDLES = "mlsdeform_handles"      # names of the bound Empties, in handle order

@@ -1,0 +1,321 @@
+"""Large jobs over a Dask cluster: the frames of an animation, or a folder of meshes (dataset augmentation).
+
+    from dask.distributed import Client, LocalCluster
+    import mlsdeform.dask
+
+    client = Client(LocalCluster(n_workers=2, threads_per_worker=1))    # or Client("tcp://scheduler:8786")
+    s = mlsdeform.dask.render_animation(client, "spot.ply.gz", "spot.json", "out/spot.ply")
+    print(s)                # frames written, frames/s, the share of the time spent writing files
+    s = mlsdeform.dask.deform_meshes(client, "meshes/", "augmented/", output_format=".ply")
+
+render_animation: the mesh is read and the handles file (the program's format, docs/cli.md) resolved once, on
+the client; the rest pose is sent to every worker once (Client.scatter(broadcast=True)); each worker builds one
+session from it, the first time one of its tasks runs, and keeps it for the rest of the run; the frames are
+split into shards, one task each, whose results are the frames' files (OUT_0000.EXT, ... as the program names
+them).
+
+deform_meshes: one task per mesh of a folder: NAME.obj / NAME.ply (or .gz) with its handles file NAME.json beside
+it; each frame of the handles file is one output (NAME_0000.EXT, ...; NAME.EXT when the file has no frames).
+
+Every file is written all or nothing (a temporary file beside it, then a rename): a reader never sees part of a
+file. A task that fails (an exception: retried `retries` times) or whose worker dies (the scheduler runs it
+again elsewhere) writes its files again under the same names, so each output exists exactly once whatever ran
+twice; the temporary files of attempts that died are removed at the end. Bad input (a malformed mesh or handles
+file) is no transient failure: render_animation raises ValueError before any work, deform_meshes lists the mesh
+under `failed` and goes on with the others. Outputs that exist already are refused unless overwrite=True.
+
+Threads: a session uses as many threads as its worker has (Dask's threads_per_worker), unless `threads=` says
+otherwise; give each worker process one or more cores (LocalCluster(n_workers=cores, threads_per_worker=1) on one
+machine, or `dask worker --nworkers N --nthreads 1 tcp://scheduler:8786` on each machine of a cluster). Every
+worker must see the input and output paths (a shared file system).
+"""
+import os
+import threading
+import time
+import uuid
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from . import Deformer
+from . import files
+
+__all__ = ["render_animation", "deform_meshes", "Summary"]
+
+# Sessions built on this worker process, by run: each is built once, by the first of the run's tasks to need it.
+_sessions = {}
+_sessions_lock = threading.Lock()
+
+
+@dataclass
+class Summary:
+    """What a run wrote. `written`: the output paths, in order; `failed`: {input: error message} (deform_meshes);
+    `seconds`: wall-clock time of the whole run on the client; `seconds_deform`, `seconds_write`: summed over the
+    tasks (the share of the work spent writing files is seconds_write / (seconds_deform + seconds_write));
+    `seconds_setup`: of `seconds`, the client's part before the first task (render_animation: reading the mesh,
+    resolving the handles, sending the rest pose); `cpu_seconds`: the CPU time of the worker processes while they
+    ran the frames (render_animation; with the worker's other threads, if any); `sessions_built`: sessions built on the workers (one per worker for render_animation, one per mesh for
+    deform_meshes, more when a worker died and its replacement built its own); `temporaries_removed`: files of
+    attempts that died."""
+    written: list = field(default_factory=list)
+    failed: dict = field(default_factory=dict)
+    frames: int = 0
+    bytes: int = 0
+    seconds: float = 0.0
+    seconds_setup: float = 0.0
+    cpu_seconds: float = 0.0
+    seconds_deform: float = 0.0
+    seconds_write: float = 0.0
+    tasks: int = 0
+    sessions_built: int = 0
+    temporaries_removed: int = 0
+
+    @property
+    def frames_per_second(self):
+        return self.frames / self.seconds if self.seconds > 0 else 0.0
+
+    @property
+    def frames_per_second_after_setup(self):
+        rest = self.seconds - self.seconds_setup
+        return self.frames / rest if rest > 0 else 0.0
+
+    @property
+    def write_share(self):
+        work = self.seconds_deform + self.seconds_write
+        return self.seconds_write / work if work > 0 else 0.0
+
+    def __str__(self):
+        text = (f"{len(self.written)} files ({self.bytes / 2**20:.1f} MiB) from {self.frames} frames in "
+                f"{self.seconds:.2f} s ({self.frames_per_second:.2f} frames/s), {self.tasks} tasks, "
+                f"{self.sessions_built} sessions built; of the tasks' time {100 * self.write_share:.0f}% writing "
+                "files")
+        if self.failed:
+            text += f"; {len(self.failed)} failed: " + "; ".join(f"{k}: {v}" for k, v in self.failed.items())
+        return text
+
+
+def _output_paths(out, count, animated):
+    """The program's naming: OUT.EXT for one output, OUT_0000.EXT, OUT_0001.EXT, ... for an animation."""
+    if not animated:
+        return [out]
+    stem, ext = os.path.splitext(out)
+    return [f"{stem}_{i:04d}{ext}" for i in range(count)]
+
+
+def _check_outputs(paths, overwrite):
+    for p in paths:
+        folder = os.path.dirname(os.path.abspath(p))
+        if not os.path.isdir(folder):
+            raise ValueError(f"{p}: cannot write: no folder {folder}")
+        if not overwrite and os.path.lexists(p):
+            raise ValueError(f"{p}: already exists (overwrite=True replaces it)")
+        if os.path.splitext(p)[1].lower() not in (".ply", ".obj", ".npy"):
+            raise ValueError(f"{p}: unknown output format (.ply, .obj, .npy)")
+
+
+def _threads(threads):
+    if threads is not None:
+        return threads
+    try:
+        from distributed import get_worker
+        worker = get_worker()
+        return worker.state.nthreads if hasattr(worker, "state") else worker.nthreads
+    except (ImportError, ValueError):  # not on a Dask worker: all cores
+        return 0
+
+
+def _render_shard(run, V, faces, rest, options, frames, targets, paths):
+    """One task of render_animation: the frames `frames` (with their `targets` and output `paths`) on this
+    worker's session of `run`, built from the rest pose if this is the worker's first task of the run."""
+    built = False
+    with _sessions_lock:
+        session = _sessions.get(run)
+        if session is None:
+            opts = dict(options)
+            opts["threads"] = _threads(opts.pop("threads", None))
+            session = Deformer(V, **rest, **opts)
+            _sessions[run] = session
+            built = True
+    out = np.empty((len(V), 3), dtype=session.dtype)
+    seconds_deform = seconds_write = 0.0
+    written, nbytes = [], 0
+    cpu = time.process_time()
+    for frame, target, path in zip(frames, targets, paths):
+        t0 = time.perf_counter()
+        session.deform(**target, out=out)
+        t1 = time.perf_counter()
+        nbytes += files.write_mesh(path, out, faces, tag=run)
+        seconds_deform += t1 - t0
+        seconds_write += time.perf_counter() - t1
+        written.append((frame, path))
+    return {"written": written, "bytes": nbytes, "deform": seconds_deform, "write": seconds_write, "built": built,
+            "cpu": time.process_time() - cpu}
+
+
+def _forget(run):
+    with _sessions_lock:
+        _sessions.pop(run, None)
+
+
+def render_animation(client, mesh, handles, out, *, frames_per_task=None, overwrite=False, retries=2,
+                     dtype=np.float32, threads=None, **options):
+    """Renders every frame of the handles file `handles` (the program's format) on the mesh file `mesh`, over
+    the Dask `client`'s workers, into the program's file names for `out` (OUT_0000.EXT, ...; .ply, .obj or
+    .npy). `options` go to mlsdeform.Deformer (transform=, exponent=, backend=, ...); `dtype` is the session's
+    precision. `frames_per_task`: the shard size (default: about four tasks per worker thread). Returns a
+    Summary. ValueError for bad input or outputs that exist, before anything is sent to the cluster."""
+    start = time.perf_counter()
+    V, faces = files.read_mesh(mesh, dtype)  # in the session's precision, as the program's --precision
+    anim = files.read_handles(handles, V, dtype)
+    if "arap_iterations" in options:
+        raise ValueError("render_animation: arap_iterations is not supported here (use the program's --arap)")
+    paths = _output_paths(out, len(anim.frames), anim.animated)
+    _check_outputs(paths, overwrite)
+    run = uuid.uuid4().hex
+    V = V.astype(dtype, copy=False)
+    if threads is not None:
+        options["threads"] = threads
+    workers = max(1, sum(client.nthreads().values()))
+    n = len(anim.frames)
+    per_task = frames_per_task or max(1, -(-n // (4 * workers)))
+    # The rest pose once to every worker; tasks refer to it and never carry it.
+    V_remote, faces_remote = client.scatter([V, faces], broadcast=True)
+    setup = time.perf_counter() - start
+    futures = []
+    for first in range(0, n, per_task):
+        ids = list(range(first, min(n, first + per_task)))
+        futures.append(client.submit(_render_shard, run, V_remote, faces_remote, anim.session_arguments(), options,
+                                     ids, [anim.targets(i) for i in ids], [paths[i] for i in ids], pure=False,
+                                     retries=retries, key=f"mlsdeform-frames-{first}-{run}"))
+    summary = Summary(tasks=len(futures), seconds_setup=setup)
+    try:
+        results = client.gather(futures)
+    finally:
+        client.run(_forget, run)
+        summary.temporaries_removed = sum(files.remove_temporaries(d, run) for d in {os.path.dirname(
+            os.path.abspath(p)) for p in paths})
+    written = {}
+    for r in results:
+        for frame, path in r["written"]:
+            written[frame] = path
+        summary.bytes += r["bytes"]
+        summary.seconds_deform += r["deform"]
+        summary.seconds_write += r["write"]
+        summary.sessions_built += r["built"]
+        summary.cpu_seconds += r["cpu"]
+    summary.written = [written[i] for i in range(n)]
+    summary.frames = n
+    summary.seconds = time.perf_counter() - start
+    return summary
+
+
+def _deform_one(run, mesh, handles, outs_for, options, dtype, overwrite):
+    """One task of deform_meshes: a mesh and its handles file to its outputs. Bad input -> ("failed", message);
+    any other exception propagates (Dask retries the task), after removing what this attempt wrote."""
+    t0 = time.perf_counter()
+    try:
+        V, faces = files.read_mesh(mesh, dtype)
+        anim = files.read_handles(handles, V, dtype)
+        paths = outs_for(len(anim.frames), anim.animated)
+        # A path that exists was there before the run unless this mesh's earlier attempt wrote it.
+        _check_outputs(paths, overwrite=True)
+        opts = dict(options)
+        opts["threads"] = _threads(opts.pop("threads", None))
+        if opts.get("arap_iterations"):
+            tri = faces.triangles()
+            if tri is None:
+                raise ValueError(f"{mesh}: arap_iterations needs a triangle mesh")
+            opts["faces"] = tri
+        session = Deformer(V.astype(dtype, copy=False), **anim.session_arguments(), **opts)
+    except ValueError as e:
+        return {"failed": str(e)}
+    out = np.empty((len(V), 3), dtype=session.dtype)
+    seconds_deform, seconds_write, nbytes, written = time.perf_counter() - t0, 0.0, 0, []
+    try:
+        for i, path in enumerate(paths):
+            t1 = time.perf_counter()
+            session.deform(**anim.targets(i), out=out)
+            t2 = time.perf_counter()
+            nbytes += files.write_mesh(path, out, faces, tag=run)
+            seconds_deform += t2 - t1
+            seconds_write += time.perf_counter() - t2
+            written.append(path)
+    except BaseException:
+        # All or nothing per mesh as well: a retry writes them all again.
+        for p in written:
+            try:
+                os.unlink(p)
+            except OSError:
+                pass
+        raise
+    return {"written": written, "bytes": nbytes, "deform": seconds_deform, "write": seconds_write,
+            "frames": len(paths)}
+
+
+class _Outputs:
+    """Output names of one mesh (picklable, for the task)."""
+
+    def __init__(self, out_dir, name, ext):
+        self.out_dir, self.name, self.ext = out_dir, name, ext
+
+    def __call__(self, count, animated):
+        return _output_paths(os.path.join(self.out_dir, self.name + self.ext), count, animated)
+
+
+def deform_meshes(client, in_dir, out_dir, *, output_format=".ply", overwrite=False, retries=2, dtype=np.float32,
+                  threads=None, **options):
+    """Deforms every mesh NAME.obj / NAME.ply (or .gz) of `in_dir` that has a handles file NAME.json beside it,
+    one task per mesh over the Dask `client`'s workers, into `out_dir` (NAME_0000.EXT per frame of the handles
+    file, or NAME.EXT). `options` go to mlsdeform.Deformer (arap_iterations= with the mesh's triangles). Returns
+    a Summary whose `failed` maps each mesh that could not be done to the reason; the others are written."""
+    start = time.perf_counter()
+    if output_format not in (".ply", ".obj", ".npy"):
+        raise ValueError(f"output_format {output_format!r}: .ply, .obj or .npy")
+    if not os.path.isdir(out_dir):
+        raise ValueError(f"{out_dir}: no such folder")
+    jobs = []
+    for entry in sorted(os.listdir(in_dir)):
+        base = entry[:-3] if entry.endswith(".gz") else entry
+        name, ext = os.path.splitext(base)
+        if ext.lower() not in (".obj", ".ply"):
+            continue
+        handles = os.path.join(in_dir, name + ".json")
+        if os.path.exists(handles):
+            jobs.append((os.path.join(in_dir, entry), handles, name))
+    names = [name for _, _, name in jobs]
+    if len(set(names)) != len(names):
+        raise ValueError(f"{in_dir}: two meshes share a name: {sorted(n for n in names if names.count(n) > 1)}")
+    if not overwrite:
+        # Whatever this run may write: NAME.EXT and NAME_NNNN.EXT.
+        taken = [e for e in os.listdir(out_dir) for name in names
+                 if e == name + output_format or (e.startswith(name + "_") and e.endswith(output_format)
+                                                  and e[len(name) + 1:-len(output_format)].isdigit())]
+        if taken:
+            raise ValueError(f"{out_dir}: {taken[0]} already exists (overwrite=True replaces outputs)")
+    if threads is not None:
+        options["threads"] = threads
+    run = uuid.uuid4().hex
+    futures = {mesh: client.submit(_deform_one, run, mesh, handles, _Outputs(out_dir, name, output_format), options,
+                                   dtype, overwrite, pure=False, retries=retries, key=f"mlsdeform-mesh-{name}-{run}")
+               for mesh, handles, name in jobs}
+    summary = Summary(tasks=len(futures))
+    try:
+        client.gather(list(futures.values()), errors="skip")
+    finally:
+        summary.temporaries_removed = files.remove_temporaries(out_dir, run)
+    for mesh, fut in futures.items():
+        if fut.status != "finished":
+            summary.failed[mesh] = f"{type(fut.exception()).__name__}: {fut.exception()}"
+            continue
+        r = fut.result()
+        if "failed" in r:
+            summary.failed[mesh] = r["failed"]
+            continue
+        summary.written += r["written"]
+        summary.frames += r["frames"]
+        summary.bytes += r["bytes"]
+        summary.seconds_deform += r["deform"]
+        summary.seconds_write += r["write"]
+        summary.sessions_built += 1
+    summary.seconds = time.perf_counter() - start
+    return summary

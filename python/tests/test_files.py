@@ -1,0 +1,159 @@
+"""mlsdeform.files: mesh files round-trip exactly, bad files are refused with the file's name, and a handles file
+resolves to bitwise the handles the `mlsdeform` program uses (the program's own output is the reference, where
+the program is found: MLSDEFORM_CLI, or `mlsdeform` on PATH)."""
+import gzip
+import json
+import os
+import shutil
+import subprocess
+
+import numpy as np
+import pytest
+
+import mlsdeform
+from mlsdeform import files
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+DATA = os.path.join(HERE, "..", "..", "data")
+HUMAN = os.path.join(DATA, "human_man.obj")
+
+
+def program():
+    path = os.environ.get("MLSDEFORM_CLI") or shutil.which("mlsdeform")
+    if not path or not os.path.exists(path):
+        pytest.skip("the mlsdeform program is not found (MLSDEFORM_CLI, or on PATH)")
+    return path
+
+
+def polygons():
+    """A quad, a triangle and a pentagon over 7 vertices with awkward float32 values."""
+    g = np.random.default_rng(5)
+    V = (g.uniform(-1, 1, (7, 3)) * np.float32(1e3) / 3).astype(np.float32)
+    return V, files.Faces([4, 3, 5], [0, 1, 2, 3, 3, 4, 5, 6, 5, 4, 1, 0])
+
+
+@pytest.mark.parametrize("ext", [".ply", ".obj"])
+def test_round_trip_exact(tmp_path, ext):
+    V, F = polygons()
+    path = str(tmp_path / ("m" + ext))
+    files.write_mesh(path, V, F)
+    V2, F2 = files.read_mesh(path)
+    assert V2.dtype == np.float32 and np.array_equal(V, V2)
+    assert np.array_equal(F.counts, F2.counts) and np.array_equal(F.indices, F2.indices)
+    with open(path, "rb") as f, gzip.open(path + ".gz", "wb") as g:
+        g.write(f.read())
+    V3, F3 = files.read_mesh(path + ".gz")
+    assert np.array_equal(V, V3) and np.array_equal(F.indices, F3.indices)
+
+
+def test_ascii_ply_and_npy(tmp_path):
+    V, F = polygons()
+    path = tmp_path / "a.ply"
+    faces = ["4 0 1 2 3", "3 3 4 5", "5 6 5 4 1 0"]
+    path.write_text("ply\nformat ascii 1.0\ncomment x\nelement vertex 7\nproperty float x\nproperty float y\n"
+                    "property float z\nelement face 3\nproperty list uchar int vertex_indices\nend_header\n"
+                    + "".join(f"{x!r} {y!r} {z!r}\n" for x, y, z in V.astype(float).tolist()) + "\n".join(faces))
+    V2, F2 = files.read_mesh(str(path))
+    assert np.array_equal(V, V2) and np.array_equal(F.indices, F2.indices)
+    files.write_mesh(str(tmp_path / "v.npy"), V)
+    assert np.array_equal(np.load(tmp_path / "v.npy"), V)
+
+
+def test_decimal_text_is_rounded_once(tmp_path):
+    """1 + 2^-24 is halfway between the floats 1 and 1 + 2^-23: a decimal a little above it is 1 + 2^-23 when
+    rounded once (std::from_chars, the program), but 1 when rounded to double (exactly the half) and then to float
+    (the tie to even); a little below, 1 either way. Likewise in double for 1 + 2^-53."""
+    half = "1.000000059604644775390625"
+    above, below = half + "0000001", "1.0000000596046447753906249999"
+    for ext, text in ((".obj", f"v {above} {below} {half}\n"),
+                      (".ply", "ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nproperty float y\n"
+                               f"property float z\nend_header\n{above} {below} {half}\n")):
+        path = tmp_path / ("tie" + ext)
+        path.write_text(text)
+        V, _ = files.read_mesh(str(path))
+        assert V.tolist() == [[1 + 2**-23, 1.0, 1.0]], ext      # the exact half itself: to even
+        V, _ = files.read_mesh(str(path), dtype=np.float64)
+        assert V.dtype == np.float64 and V[0, 0] == float(above) and V[0, 2] == 1 + 2**-24
+
+
+@pytest.mark.parametrize("text, problem", [
+    ("v 0 0 0\nv 1 0 0\nf 1 2 3\n", "out of range"),
+    ("v 0 0 zero\n", "not a number"),
+    ("v 0 0 0\nf 1 2\n", "at least 3"),
+])
+def test_bad_obj_is_refused(tmp_path, text, problem):
+    path = tmp_path / "bad.obj"
+    path.write_text(text)
+    with pytest.raises(ValueError, match=problem) as e:
+        files.read_mesh(str(path))
+    assert str(path) in str(e.value)
+
+
+def test_truncated_ply_is_refused(tmp_path):
+    V, F = polygons()
+    path = str(tmp_path / "t.ply")
+    files.write_mesh(path, V, F)
+    with open(path, "rb") as f:
+        data = f.read()
+    with open(path, "wb") as f:
+        f.write(data[:-7])
+    with pytest.raises(ValueError, match="truncated"):
+        files.read_mesh(path)
+
+
+def test_write_is_all_or_nothing(tmp_path):
+    path = str(tmp_path / "x.npy")
+
+    def half_then_fail(f):
+        f.write(b"partial")
+        raise OSError("disk full")
+    with pytest.raises(OSError):
+        files.write_atomically(path, half_then_fail, tag="t")
+    assert os.listdir(tmp_path) == []
+
+
+@pytest.mark.parametrize("spec, problem", [
+    ({"points": [{"vertex": 7000}]}, "/points/0/vertex: vertex index 7000 out of range"),
+    ({"points": [{"vertex": 1, "tagret": [0, 0, 0]}]}, "/points/0: unknown key \"tagret\""),
+    ({"points": [{"vertex": 1}], "frames": [{"points": [None, None]}]},
+     "/frames/0/points: 2 entries, expected 1"),
+    ({"points": [{"vertex": 1}], "groups": [{"points": [0], "rotate": {"axis": [0, 0, 0], "degrees": 9}}]},
+     "/groups/0/rotate/axis: zero axis"),
+    ({}, "no handles"),
+])
+def test_bad_handles_are_refused(tmp_path, spec, problem):
+    V, _ = files.read_mesh(HUMAN)
+    path = tmp_path / "h.json"
+    path.write_text(json.dumps(spec))
+    with pytest.raises(ValueError, match=problem.replace("[", r"\[")):
+        files.read_handles(str(path), V)
+
+
+def deform_all(V, anim):
+    d = mlsdeform.Deformer(V, **anim.session_arguments())
+    return [d.deform(**anim.targets(i)).copy() for i in range(len(anim.frames))]
+
+
+def test_handles_resolve_as_the_program_does(tmp_path):
+    """human_bend.json (24 frames: targets, offsets, a segment) and a file with groups (a quarter turn about z,
+    37 degrees, a translation, comments): every frame equals the program's output bitwise (float32)."""
+    exe = program()
+    groups = tmp_path / "groups.json"
+    groups.write_text("""// comments as the program allows them
+    {"points": [{"vertex": 1337}, {"vertex": 411}, {"vertex": 5906}, {"vertex": 2445}],
+     "segments": [{"vertices": [6618, 6786]}],
+     /* the arms as one rigid body */
+     "groups": [{"points": [2, 3], "rotate": {"axis": [0, 0, 2], "degrees": 90}, "translate": [0, 0.1, 0]}],
+     "frames": [{}, {"groups": [{"rotate": {"axis": [0, 0, 1], "degrees": 37, "pivot": [0, 1, 0]}}]},
+                {"points": [null, {"offset": [0, 0.1, 0]}, null, null], "segments": [{"offset": [0, 0, 0.1]}]}]}
+    """)
+    for handles, count in ((os.path.join(DATA, "human_bend.json"), 24), (str(groups), 3)):
+        out = tmp_path / (os.path.basename(handles) + ".obj")
+        subprocess.run([exe, "deform", "-m", HUMAN, "-H", handles, "-o", str(out)], check=True,
+                       capture_output=True)
+        V, _ = files.read_mesh(HUMAN)
+        anim = files.read_handles(handles, V)
+        assert anim.animated and len(anim.frames) == count
+        for i, X in enumerate(deform_all(V, anim)):
+            want, _ = files.read_mesh(str(tmp_path / f"{os.path.basename(handles)}_{i:04d}.obj"))
+            assert np.array_equal(X, want), f"{handles}: frame {i}"
