@@ -118,6 +118,139 @@ TEST_CASE("segment weight moments: exact integral against closed forms and a fin
             << " against the long-double rule, u != 2)\n";
 }
 
+namespace {
+
+/// Moments of one side-split integral, in long double; J1abs = int w |t - tc| dt, the scale of J1.
+struct RefMoments {
+  LD I0 = 0, I1 = 0, I2 = 0, J1 = 0, J2 = 0, J1abs = 0;
+};
+
+/// An independent long-double reference for large u, in x (not in the library's sigma): 24-point
+/// Gauss-Legendre on uniform pieces of a quarter of the peak's width, min(d / sqrt(u), d^2 / (u off)) (the
+/// Gaussian width where the foot is inside, the exponential decay length beyond an end), up to where
+/// u/2 log(dist^2 / d^2) = 100. The weight is (d_min / d)^u exp(-u/2 log1p(x (2 off + x) / (h^2 + off^2))),
+/// with d^2 = h^2 + off^2 as the library takes it, and the ratio d_min / d rounded to double as the library's
+/// is: the problem's conditioning in d is u (a relative change of d by eps moves w by u eps), so the
+/// reference must see the same d to test the quadrature. Beyond the cut w < e^-100 and decays at least as
+/// (d / dist)^u, so the part dropped is below e^-100 of the peak's integral; each piece's integrand changes
+/// its exponent by at most ~4 (by sqrt(200) / 4 at the cut where the foot is inside, 1/4 per piece where the
+/// decay is exponential), where 24 nodes are exact far below long double's eps.
+RefMoments peaked_reference(const detail::SegmentGeometry& g, double d_min, LD u) {
+  constexpr int N = 24;
+  LD X[N], W[N];
+  for (int i = 0; i < N; ++i) {
+    LD z = std::cos(3.14159265358979323846264338327950288L * (i + 0.75L) / (N + 0.5L)), dp = 1;
+    for (int it = 0; it < 100; ++it) {
+      LD p0 = 1, p1 = z;
+      for (int k = 2; k <= N; ++k) {
+        const LD p2 = ((2 * k - 1) * z * p1 - (k - 1) * p0) / k;
+        p0 = p1;
+        p1 = p2;
+      }
+      dp = N * (z * p1 - p0) / (z * z - 1);
+      z -= p1 / dp;
+    }
+    X[i] = z;
+    W[i] = 2 / ((1 - z * z) * dp * dp);
+  }
+  const LD h = g.h, off = g.off, L = g.L, d2 = h * h + off * off, d = std::sqrt(d2);
+  LD width = d / std::sqrt(u);
+  if (off > 0) width = std::min(width, d2 / (u * off));
+  width /= 4;
+  const LD factor = std::pow(LD(d_min / g.d), u);
+  RefMoments m;
+  for (int side = 1; side >= -1; side -= 2) {
+    const LD len = (side > 0 ? 1 - LD(g.tc) : LD(g.tc)) * L;
+    if (!(len > 0)) continue;
+    const LD e2 = d2 * std::expm1(200 / u), cut = std::min(len, e2 / (std::sqrt(e2 + off * off) + off));
+    const long pieces = std::max(1L, long(std::ceil(cut / width)));
+    const LD step = cut / LD(pieces);
+    for (long p = 0; p < pieces; ++p)
+      for (int k = 0; k < N; ++k) {
+        const LD x = (LD(p) + (1 + X[k]) / 2) * step;
+        const LD w = step / 2 * W[k] * factor * std::exp(-u / 2 * std::log1p(x * (2 * off + x) / d2)) / L;
+        const LD dt = x / L, t = g.tc + side * dt;
+        m.I0 += w * (1 - t) * (1 - t);
+        m.I1 += w * t * (1 - t);
+        m.I2 += w * t * t;
+        m.J1 += side * w * dt;
+        m.J1abs += w * dt;
+        m.J2 += w * dt * dt;
+      }
+  }
+  return m;
+}
+
+/// Pieces of the library's rule in sigma (weights.hpp, segment_moments_peaked), for the rounding tolerance.
+int peaked_pieces(const detail::SegmentGeometry& g, double u) {
+  const double rho = std::min(1.0, g.off / g.d);
+  const double sigma_s = rho == 1.0 ? HUGE_VAL : std::sqrt(-0.5 * u * std::log1p(-rho * rho));
+  const double first = rho > 0 && sigma_s < 1 ? std::max(sigma_s, 0x1p-60) : 1.0;
+  int p = 0;
+  for (int side = 1; side >= -1; side -= 2) {
+    const double len = (side > 0 ? 1 - g.tc : g.tc) * g.L;
+    if (!(len > 0)) continue;
+    const double end = std::min(8.0, std::sqrt(0.5 * u * std::log1p(len * (2 * g.off + len) / (g.d * g.d))));
+    for (double a = 0; a < end; ++p) a = std::min(a == 0 ? first : a < 1 ? std::min(2 * a, 1.0) : a + 1, end);
+  }
+  return p;
+}
+
+}  // namespace
+
+TEST_CASE("segment weight moments: beyond u = 64 the rule in sigma against a long-double rule in x",
+          "[deformer][segment]") {
+  std::mt19937_64 gen(seed());
+  INFO("seed " << seed());
+  const double eps = std::numeric_limits<double>::epsilon();
+  double worst = 0;
+  int most_pieces = 0;
+  // Up to 1e50: beyond, J2 ~ (d / L)^2 I / u leaves the double range for small d (the reference's values
+  // are then below DBL_MIN and the library's 0, both right).
+  for (double u : {64.5, 100.0, 1e3, 3e4, 1e6, 1e10, 1e15, 1e50}) {
+    for (int trial = 0; trial < 120; ++trial) {
+      const Vec3d a = random_vector(gen), b = random_vector(gen);
+      // As above, and the cases that steer the rule: feet just beyond an end (off tiny: the graded pieces),
+      // vertices on the line (h = 0: no singularity), feet inside (off = 0).
+      double t0 = std::uniform_real_distribution<double>(-1, 2)(gen);
+      if (trial % 6 == 0)
+        t0 = trial % 12 == 0 ? 1 + std::pow(10.0, -3.0 - trial % 11) : -std::pow(10.0, -2.0 - trial % 9);
+      double h = (b - a).norm() * std::pow(10.0, std::uniform_real_distribution<double>(-6, 1)(gen));
+      if (trial % 10 == 5) h = 0;
+      const Vec3d v = a + t0 * (b - a) + h * (b - a).unitOrthogonal();
+      const detail::SegmentGeometry g = detail::segment_geometry(v, a, b);
+      if (!(g.d > 0)) continue;
+      // The segment is the nearest handle or, for moderate u, one a little farther than another.
+      const double d_min = u <= 1e3 ? g.d * 0.99 : g.d;
+      const detail::SegmentMoments m = detail::segment_moments_exact(g, d_min, u);
+      const RefMoments r = peaked_reference(g, d_min, u);
+      // Every node's contribution is positive (but J1's, scaled by int w |t - tc|) and carries at most ~16
+      // roundings (the mapping x(sigma), x'(sigma), exp, the products: a few eps each); the sums over 16
+      // nodes and the pieces add one rounding per term: (16 pieces + 32) eps relative, plus the
+      // quadrature's own error (below 1e-20 relative, weights.hpp) and pow's (one ulp of the factor).
+      const int pieces = peaked_pieces(g, u);
+      most_pieces = std::max(most_pieces, pieces);
+      const double tol = (16.0 * pieces + 34) * eps;
+      const LD total = r.I0 + 2 * r.I1 + r.I2;
+      const std::pair<double, LD> checks[] = {{m.I0, std::max(std::abs(r.I0), total)},
+                                              {m.I1, std::max(std::abs(r.I1), total)},
+                                              {m.I2, std::max(std::abs(r.I2), total)},
+                                              {m.J1, r.J1abs},
+                                              {m.J2, r.J2}};
+      const LD want[] = {r.I0, r.I1, r.I2, r.J1, r.J2};
+      for (int c = 0; c < 5; ++c) {
+        INFO("u " << u << " t0 " << g.t0 << " h/L " << g.h / g.L << " off/d " << g.off / g.d << " moment " << c
+                  << " got " << checks[c].first << " want " << double(want[c]));
+        const double err = double(std::abs(checks[c].first - want[c]) / checks[c].second);
+        CHECK(err <= tol);
+        worst = std::max(worst, err);
+      }
+    }
+  }
+  std::cout << "[segment quadrature, u > 64] largest relative error " << worst << ", at most " << most_pieces
+            << " pieces\n";
+}
+
 TEMPLATE_TEST_CASE("paper_constant segments agree with the paper's W_i and midpoint centroids (direct evaluation)",
                    "[deformer][segment]", float, double) {
   using T = TestType;

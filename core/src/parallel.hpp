@@ -2,6 +2,8 @@
 // the batched rotation fit (over chunks of matrices) both run through it, with one arena policy.
 #pragma once
 
+#include <mlsdeform/cancel.hpp>
+
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 #include <tbb/task_arena.h>
@@ -15,6 +17,11 @@ namespace mlsdeform::detail {
 /// 1 = serial, no TBB at all (nullptr); more = an arena of that many, capped at the hardware's (TBB would
 /// ignore the excess anyway, with a warning on stderr).
 std::unique_ptr<tbb::task_arena> make_arena(int threads);
+
+/// Throws Cancelled if the caller's check (cancel.hpp) asks to stop; nothing to check when it is empty.
+inline void throw_if_cancelled(const CancelCheck& cancel) {
+  if (cancel && cancel()) throw Cancelled();
+}
 
 /// Calls f(begin, end) on sub-ranges covering [0, count): once with the whole range when threads == 1 or
 /// count <= 1, else from tbb::parallel_for (in `arena` if given, else the calling thread's arena). Each

@@ -2,13 +2,16 @@
 // the caller's C-contiguous (n, 3) array through the library's interleaved output (no copy of the vertices);
 // the GIL is released while the library works. Errors keep the library's message: std::invalid_argument ->
 // ValueError, std::out_of_range -> IndexError (pybind11's own translations); shape and dtype problems of an
-// argument raise ValueError / TypeError naming the argument and what was received.
+// argument raise ValueError / TypeError naming the argument and what was received. Long calls (a session's
+// set-up, ARAP frames, large batches of fits) check for signals while they work (SignalWatch): Ctrl-C raises
+// KeyboardInterrupt promptly, leaving outputs untouched.
 #include <mlsdeform/mlsdeform.hpp>
 
 #include <pybind11/numpy.h>
 #include <pybind11/pybind11.h>
 #include <pybind11/stl.h>
 
+#include <atomic>
 #include <chrono>
 #include <cmath>
 #include <cstdint>
@@ -18,6 +21,7 @@
 #include <optional>
 #include <stdexcept>
 #include <string>
+#include <thread>
 #include <type_traits>
 #include <utility>
 #include <vector>
@@ -29,6 +33,84 @@ namespace {
 
 template <class T>
 using Array = py::array_t<T, py::array::c_style | py::array::forcecast>;
+
+/// Python's main thread (threading.main_thread().ident, read at import): the only one on which Python runs
+/// signal handlers.
+unsigned long g_main_thread = 0;
+
+/// Signals during a long call that runs with the GIL released. Python runs signal handlers only on its main
+/// thread and with the GIL, so the library's cancellation check (mlsdeform::CancelCheck, asked between blocks
+/// from any of its threads) does this: on the calling thread, if it is Python's main thread, at most once per
+/// kInterval it takes the GIL and calls PyErr_CheckSignals, which runs the handlers; if one raised
+/// (KeyboardInterrupt for SIGINT), the exception is kept and every later check, on any thread, says stop.
+/// Other threads and the times in between cost one relaxed atomic load (and a clock read). The library then
+/// throws mlsdeform::Cancelled having changed nothing, and raise_kept() raises the handler's exception.
+/// A signal that arrives after the last check is handled by Python when the call returns, as usual.
+class SignalWatch {
+ public:
+  static constexpr std::chrono::milliseconds kInterval{50};
+
+  SignalWatch()
+      : caller_(std::this_thread::get_id()),
+        main_(PyThread_get_thread_ident() == g_main_thread),
+        next_(std::chrono::steady_clock::now() + kInterval) {}
+  SignalWatch(const SignalWatch&) = delete;
+  SignalWatch& operator=(const SignalWatch&) = delete;
+  ~SignalWatch() {  // destroyed with the GIL held (created with it, outside the released scope)
+    Py_XDECREF(type_);
+    Py_XDECREF(value_);
+    Py_XDECREF(trace_);
+  }
+
+  /// The check to hand to the library; valid while *this lives.
+  CancelCheck check() {
+    if (!main_) return {};  // no signal handler can run on this thread: nothing to check
+    return [this] { return poll(); };
+  }
+
+  /// With the GIL held, after the call: raises the handler's exception if one was kept.
+  void raise_kept() {
+    if (!stop_.load(std::memory_order_relaxed)) return;
+    PyErr_Restore(type_, value_, trace_);
+    type_ = value_ = trace_ = nullptr;
+    throw py::error_already_set();
+  }
+
+ private:
+  bool poll() {
+    if (stop_.load(std::memory_order_relaxed)) return true;
+    if (std::this_thread::get_id() != caller_) return false;
+    const auto now = std::chrono::steady_clock::now();
+    if (now < next_) return false;
+    next_ = now + kInterval;
+    const py::gil_scoped_acquire gil;
+    if (PyErr_CheckSignals() == 0) return false;
+    PyErr_Fetch(&type_, &value_, &trace_);
+    stop_.store(true, std::memory_order_relaxed);
+    return true;
+  }
+
+  std::thread::id caller_;
+  bool main_;
+  std::chrono::steady_clock::time_point next_;  ///< touched by the calling thread only
+  std::atomic<bool> stop_{false};
+  PyObject *type_ = nullptr, *value_ = nullptr, *trace_ = nullptr;
+};
+
+/// Runs f(check) with the GIL released and a SignalWatch's check (or an empty one when `watch` is false);
+/// a call the watch stopped raises the signal handler's exception (KeyboardInterrupt).
+template <class F>
+void interruptible(bool watch, F&& f) {
+  SignalWatch w;
+  try {
+    const py::gil_scoped_release release;
+    f(watch ? w.check() : CancelCheck());
+  } catch (...) {  // Cancelled, or another error while a handler had raised: the handler's exception wins
+    w.raise_kept();
+    throw;
+  }
+  w.raise_kept();  // stopped in the last block without a check after it: the signal still counts
+}
 
 std::string shape_of(const py::array& a) {
   std::string s = "(";
@@ -393,10 +475,7 @@ class PyDeformer {
     const Points<T> v = to_points(as_n3<T>(vertices, "vertices"));
     const Handles<T> h = make_handles<T>(points, segments);
     std::optional<Deformer<T>> d;
-    {
-      py::gil_scoped_release release;
-      d.emplace(v, triangles, h, o);
-    }
+    interruptible(true, [&](const CancelCheck& cancel) { d.emplace(v, triangles, h, o, cancel); });
     if constexpr (std::is_same_v<T, float>)
       single_ = std::make_unique<Deformer<float>>(std::move(*d));
     else
@@ -439,10 +518,10 @@ class PyDeformer {
     py::array_t<T> result = output<T>(out);
     const Deformer<T>& d = get<T>();
     T* data = result.mutable_data();
-    {
-      py::gil_scoped_release release;
-      d.deform(h, InterleavedView<T>(data, d.vertex_count(), 3));
-    }
+    // Only ARAP frames are long enough to be worth watching (the library checks between iterations).
+    interruptible(d.options().arap_iterations > 0, [&](const CancelCheck& cancel) {
+      d.deform(h, InterleavedView<T>(data, d.vertex_count(), 3), cancel);
+    });
     return result;
   }
 
@@ -541,12 +620,13 @@ py::array_t<T> fit_rotations_t(Array<T> H, RotationMethod method, int threads, d
   py::array_t<T> R = rotations_out<T>(out, H.shape(0));
   // Both are C-contiguous (m, 3, 3) arrays of T here, so `out` either is H (each block below is copied out
   // of H before its rotations are written back over the same rows: in place works) or overlaps it shifted,
-  // where writing block b would overwrite the H of a block not read yet: then the fit reads a copy of H.
-  if (!out.is_none() && R.data() != H.data() && may_share_memory(H, R))
-    H = Array<T>({H.shape(0), py::ssize_t(3), py::ssize_t(3)}, H.data());  // no base given: a copy
+  // where writing block b would overwrite the H of a block not read yet: then the rotations go to the scratch
+  // array below and reach `out` only after the last block has read H.
+  const bool overlaps = !out.is_none() && R.data() != H.data() && may_share_memory(H, R);
   const T* h = H.data();
   T* r = R.mutable_data();
-  {
+  SignalWatch watch;
+  try {
     py::gil_scoped_release release;
     if (seconds_cpp) {  // the reference figure: the batched call alone on data already in its layout
       std::vector<T> soa(9 * m), rsoa(9 * m);
@@ -561,6 +641,17 @@ py::array_t<T> fit_rotations_t(Array<T> H, RotationMethod method, int threads, d
     // 295 KiB in double), larger when the library spreads a block over threads.
     const std::size_t block = threads == 1 ? 2048 : 32768;
     std::vector<T> soa(9 * std::min(block, m)), rsoa(soa.size());
+    // Signals are checked between blocks. So that an interrupted call leaves a caller's `out` untouched, the
+    // rotations then go to a scratch array, copied into `out` at the end: a fresh buffer's page faults and one
+    // more pass, which make a float fit into `out` about 1.5 times as long. So with `out` only a batch of more
+    // than about 0.3 s of work is watched (2^22 matrices by the SIMD methods, 2^18 by the scalar ones, which
+    // take about 15 times as long each); a shorter one is written straight into `out`, unwatched.
+    const bool scalar =
+        method == RotationMethod::svd || method == RotationMethod::kanatani || method == RotationMethod::horn_matrix;
+    const bool watched = m > block && (out.is_none() || m > (scalar ? std::size_t(1) << 18 : std::size_t(1) << 22));
+    const CancelCheck cancel = watched ? watch.check() : CancelCheck();
+    const std::unique_ptr<T[]> scratch((watched && !out.is_none()) || overlaps ? new T[9 * m] : nullptr);  // not zeroed
+    T* dest = scratch ? scratch.get() : r;
     // A caller's `out` must stay untouched on error: all of H is checked before the first block is written
     // (the library checks each block again). On the exponent bits, so that it vectorises.
     if (!out.is_none()) {
@@ -575,6 +666,7 @@ py::array_t<T> fit_rotations_t(Array<T> H, RotationMethod method, int threads, d
       if (non_finite) throw_non_finite(h, m);
     }
     for (std::size_t first = 0; first < m; first += block) {
+      if (cancel && cancel()) throw Cancelled();
       const std::size_t b = std::min(block, m - first);
       const T* hb = h + 9 * first;
       for (std::size_t i = 0; i < b; ++i)
@@ -584,11 +676,16 @@ py::array_t<T> fit_rotations_t(Array<T> H, RotationMethod method, int threads, d
       } catch (const std::invalid_argument&) {
         throw_non_finite(h, m);  // name the matrix by its index in H, not in the block
       }
-      T* rb = r + 9 * first;
+      T* rb = dest + 9 * first;
       for (std::size_t i = 0; i < b; ++i)
         for (std::size_t e = 0; e < 9; ++e) rb[9 * i + e] = rsoa[e * b + i];
     }
+    if (dest != r) std::memcpy(r, dest, 9 * m * sizeof(T));
+  } catch (...) {  // as in interruptible()
+    watch.raise_kept();
+    throw;
   }
+  watch.raise_kept();
   return R;
 }
 
@@ -628,8 +725,9 @@ py::tuple fit_points_t(const py::object& P, const py::object& Q, const py::objec
   if (transform == Transform::affine) throw py::value_error("transform: fit_points supports 'rigid' and 'similarity'");
   SimilarityTransform<T> f;
   try {
+    const py::gil_scoped_release release;  // p, q and the weights are copies: nothing of Python's is read
     f = transform == Transform::rigid ? fit_rigid<T>(p, q, weights, method) : fit_similarity<T>(p, q, weights, method);
-  } catch (const std::invalid_argument& e) {
+  } catch (const std::invalid_argument& e) {  // the GIL is held again here
     // The library names its own function (fit_rigid: ..., fit_similarity: ...); name the one called here.
     const std::string what = e.what();
     const std::size_t colon = what.find(": ");
@@ -648,6 +746,7 @@ py::tuple fit_points_t(const py::object& P, const py::object& Q, const py::objec
 
 PYBIND11_MODULE(_mlsdeform, m) {
   m.doc() = "mlsdeform: as-rigid-as-possible MLS deformation and batched rotation fits (C++ core).";
+  g_main_thread = py::module_::import("threading").attr("main_thread")().attr("ident").cast<unsigned long>();
   m.attr("__version__") = std::to_string(MLSDEFORM_VERSION_MAJOR) + "." + std::to_string(MLSDEFORM_VERSION_MINOR) +
                           "." + std::to_string(MLSDEFORM_VERSION_PATCH);
   py::register_exception_translator([](std::exception_ptr p) {
@@ -691,7 +790,8 @@ arap_iterations > 0: that many surface-ARAP iterations after MLS (each handle's 
 put it); centroids: "mls" (eq. 2) | "rbf" (q* = g(p*), the RBF interpolant of the handles: the paper's
 Sec. 7-8); region: None (the whole model) or the indices of the vertices that may move (the others stay
 bitwise at rest; their neighbours next to the region are held, so the result stays continuous; not with
-arap_iterations). Raises ValueError on bad input (the library's message).)")
+arap_iterations). Raises ValueError on bad input (the library's message); Ctrl-C stops the set-up
+(KeyboardInterrupt).)")
       .def("deform", on_session(&PyDeformer::deform), py::kw_only(), py::arg("points") = py::none(),
            py::arg("segments") = py::none(), py::arg("out") = py::none(),
            R"(deform(*, points=None, segments=None, out=None) -> (n, 3) array
@@ -701,7 +801,8 @@ session's current targets (set_point_target / set_segment_target; initially the 
 C-contiguous, writeable (n, 3) array of the session's dtype, written in place with no copy and returned;
 None allocates a new one. The GIL is released while deforming. On bad input raises ValueError/TypeError and
 writes nothing; a deformed position the dtype cannot hold raises ValueError naming the vertex (out has then
-been written over; with arap_iterations it is untouched).)")
+been written over; with arap_iterations it is untouched). With arap_iterations > 0, Ctrl-C stops the frame
+between iterations: KeyboardInterrupt, out untouched.)")
       .def("set_point_target", on_session(&PyDeformer::set_point_target), py::arg("i"), py::arg("target"),
            "Move point handle i's target (3 numbers) for later deform() calls; IndexError if out of range.")
       .def("set_segment_target", on_session(&PyDeformer::set_segment_target), py::arg("i"), py::arg("a"), py::arg("b"),
@@ -752,8 +853,10 @@ ValueError for a reflection, a non-orthonormal or non-finite matrix; on error no
 Batched rotation fit in SIMD lanes: for each correlation matrix H[i] = sum_j w_j qhat_j phat_j^T, the
 proper rotation R[i] maximising trace(R^T H). float32 in gives float32 out, anything else float64.
 threads: 1 = the calling thread, 0 = all cores. out: a C-contiguous (m, 3, 3) array of H's dtype to write
-into (returned); it may be H itself or overlap H (H is then read from a copy). The GIL is released.
-ValueError naming the first NaN or infinite entry, with nothing written.)");
+into (returned); it may be H itself or overlap H (the rotations then reach out after all of H is read). The
+GIL is released. ValueError naming the first NaN or infinite entry, with nothing written. Ctrl-C stops a batch
+of more than one block (2,048 matrices, 32,768 with threads): KeyboardInterrupt, out untouched (with out=, only
+batches of more than 2^22 matrices, 2^18 by the scalar methods).)");
   m.def(
       "_time_cpp_fit_rotations",
       [](const py::object& H, int threads) {

@@ -16,14 +16,7 @@ import pytest
 HERE = os.path.dirname(os.path.abspath(__file__))
 
 PENDING = {
-    "snap-far-vertex": "snapping decided locally",
-    "scale-arap": "ARAP scale-invariant",
-    "scale-fit_points": "the point fits scale-invariant",
-    "subnormal": "subnormal fits on the SIMD paths",
-    "interrupt": "long calls interruptible",
     "cli-double": "the program's --precision double",
-    "cli-bom": "OBJ with a byte-order mark",
-    "fit_points-huge": "fit_points' error for finite input",
 }
 FAILURES = ("SILENT WRONG", "BAD ERROR", "CRASH", "HANG")
 

@@ -10,6 +10,7 @@
 #include <catch2/catch.hpp>
 
 #include <cmath>
+#include <csignal>
 #include <cstdint>
 #include <cstdio>
 #include <filesystem>
@@ -248,4 +249,51 @@ TEST_CASE("deform --centroids rbf: the RBF centroids change the result, handles 
   r = c.deform(c.dir / "bad.ply", {"--centroids", "spline"});
   CHECK(r.exit_code == 2);
   CHECK(r.err.find("--centroids") != std::string::npos);
+}
+
+TEST_CASE("deform --arap: the first SIGINT stops a frame of a billion iterations between two of them",
+          "[cli][arap][signals]") {
+  // Without the check between iterations the frame would run for days; the run must instead end with
+  // 128 + SIGINT and write nothing. The signal is sent once the program has printed its set-up line (line
+  // buffered through stdbuf), i.e. once it is deforming; the 60 s limit is only against a hang.
+  BarCase c;
+  const std::string out = c.dir / "out.ply";
+  int fds[2];
+  REQUIRE(::pipe(fds) == 0);
+  const pid_t pid = ::fork();
+  REQUIRE(pid >= 0);
+  if (pid == 0) {
+    ::dup2(fds[1], 1);
+    ::close(fds[0]);
+    ::execlp("stdbuf", "stdbuf", "-oL", program.c_str(), "deform", "-m", c.mesh.c_str(), "-H", c.handles.c_str(), "-o",
+             out.c_str(), "--arap", "1000000000", static_cast<char*>(nullptr));
+    ::_exit(127);
+  }
+  ::close(fds[1]);
+  std::string seen;
+  char buf[256];
+  while (seen.find("set-up") == std::string::npos) {
+    const ssize_t got = ::read(fds[0], buf, sizeof buf);
+    if (got <= 0) break;
+    seen.append(buf, std::size_t(got));
+  }
+  ::close(fds[0]);
+  INFO("stdout: " << seen);
+  REQUIRE(seen.find("set-up") != std::string::npos);
+  ::usleep(200000);  // well into the iterations
+  ::kill(pid, SIGINT);
+  int status = 0;
+  pid_t done = 0;
+  for (int t = 0; t < 6000 && done == 0; ++t) {
+    done = ::waitpid(pid, &status, WNOHANG);
+    if (done == 0) ::usleep(10000);
+  }
+  if (done == 0) {
+    ::kill(pid, SIGKILL);
+    ::waitpid(pid, &status, 0);
+  }
+  CHECK(done == pid);
+  REQUIRE(WIFEXITED(status));
+  CHECK(WEXITSTATUS(status) == 128 + SIGINT);
+  CHECK(!std::filesystem::exists(out));
 }

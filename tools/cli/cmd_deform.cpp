@@ -96,9 +96,12 @@ int deform(const DeformArgs& a) {
       const std::string where = handles.animated() ? "/frames/" + std::to_string(f) : std::string();
       t0 = Clock::now();
       try {
-        deformer->deform(resolved.frames[f], out);
+        // The first SIGINT stops a long ARAP frame between iterations, not after the last one.
+        deformer->deform(resolved.frames[f], out, [] { return pending_interrupt() != 0; });
       } catch (const std::invalid_argument& e) {
         throw InputError(a.handles, e.what(), where);
+      } catch (const Cancelled&) {
+        throw Interrupted{pending_interrupt(), written.size()};
       }
       deform_ms.push_back(ms_since(t0));
       result.vertices = out;

@@ -3,6 +3,7 @@
 // then make the surface locally rigid where few handles leave MLS too smooth (an arm bent by a hand handle).
 #pragma once
 
+#include <mlsdeform/cancel.hpp>
 #include <mlsdeform/types.hpp>
 
 #include <Eigen/Core>
@@ -64,12 +65,15 @@ class ArapRefiner {
   /// itself); allocates nothing once `out` has its size. Not for concurrent calls (the session holds the
   /// scratch). iterations = 0 copies `start` with the constraints applied. Throws std::invalid_argument on
   /// sizes that do not match or non-finite input, and, leaving `out` unchanged, when a refined position
-  /// overflows T.
-  void refine(const Points<T>& start, const Points<T>& targets, int iterations, Points<T>& out);
+  /// overflows T. Any iteration count is allowed, each one costs the same: `cancel` (cancel.hpp) is checked
+  /// before every iteration and throws Cancelled with `out` untouched.
+  void refine(const Points<T>& start, const Points<T>& targets, int iterations, Points<T>& out,
+              const CancelCheck& cancel = {});
   /// refine() with start and targets given as the positions times 2^-exponent (exact powers of two: a caller
   /// that holds them in a scaled frame, as the Deformer does, passes them without rounding them to its units
   /// first); `out` is in the caller's units.
-  void refine_scaled(const Points<T>& start, const Points<T>& targets, int exponent, int iterations, Points<T>& out);
+  void refine_scaled(const Points<T>& start, const Points<T>& targets, int exponent, int iterations, Points<T>& out,
+                     const CancelCheck& cancel = {});
 
   /// E(x) with the optimal rotations for x (as one local step computes them), in double (in the units of the
   /// positions, squared: inf where that overflows double).

@@ -3,6 +3,7 @@
 #pragma once
 
 #include <mlsdeform/arap.hpp>
+#include <mlsdeform/cancel.hpp>
 #include <mlsdeform/rotation.hpp>
 #include <mlsdeform/types.hpp>
 
@@ -19,7 +20,8 @@ enum class SegmentWeight {
   /// The paper's simplification: constant d^-u (d = distance from the vertex to the segment), so
   /// W = d^-u [[1/3, 1/6], [1/6, 1/3]] and the centroids use the segment midpoints.
   paper_constant,
-  /// The exact integral of |p(t) - v|^-u along the segment (adaptive Gauss-Legendre quadrature).
+  /// The exact integral of |p(t) - v|^-u along the segment (adaptive Gauss-Legendre quadrature; beyond
+  /// u = 64 in a variable that makes its cost independent of u: docs/api.md, "Segments").
   exact_integral,
 };
 
@@ -81,15 +83,17 @@ struct Options {
   /// Surface-ARAP iterations after MLS (arap.hpp), for sessions built with the mesh's triangles; 0 (default)
   /// is the paper's MLS. Each point handle constrains its nearest rest vertex, each segment handle the
   /// nearest vertices of its two ends, held where MLS put them; the iterations then make the one-rings
-  /// locally rigid (docs/api.md, "ARAP refinement").
+  /// locally rigid (docs/api.md, "ARAP refinement"). Any count: each iteration costs the same, and a
+  /// CancelCheck given to deform() stops a frame between iterations (cancel.hpp).
   int arap_iterations = 0;
   Centroids centroids = Centroids::mls;
   /// A region of interest: the vertices (0-based, any order, each once) that may move; every other vertex
   /// keeps its rest position bitwise, and only the region's vertices cost time per frame. Empty (default):
   /// the whole model. The outside vertices next to the region (sharing a triangle with a region vertex, or
   /// without triangles among the 8 nearest vertices of one) are held as fixed point handles at their rest
-  /// positions, so that the result is continuous across the region's border; targets() and the handle
-  /// counts stay the caller's. Not with arap_iterations > 0 (std::invalid_argument). docs/api.md, "Region of
+  /// positions, so that the result is continuous across the region's border (with precomputed weights they
+  /// cost four table columns however many they are: docs/api.md); targets() and the handle counts stay the
+  /// caller's. Not with arap_iterations > 0 (std::invalid_argument). docs/api.md, "Region of
   /// interest".
   std::vector<Eigen::Index> region;
 };
@@ -104,12 +108,13 @@ class Deformer {
   /// Throws std::invalid_argument (message naming the problem) on: no handles, non-finite coordinates,
   /// mismatched segment end-point counts, weight_exponent < 1 or non-finite, a zero-length segment, or an
   /// affine transform whose handles do not span 3D (fewer than four non-coplanar points), a region index out
-  /// of range or repeated.
-  Deformer(const Points<T>& rest_vertices, const Handles<T>& rest_handles, const Options& options = {});
+  /// of range or repeated. `cancel` (cancel.hpp) may stop the precomputation: Cancelled is thrown.
+  Deformer(const Points<T>& rest_vertices, const Handles<T>& rest_handles, const Options& options = {},
+           const CancelCheck& cancel = {});
   /// The same over a triangle mesh, so that options.arap_iterations > 0 can refine MLS's result (without
   /// triangles that option throws std::invalid_argument). Also throws on a triangle index out of range.
   Deformer(const Points<T>& rest_vertices, const Triangles& triangles, const Handles<T>& rest_handles,
-           const Options& options = {});
+           const Options& options = {}, const CancelCheck& cancel = {});
   ~Deformer();
   Deformer(Deformer&&) noexcept;
   Deformer& operator=(Deformer&&) noexcept;
@@ -123,10 +128,12 @@ class Deformer {
   /// targets map a vertex beyond T's range) is never returned: std::invalid_argument names the vertex, and
   /// `out` is then unspecified (untouched with arap_iterations > 0). With arap_iterations > 0 or a region,
   /// concurrent calls on one session take turns (the refinement's or the region's scratch belongs to the
-  /// session).
-  void deform(const Handles<T>& moved_handles, Points<T>& out) const;
+  /// session). `cancel` (cancel.hpp) is checked before each ARAP iteration, where a frame's time is the
+  /// iteration count's, and throws Cancelled with `out` untouched; the MLS pass itself is not interrupted (its
+  /// time is that of one pass over the table, about what reading the table once costs).
+  void deform(const Handles<T>& moved_handles, Points<T>& out, const CancelCheck& cancel = {}) const;
   /// The same, writing interleaved xyz (e.g. a mapped vertex buffer of vertex_count() * 3 values).
-  void deform(const Handles<T>& moved_handles, InterleavedView<T> out) const;
+  void deform(const Handles<T>& moved_handles, InterleavedView<T> out, const CancelCheck& cancel = {}) const;
 
   /// Stateful targets for interactive use: the session keeps the current moved handles (initially the rest
   /// handles); move some of them and deform() with no handle argument.
@@ -147,12 +154,13 @@ class Deformer {
   void transform_handles(std::span<const Eigen::Index> point_indices, std::span<const Eigen::Index> segment_indices,
                          const Matrix3<T>& R, const Vector3<T>& t, const Vector3<T>& pivot);
   const Handles<T>& targets() const;
-  void deform(Points<T>& out) const;
+  void deform(Points<T>& out, const CancelCheck& cancel = {}) const;
   /// The same, writing interleaved xyz (vertex_count() rows; std::invalid_argument otherwise).
-  void deform(InterleavedView<T> out) const;
+  void deform(InterleavedView<T> out, const CancelCheck& cancel = {}) const;
 
   /// A new rest pose (vertices and/or handles): redoes the precomputation; targets reset to the rest handles.
-  void reset_rest_pose(const Points<T>& rest_vertices, const Handles<T>& rest_handles);
+  /// On any exception (Cancelled included) the session is unchanged.
+  void reset_rest_pose(const Points<T>& rest_vertices, const Handles<T>& rest_handles, const CancelCheck& cancel = {});
 
   Eigen::Index vertex_count() const;
   const Options& options() const;

@@ -4,6 +4,7 @@
 
 #include <mlsdeform/arap.hpp>
 #include <mlsdeform/batch.hpp>
+#include <mlsdeform/cancel.hpp>
 #include <mlsdeform/deformer.hpp>
 #include <mlsdeform/point_fit.hpp>
 #include <mlsdeform/rotation.hpp>

@@ -264,13 +264,14 @@ template <class T>
 ArapRefiner<T>& ArapRefiner<T>::operator=(ArapRefiner&&) noexcept = default;
 
 template <class T>
-void ArapRefiner<T>::refine(const Points<T>& start, const Points<T>& targets, int iterations, Points<T>& out) {
-  refine_scaled(start, targets, 0, iterations, out);
+void ArapRefiner<T>::refine(const Points<T>& start, const Points<T>& targets, int iterations, Points<T>& out,
+                            const CancelCheck& cancel) {
+  refine_scaled(start, targets, 0, iterations, out, cancel);
 }
 
 template <class T>
 void ArapRefiner<T>::refine_scaled(const Points<T>& start, const Points<T>& targets, int exponent, int iterations,
-                                   Points<T>& out) {
+                                   Points<T>& out, const CancelCheck& cancel) {
   if (!impl_) throw std::logic_error("ArapRefiner: this session was moved from");
   Impl& m = *impl_;
   if (start.rows() != m.n)
@@ -291,6 +292,7 @@ void ArapRefiner<T>::refine_scaled(const Points<T>& start, const Points<T>& targ
   for (Eigen::Index i = 0; i < m.X.size(); ++i) m.X.data()[i] = std::ldexp(m.X.data()[i], exponent - f);
   m.rest_to_x = std::ldexp(1.0, m.rest_e - f);
   for (int it = 0; it < iterations; ++it) {
+    detail::throw_if_cancelled(cancel);  // before `out` is written: the strong guarantee
     m.local_step();
     m.global_step();
   }

@@ -62,9 +62,9 @@ std::unique_ptr<ArapStage<T>> ArapStage<T>::make(const Points<T>& rest, const Tr
 }
 
 template <class T>
-void ArapStage<T>::run(Points<T>& x, int iterations, int exponent) {
+void ArapStage<T>::run(Points<T>& x, int iterations, int exponent, const CancelCheck& cancel) {
   for (std::size_t k = 0; k < constrained.size(); ++k) targets.row(Eigen::Index(k)) = x.row(constrained[k]);
-  refiner.refine_scaled(x, targets, exponent, iterations, x);
+  refiner.refine_scaled(x, targets, exponent, iterations, x, cancel);
 }
 
 template struct ArapStage<float>;

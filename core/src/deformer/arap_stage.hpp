@@ -27,8 +27,8 @@ struct ArapStage {
                                          const Handles<T>& rest_handles, const Options& options);
 
   /// `x` holds MLS's result (n x 3) times 2^-exponent (the deformer's local frame, data.hpp): refined in
-  /// place, `iterations` times, into the caller's units.
-  void run(Points<T>& x, int iterations, int exponent);
+  /// place, `iterations` times, into the caller's units (Cancelled: x is left as it was, still scaled).
+  void run(Points<T>& x, int iterations, int exponent, const CancelCheck& cancel);
 };
 
 /// Throws std::invalid_argument unless every index of `triangles` is in [0, n).

@@ -99,12 +99,15 @@ struct DeformerData {
   std::size_t blocks = 0;    ///< ceil(n / kLanes)
   std::size_t points = 0;    ///< point handles k
   std::size_t segments = 0;  ///< segment handles s
-  double scale = 1;          ///< the local frame's power of two 2^e (see Units above)
-  T target_limit = 0;        ///< the largest magnitude of a target coordinate (see Units above)
-  AlignedVector<T> table;    ///< omega, A (rigid, similarity) or alpha (affine), blocked as above
-  AlignedVector<T> p_star;   ///< rigid, similarity: weighted centroid of the rest handles, SoA, padded
-  AlignedVector<T> vhat;     ///< rigid, similarity: v - p*, local frame, SoA, padded
-  AlignedVector<T> D;        ///< similarity: sum_j A_j . phat_j (= sum_i w_i |phat_i|^2 / S), local, padded
+  /// Fixed point handles (a region's ring) folded into kFoldedHandles pseudo-handles (fold.hpp), 0 if none:
+  /// then `points` counts the four in their place.
+  std::size_t folded = 0;
+  double scale = 1;         ///< the local frame's power of two 2^e (see Units above)
+  T target_limit = 0;       ///< the largest magnitude of a target coordinate (see Units above)
+  AlignedVector<T> table;   ///< omega, A (rigid, similarity) or alpha (affine), blocked as above
+  AlignedVector<T> p_star;  ///< rigid, similarity: weighted centroid of the rest handles, SoA, padded
+  AlignedVector<T> vhat;    ///< rigid, similarity: v - p*, local frame, SoA, padded
+  AlignedVector<T> D;       ///< similarity: sum_j A_j . phat_j (= sum_i w_i |phat_i|^2 / S), local, padded
 
   // WeightStorage::on_the_fly (rigid and similarity with point handles only): no table; per frame the
   // weights are recomputed from the distances (reference.hpp, deform_block_on_the_fly). Local frame:

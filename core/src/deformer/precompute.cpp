@@ -1,5 +1,6 @@
 #include "precompute.hpp"
 
+#include "fold.hpp"
 #include "snap.hpp"
 #include "validation.hpp"
 #include "weights.hpp"
@@ -22,7 +23,7 @@ namespace {
 /// the table streams from memory every frame, and recomputing the weights (two passes of a few tens of flops
 /// per handle) costs about as much as reading 16-32 bytes per handle (bench/bench_scaling.cpp measures both).
 template <class T>
-bool use_on_the_fly(const Options& o, const RestHandles& rh, std::size_t padded) {
+bool use_on_the_fly(const Options& o, const RestHandles& rh, std::size_t padded, std::size_t columns) {
   const bool supported = o.transform != Transform::affine && rh.s == 0 && o.centroids == Centroids::mls;
   const char* unsupported = o.transform == Transform::affine ? "the affine transform"
                             : rh.s != 0                      ? "segment handles"
@@ -33,7 +34,7 @@ bool use_on_the_fly(const Options& o, const RestHandles& rh, std::size_t padded)
                                 unsupported + "); use precomputed or automatic");
   if (o.weight_storage != WeightStorage::automatic) return o.weight_storage == WeightStorage::on_the_fly;
   const double components = o.transform == Transform::affine ? 1 : 4;
-  const double table = double(padded) * double(rh.P.size()) * components * sizeof(T);
+  const double table = double(padded) * double(columns) * components * sizeof(T);
   if (!(table > double(o.precompute_budget_bytes))) return false;
   if (supported) return true;
   char msg[512];
@@ -43,7 +44,7 @@ bool use_on_the_fly(const Options& o, const RestHandles& rh, std::size_t padded)
       "precompute_budget_bytes = %.1f MiB, and on-the-fly weights support only rigid and similarity "
       "transforms with point handles and MLS centroids (got %s); raise Options::precompute_budget_bytes (CLI: "
       "--weight-budget MiB) or set WeightStorage::precomputed to allow it",
-      table / 1048576.0, padded, rh.P.size(), double(o.precompute_budget_bytes) / 1048576.0, unsupported);
+      table / 1048576.0, padded, columns, double(o.precompute_budget_bytes) / 1048576.0, unsupported);
   throw std::invalid_argument(msg);
 }
 
@@ -72,7 +73,7 @@ void check_segment_lengths(const RestHandles& rh) {
 
 template <class T>
 DeformerData<T> precompute(const Points<T>& vertices, const Handles<T>& handles, const Options& o,
-                           tbb::task_arena* arena) {
+                           tbb::task_arena* arena, const CancelCheck& cancel, const FixedHandles<T>& fixed) {
   check_options(o);
   check_points(vertices, "rest vertices", "", std::numeric_limits<T>::max());
   check_handles(handles, "rest handles", std::numeric_limits<T>::max());
@@ -92,17 +93,21 @@ DeformerData<T> precompute(const Points<T>& vertices, const Handles<T>& handles,
   data.scale = std::ldexp(1.0, scene.e);
   data.target_limit = std::ldexp(coordinate_limit<T>(), std::min(scene.e, 0));
   const std::size_t np = data.padded();
-  if (use_on_the_fly<T>(o, rh, np)) {
-    precompute_on_the_fly(data, vertices, scene, rh, o, arena);
+  // Fixed handles cost a table column each unless folded (fold.hpp), which only the table can do.
+  const std::size_t fold = fixed.count > kFoldedHandles ? fixed.count : 0;
+  if (use_on_the_fly<T>(o, rh, np, rh.P.size() - fold + (fold ? kFoldedHandles : 0))) {
+    precompute_on_the_fly(data, vertices, scene, rh, o, arena, cancel);
     return data;
   }
-  precompute_table(data, vertices, scene, rh, o, arena);
+  data.folded = fold;
+  if (fold) data.points = rh.k - fold + kFoldedHandles;
+  precompute_table(data, vertices, scene, rh, o, arena, cancel, handles, fixed);
   return data;
 }
 
 template DeformerData<float> precompute<float>(const Points<float>&, const Handles<float>&, const Options&,
-                                               tbb::task_arena*);
+                                               tbb::task_arena*, const CancelCheck&, const FixedHandles<float>&);
 template DeformerData<double> precompute<double>(const Points<double>&, const Handles<double>&, const Options&,
-                                                 tbb::task_arena*);
+                                                 tbb::task_arena*, const CancelCheck&, const FixedHandles<double>&);
 
 }  // namespace mlsdeform::detail

@@ -15,7 +15,7 @@ using Vec3d = Eigen::Vector3d;
 
 template <class T>
 void precompute_on_the_fly(DeformerData<T>& data, const Points<T>& vertices, const LocalFrame& scene,
-                           const RestHandles& rh, const Options& o, tbb::task_arena* arena) {
+                           const RestHandles& rh, const Options& o, tbb::task_arena* arena, const CancelCheck& cancel) {
   const std::size_t np = data.padded(), k = rh.k;
   data.on_the_fly = true;
   data.half_u = T(o.weight_exponent / 2);
@@ -27,6 +27,7 @@ void precompute_on_the_fly(DeformerData<T>& data, const Points<T>& vertices, con
     for (int c = 0; c < 3; ++c) data.p_local[std::size_t(c) * k + j] = T(rh.P[j][c]);
   parallel_ranges(data.blocks, o.threads, arena, [&](std::size_t b0, std::size_t b1) {
     for (std::size_t i = b0 * kLanes; i < std::min(data.n, b1 * kLanes); ++i) {
+      if (i % kLanes == 0) throw_if_cancelled(cancel);
       const Vec3d v = scene.local(vertices.row(static_cast<Eigen::Index>(i)).transpose().template cast<double>());
       for (int c = 0; c < 3; ++c) data.v_local[std::size_t(c) * np + i] = T(v[c]);
       // The same rounded coordinates the per-frame pass uses, read back from where it reads them, so that the
@@ -49,8 +50,8 @@ void precompute_on_the_fly(DeformerData<T>& data, const Points<T>& vertices, con
 }
 
 template void precompute_on_the_fly<float>(DeformerData<float>&, const Points<float>&, const LocalFrame&,
-                                           const RestHandles&, const Options&, tbb::task_arena*);
+                                           const RestHandles&, const Options&, tbb::task_arena*, const CancelCheck&);
 template void precompute_on_the_fly<double>(DeformerData<double>&, const Points<double>&, const LocalFrame&,
-                                            const RestHandles&, const Options&, tbb::task_arena*);
+                                            const RestHandles&, const Options&, tbb::task_arena*, const CancelCheck&);
 
 }  // namespace mlsdeform::detail

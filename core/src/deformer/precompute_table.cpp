@@ -3,6 +3,7 @@
 #include "precompute.hpp"
 
 #include "../parallel.hpp"
+#include "fold.hpp"
 #include "rbf_centroids.hpp"
 #include "snap.hpp"
 #include "weights.hpp"
@@ -22,10 +23,12 @@ namespace {
 using Vec3d = Eigen::Vector3d;
 
 /// Sec. 5: the rest-pose precomputation for the vertices of block b (see data.hpp for what is
-/// stored). Everything in double in the local frame; results rounded to T once, at the end.
+/// stored). Everything in double in the local frame; results rounded to T once, at the end. `fold`: the
+/// weights beta of the data.folded fixed point handles that end the point handles (fold.hpp), or empty.
 template <class T>
 void precompute_block(DeformerData<T>& data, std::size_t b, const Points<T>& vertices, const LocalFrame& scene,
-                      const RestHandles& rh, const Options& o, const RbfCentroids* rbf) {
+                      const RestHandles& rh, const Options& o, const RbfCentroids* rbf,
+                      const std::vector<std::array<double, kFoldedHandles>>& fold) {
   const std::size_t J = rh.P.size(), k = rh.k, s = rh.s;
   const double u = o.weight_exponent;
   const bool affine = data.transform == Transform::affine;
@@ -36,6 +39,8 @@ void precompute_block(DeformerData<T>& data, std::size_t b, const Points<T>& ver
   std::vector<Vec3d> A(J);
   std::vector<double> rbf_weights;  // Centroids::rbf: q* = g(p*) = sum_j rbf_weights_j q_j (rbf_centroids.hpp)
   Eigen::VectorXd rbf_rhs;
+  std::vector<double> column(J);  // what a table column holds: the centroid weight, or alpha (affine)
+  std::vector<Vec3d> A_column(J);
   const std::size_t first = b * kLanes, count = std::min(kLanes, data.n - first), np = data.padded();
   for (std::size_t lane = 0; lane < count; ++lane) {
     const std::size_t i = first + lane;
@@ -174,13 +179,21 @@ void precompute_block(DeformerData<T>& data, std::size_t b, const Points<T>& ver
       // that the rounding of x (relative eps kappa(G)) cannot move q* = sum_j omega_j q_j.
       double sum_beta = 0;
       for (std::size_t j = 0; j < J; ++j) sum_beta += A[j].dot(x);
-      for (std::size_t j = 0; j < J; ++j)
-        data.coefficients(b, j)[lane] = T((*centroid)[j] + (A[j].dot(x) - omega[j] * sum_beta));
+      column.resize(J);
+      for (std::size_t j = 0; j < J; ++j) column[j] = (*centroid)[j] + (A[j].dot(x) - omega[j] * sum_beta);
+      if (!fold.empty()) fold_columns(column, k - fold.size(), fold);
+      for (std::size_t j = 0; j < column.size(); ++j) data.coefficients(b, j)[lane] = T(column[j]);
     } else {
-      for (std::size_t j = 0; j < J; ++j) {
+      column.assign(centroid->begin(), centroid->end());
+      A_column.assign(A.begin(), A.end());
+      if (!fold.empty()) {
+        fold_columns(column, k - fold.size(), fold);
+        fold_columns(A_column, k - fold.size(), fold);
+      }
+      for (std::size_t j = 0; j < column.size(); ++j) {
         T* co = data.coefficients(b, j) + lane;
-        co[0] = T((*centroid)[j]);
-        for (int c = 0; c < 3; ++c) co[(c + 1) * kLanes] = T(A[j][c]);
+        co[0] = T(column[j]);
+        for (int c = 0; c < 3; ++c) co[(c + 1) * kLanes] = T(A_column[j][c]);
       }
       for (int c = 0; c < 3; ++c) {
         data.p_star[c * np + i] = T(scene.centre[c] + std::ldexp(p_star[c], scene.e));
@@ -196,9 +209,13 @@ void precompute_block(DeformerData<T>& data, std::size_t b, const Points<T>& ver
 
 template <class T>
 void precompute_table(DeformerData<T>& data, const Points<T>& vertices, const LocalFrame& scene, const RestHandles& rh,
-                      const Options& o, tbb::task_arena* arena) {
+                      const Options& o, tbb::task_arena* arena, const CancelCheck& cancel, const Handles<T>& handles,
+                      const FixedHandles<T>& fixed) {
   const std::size_t np = data.padded();
-  data.table.assign(np * rh.P.size() * data.components(), T(0));
+  data.table.assign(np * data.pseudo_handles() * data.components(), T(0));
+  const std::vector<std::array<double, kFoldedHandles>> fold =
+      data.folded ? fold_weights(Points<T>(handles.points.bottomRows(Eigen::Index(data.folded))), fixed.targets)
+                  : std::vector<std::array<double, kFoldedHandles>>();
   if (o.transform != Transform::affine) {
     data.p_star.assign(3 * np, T(0));
     data.vhat.assign(3 * np, T(0));
@@ -207,13 +224,18 @@ void precompute_table(DeformerData<T>& data, const Points<T>& vertices, const Lo
   const std::unique_ptr<RbfCentroids> rbf =
       o.centroids == Centroids::rbf ? std::make_unique<RbfCentroids>(rh.P) : nullptr;
   parallel_ranges(data.blocks, o.threads, arena, [&](std::size_t b0, std::size_t b1) {
-    for (std::size_t b = b0; b < b1; ++b) precompute_block(data, b, vertices, scene, rh, o, rbf.get());
+    for (std::size_t b = b0; b < b1; ++b) {
+      throw_if_cancelled(cancel);
+      precompute_block(data, b, vertices, scene, rh, o, rbf.get(), fold);
+    }
   });
 }
 
 template void precompute_table<float>(DeformerData<float>&, const Points<float>&, const LocalFrame&, const RestHandles&,
-                                      const Options&, tbb::task_arena*);
+                                      const Options&, tbb::task_arena*, const CancelCheck&, const Handles<float>&,
+                                      const FixedHandles<float>&);
 template void precompute_table<double>(DeformerData<double>&, const Points<double>&, const LocalFrame&,
-                                       const RestHandles&, const Options&, tbb::task_arena*);
+                                       const RestHandles&, const Options&, tbb::task_arena*, const CancelCheck&,
+                                       const Handles<double>&, const FixedHandles<double>&);
 
 }  // namespace mlsdeform::detail

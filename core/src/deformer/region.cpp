@@ -2,6 +2,7 @@
 
 #include "../parallel.hpp"
 #include "../pow2.hpp"
+#include "fold.hpp"
 
 #include <algorithm>
 #include <array>
@@ -33,7 +34,7 @@ std::vector<Eigen::Index> checked_region(const std::vector<Eigen::Index>& region
 /// Outside vertices next to the region, ascending (see RegionStage::make).
 template <class T>
 std::vector<Eigen::Index> ring(const Points<T>& v, const Triangles& triangles, const std::vector<char>& in,
-                               const std::vector<Eigen::Index>& inside, int threads) {
+                               const std::vector<Eigen::Index>& inside, int threads, const CancelCheck& cancel) {
   const auto n = static_cast<std::size_t>(v.rows());
   std::vector<char> on_ring(n, 0);
   if (triangles.rows() > 0) {
@@ -57,6 +58,7 @@ std::vector<Eigen::Index> ring(const Points<T>& v, const Triangles& triangles, c
     std::vector<std::array<std::size_t, kRingNeighbours>> near(inside.size());
     parallel_ranges(inside.size(), threads, nullptr, [&](std::size_t r0, std::size_t r1) {
       for (std::size_t r = r0; r < r1; ++r) {
+        throw_if_cancelled(cancel);
         const auto i = inside[r];
         std::array<std::pair<double, std::size_t>, kRingNeighbours> best;
         best.fill({std::numeric_limits<double>::infinity(), n});
@@ -85,7 +87,8 @@ std::vector<Eigen::Index> ring(const Points<T>& v, const Triangles& triangles, c
 
 template <class T>
 std::unique_ptr<RegionStage<T>> RegionStage<T>::make(const Points<T>& rest_vertices, const Triangles& triangles,
-                                                     const Handles<T>& rest_handles, const Options& options) {
+                                                     const Handles<T>& rest_handles, const Options& options,
+                                                     const CancelCheck& cancel) {
   auto st = std::make_unique<RegionStage<T>>();
   st->n = rest_vertices.rows();
   st->inside = checked_region(options.region, st->n);
@@ -113,7 +116,7 @@ std::unique_ptr<RegionStage<T>> RegionStage<T>::make(const Points<T>& rest_verti
   std::sort(taken.begin(), taken.end());
   std::vector<Eigen::Index> fixed;
   std::vector<Key> fixed_keys;
-  for (Eigen::Index i : ring(rest_vertices, triangles, in, st->inside, options.threads)) {
+  for (Eigen::Index i : ring(rest_vertices, triangles, in, st->inside, options.threads, cancel)) {
     const Key k = key(rest_vertices.row(i));
     if (std::binary_search(taken.begin(), taken.end(), k)) continue;
     if (std::find(fixed_keys.begin(), fixed_keys.end(), k) != fixed_keys.end()) continue;
@@ -126,9 +129,19 @@ std::unique_ptr<RegionStage<T>> RegionStage<T>::make(const Points<T>& rest_verti
   st->rest_handles.points.topRows(st->user_points) = rest_handles.points;
   for (std::size_t f = 0; f < fixed.size(); ++f)
     st->rest_handles.points.row(st->user_points + Eigen::Index(f)) = rest_vertices.row(fixed[f]);
+  if (fixed.size() > kFoldedHandles)
+    st->fold_targets = detail::fold_targets<T>(st->rest_handles.points.bottomRows(Eigen::Index(fixed.size())));
   st->moved = st->rest_handles;
   st->compact.resize(st->rest_inside.rows(), 3);
   return st;
+}
+
+template <class T>
+void RegionStage<T>::set_folded(bool folded) {
+  moved = rest_handles;
+  if (!folded) return;
+  moved.points.conservativeResize(user_points + Eigen::Index(kFoldedHandles), 3);
+  moved.points.bottomRows(Eigen::Index(kFoldedHandles)) = fold_targets;
 }
 
 template <class T>
@@ -156,7 +169,7 @@ std::size_t RegionStage<T>::bytes() const {
   };
   return (inside.capacity() + outside.capacity()) * sizeof(Eigen::Index) +
          (std::size_t(rest_inside.size() + rest_outside.size() + compact.size()) + values(rest_handles) +
-          values(moved)) *
+          values(moved) + std::size_t(fold_targets.size())) *
              sizeof(T);
 }
 

@@ -103,16 +103,18 @@ struct Deformer<T>::Impl {
   /// The session data and the region stage for a rest pose (nothing of *this is changed).
   static std::pair<detail::DeformerData<T>, std::unique_ptr<detail::RegionStage<T>>> build(
       const Points<T>& rest_vertices, const Triangles& triangles, const Handles<T>& rest_handles, const Options& o,
-      tbb::task_arena* arena) {
+      tbb::task_arena* arena, const CancelCheck& cancel) {
     if (o.region.empty()) {
-      detail::DeformerData<T> data = detail::precompute(rest_vertices, rest_handles, o, arena);
+      detail::DeformerData<T> data = detail::precompute(rest_vertices, rest_handles, o, arena, cancel);
       detail::check_triangles(triangles, rest_vertices.rows());
       return {std::move(data), nullptr};
     }
     detail::check_options(o);
     detail::check_triangles(triangles, rest_vertices.rows());
-    auto region = detail::RegionStage<T>::make(rest_vertices, triangles, rest_handles, o);
-    detail::DeformerData<T> data = detail::precompute(region->rest_inside, region->rest_handles, o, arena);
+    auto region = detail::RegionStage<T>::make(rest_vertices, triangles, rest_handles, o, cancel);
+    detail::DeformerData<T> data =
+        detail::precompute(region->rest_inside, region->rest_handles, o, arena, cancel, region->fixed());
+    region->set_folded(data.folded > 0);
     return {std::move(data), std::move(region)};
   }
 
@@ -181,18 +183,19 @@ struct Deformer<T>::Impl {
 };
 
 template <class T>
-Deformer<T>::Deformer(const Points<T>& rest_vertices, const Handles<T>& rest_handles, const Options& options)
-    : Deformer(rest_vertices, Triangles(), rest_handles, options) {}
+Deformer<T>::Deformer(const Points<T>& rest_vertices, const Handles<T>& rest_handles, const Options& options,
+                      const CancelCheck& cancel)
+    : Deformer(rest_vertices, Triangles(), rest_handles, options, cancel) {}
 
 template <class T>
 Deformer<T>::Deformer(const Points<T>& rest_vertices, const Triangles& triangles, const Handles<T>& rest_handles,
-                      const Options& options)
+                      const Options& options, const CancelCheck& cancel)
     : impl_(std::make_unique<Impl>()) {
   detail::check_options(options);
   impl_->options = options;
   impl_->arena = detail::make_arena(options.threads);
   std::tie(impl_->data, impl_->region) =
-      Impl::build(rest_vertices, triangles, rest_handles, options, impl_->arena.get());
+      Impl::build(rest_vertices, triangles, rest_handles, options, impl_->arena.get(), cancel);
   if (options.arap_iterations > 0)
     impl_->arap = detail::ArapStage<T>::make(rest_vertices, triangles, rest_handles, options);
   impl_->triangles = triangles;
@@ -221,7 +224,7 @@ template <class T>
 Deformer<T>& Deformer<T>::operator=(Deformer&&) noexcept = default;
 
 template <class T>
-void Deformer<T>::deform(const Handles<T>& moved_handles, Points<T>& out) const {
+void Deformer<T>::deform(const Handles<T>& moved_handles, Points<T>& out, const CancelCheck& cancel) const {
   detail::check_moved(moved_handles, impl().rest);
   detail::check_coincident(moved_handles, impl().coincident);
   const auto n = static_cast<Eigen::Index>(impl().vertices());
@@ -236,12 +239,12 @@ void Deformer<T>::deform(const Handles<T>& moved_handles, Points<T>& out) const 
   // between: the two stages together scale with the scene to the bit). out untouched on a throw.
   impl().run(moved_handles, arap.mls.data(), 1, static_cast<std::size_t>(n), true);
   detail::check_result(arap.mls.data(), static_cast<std::size_t>(n), false);
-  arap.run(arap.mls, impl().options.arap_iterations, std::ilogb(impl().data.scale));
+  arap.run(arap.mls, impl().options.arap_iterations, std::ilogb(impl().data.scale), cancel);
   out = arap.mls;
 }
 
 template <class T>
-void Deformer<T>::deform(const Handles<T>& moved_handles, InterleavedView<T> out) const {
+void Deformer<T>::deform(const Handles<T>& moved_handles, InterleavedView<T> out, const CancelCheck& cancel) const {
   detail::check_moved(moved_handles, impl().rest);
   detail::check_coincident(moved_handles, impl().coincident);
   if (out.rows() != static_cast<Eigen::Index>(impl().vertices()))
@@ -255,7 +258,7 @@ void Deformer<T>::deform(const Handles<T>& moved_handles, InterleavedView<T> out
   const std::lock_guard<std::mutex> lock(arap.mutex);
   impl().run(moved_handles, arap.mls.data(), 1, static_cast<std::size_t>(impl().data.n), true);
   detail::check_result(arap.mls.data(), impl().data.n, false);
-  arap.run(arap.mls, impl().options.arap_iterations, std::ilogb(impl().data.scale));
+  arap.run(arap.mls, impl().options.arap_iterations, std::ilogb(impl().data.scale), cancel);
   out = arap.mls;
 }
 
@@ -326,19 +329,21 @@ const Handles<T>& Deformer<T>::targets() const {
 }
 
 template <class T>
-void Deformer<T>::deform(Points<T>& out) const {
-  deform(impl().targets, out);
+void Deformer<T>::deform(Points<T>& out, const CancelCheck& cancel) const {
+  deform(impl().targets, out, cancel);
 }
 
 template <class T>
-void Deformer<T>::deform(InterleavedView<T> out) const {
-  deform(impl().targets, out);
+void Deformer<T>::deform(InterleavedView<T> out, const CancelCheck& cancel) const {
+  deform(impl().targets, out, cancel);
 }
 
 template <class T>
-void Deformer<T>::reset_rest_pose(const Points<T>& rest_vertices, const Handles<T>& rest_handles) {
+void Deformer<T>::reset_rest_pose(const Points<T>& rest_vertices, const Handles<T>& rest_handles,
+                                  const CancelCheck& cancel) {
   // Strong guarantee: build everything first, then commit with non-throwing moves.
-  auto [data, region] = Impl::build(rest_vertices, impl().triangles, rest_handles, impl().options, impl().arena.get());
+  auto [data, region] =
+      Impl::build(rest_vertices, impl().triangles, rest_handles, impl().options, impl().arena.get(), cancel);
   std::unique_ptr<detail::ArapStage<T>> arap;
   if (impl().options.arap_iterations > 0)
     arap = detail::ArapStage<T>::make(rest_vertices, impl().triangles, rest_handles, impl().options);

@@ -1,0 +1,162 @@
+// CancelCheck (cancel.hpp): a long call asks its caller's check between blocks of work and stops with
+// Cancelled, changing nothing; an empty check, or one that never says stop, changes no bit of any result.
+// Nothing here is timed: the checks are counted (the granularity is the documented block) and a check that
+// says stop after a given number of calls shows where the call stops.
+#include "meshes.hpp"  // tests/support
+
+#include <mlsdeform/mlsdeform.hpp>
+
+#include <catch2/catch.hpp>
+
+#include <atomic>
+#include <cstring>
+#include <limits>
+#include <numeric>
+#include <vector>
+
+using namespace mlsdeform;
+
+namespace {
+
+struct Human {
+  Points<double> v;
+  Triangles f;
+};
+
+const Human& human() {
+  static const Human h{testing::read_obj_vertices(testing::bundled_mesh("human_man.obj")),
+                       testing::read_obj_triangles(testing::bundled_mesh("human_man.obj"))};
+  return h;
+}
+
+/// Handles on the two hands and the two feet (vertex positions of the human), the right hand moved.
+std::pair<Handles<double>, Handles<double>> limb_handles() {
+  Handles<double> rest, moved;
+  rest.points.resize(4, 3);
+  const Eigen::Index at[4] = {2445, 5907, 3365, 6765};
+  for (int i = 0; i < 4; ++i) rest.points.row(i) = human().v.row(at[i]);
+  moved = rest;
+  moved.points.row(0) += Eigen::RowVector3d(0.05, 0.3, 0.1);
+  return {rest, moved};
+}
+
+/// A check that counts its calls (from any thread) and says stop from call `stop_at` on.
+struct Counter {
+  std::atomic<long> calls{0};
+  long stop_at = std::numeric_limits<long>::max();
+  CancelCheck check() {
+    return [this] { return calls.fetch_add(1, std::memory_order_relaxed) + 1 >= stop_at; };
+  }
+};
+
+bool bitwise_equal(const Points<double>& a, const Points<double>& b) {
+  return a.rows() == b.rows() && std::memcmp(a.data(), b.data(), sizeof(double) * std::size_t(a.size())) == 0;
+}
+
+}  // namespace
+
+TEST_CASE("cancel: construction checks once per block of kLanes vertices and stops where told", "[cancel][deformer]") {
+  const auto [rest, moved] = limb_handles();
+  const Eigen::Index blocks = (human().v.rows() + 15) / 16;
+  for (WeightStorage ws : {WeightStorage::precomputed, WeightStorage::on_the_fly}) {
+    INFO("storage " << int(ws));
+    Options o;
+    o.threads = 1;
+    o.weight_storage = ws;
+    Counter never;
+    const Deformer<double> d(human().v, rest, o, never.check());
+    CHECK(never.calls == blocks);
+    Points<double> with_check, without;
+    d.deform(moved, with_check);
+    Deformer<double>(human().v, rest, o).deform(moved, without);
+    CHECK(bitwise_equal(with_check, without));
+
+    Counter stop;
+    stop.stop_at = blocks / 2;
+    CHECK_THROWS_AS(Deformer<double>(human().v, rest, o, stop.check()), Cancelled);
+    CHECK(stop.calls == blocks / 2);  // one thread: no block after the one that said stop
+  }
+  // On all cores the exception comes out of the TBB workers as itself.
+  Options o;
+  o.threads = 0;
+  Counter first;
+  first.stop_at = 1;
+  CHECK_THROWS_AS(Deformer<double>(human().v, rest, o, first.check()), Cancelled);
+  CHECK_THROWS_WITH(Deformer<double>(human().v, rest, o, [] { return true; }), Catch::Contains("cancelled"));
+}
+
+TEST_CASE("cancel: reset_rest_pose leaves the session as it was", "[cancel][deformer]") {
+  const auto [rest, moved] = limb_handles();
+  Options o;
+  o.threads = 2;
+  Deformer<double> d(human().v, rest, o);
+  Points<double> before, after;
+  d.deform(moved, before);
+  const Points<double> shifted = human().v.rowwise() + Eigen::RowVector3d(1, 2, 3);
+  CHECK_THROWS_AS(d.reset_rest_pose(shifted, rest, [] { return true; }), Cancelled);
+  d.deform(moved, after);
+  CHECK(bitwise_equal(before, after));
+}
+
+TEST_CASE("cancel: ARAP iterations stop between iterations with out untouched", "[cancel][deformer][arap]") {
+  const auto [rest, moved] = limb_handles();
+  for (int threads : {1, 0}) {
+    INFO("threads " << threads);
+    Options o;
+    o.threads = threads;
+    o.arap_iterations = 5;
+    const Deformer<double> d(human().v, human().f, rest, o);
+    Points<double> reference;
+    d.deform(moved, reference);
+
+    // A check that never says stop: asked once per iteration, every bit as without it.
+    Counter never;
+    Points<double> same;
+    d.deform(moved, same, never.check());
+    CHECK(never.calls == o.arap_iterations);
+    CHECK(bitwise_equal(same, reference));
+
+    // Stopped before the third iteration: Cancelled, out as it was (both outputs), and the session's
+    // scratch does not leak into the next frame.
+    Counter stop;
+    stop.stop_at = 3;
+    Points<double> out = Points<double>::Constant(human().v.rows(), 3, -7.25);
+    const Points<double> sentinel = out;
+    CHECK_THROWS_AS(d.deform(moved, out, stop.check()), Cancelled);
+    CHECK(stop.calls == 3);
+    CHECK(bitwise_equal(out, sentinel));
+    PointsRowMajor<double> buffer = PointsRowMajor<double>::Constant(human().v.rows(), 3, -7.25);
+    CHECK_THROWS_AS(d.deform(moved, InterleavedView<double>(buffer.data(), buffer.rows(), 3), [] { return true; }),
+                    Cancelled);
+    CHECK((buffer.array() == -7.25).all());
+    Points<double> next;
+    d.deform(moved, next);
+    CHECK(bitwise_equal(next, reference));
+  }
+}
+
+TEST_CASE("cancel: ArapRefiner::refine allows any iteration count and stops when told", "[cancel][arap]") {
+  const auto [rest, moved] = limb_handles();
+  const std::vector<Eigen::Index> constrained = {2445, 5907, 3365, 6765};
+  ArapRefiner<double> arap(human().v, human().f, constrained);
+  Points<double> targets = moved.points;
+  Points<double> out = human().v;
+  const Points<double> before = out;
+  Counter stop;
+  stop.stop_at = 4;
+  CHECK_THROWS_AS(arap.refine(human().v, targets, std::numeric_limits<int>::max(), out, stop.check()), Cancelled);
+  CHECK(stop.calls == 4);
+  CHECK(bitwise_equal(out, before));
+}
+
+TEST_CASE("cancel: the region's nearest-vertex scan stops when told", "[cancel][region]") {
+  const auto [rest, moved] = limb_handles();
+  Options o;
+  o.threads = 1;
+  o.region.resize(200);
+  std::iota(o.region.begin(), o.region.end(), Eigen::Index(0));
+  Counter stop;
+  stop.stop_at = 50;
+  CHECK_THROWS_AS(Deformer<double>(human().v, rest, o, stop.check()), Cancelled);  // no triangles: the scan
+  CHECK(stop.calls == 50);
+}
