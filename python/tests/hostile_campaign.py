@@ -129,7 +129,15 @@ def finite(X, what="result"):
 def within(X, ref, tol, what):
     """|X_i - ref_i| <= tol_i for every row i (tol a scalar or per row)."""
     finite(X, what)
-    err = np.linalg.norm(np.asarray(X, np.float64) - ref, axis=-1) if np.ndim(ref) > 1 else np.abs(X - ref)
+    if np.ndim(ref) > 1:
+        # Each row's norm, scaled first so that it does not overflow: rows near 1e300 differ by about 1e284,
+        # whose squares are beyond double.
+        d = np.asarray(X, np.float64) - ref
+        s = np.max(np.abs(d), axis=-1, keepdims=True)
+        s = np.where(s == 0, 1.0, s)
+        err = s[..., 0] * np.linalg.norm(d / s, axis=-1)
+    else:
+        err = np.abs(X - ref)
     tol = np.broadcast_to(tol, err.shape)
     with np.errstate(divide="ignore", invalid="ignore"):
         ratio = np.where(err == 0, 0.0, err / tol)   # a zero bound: bitwise equality

@@ -1,9 +1,6 @@
 """The hostile campaign (hostile_campaign.py) in the suite: its --quick run, about a thousand cases in some ten
 seconds, must give no SILENT WRONG, BAD ERROR, CRASH or HANG. The program's cases run where MLSDEFORM_CLI names
 the program (ctest sets it), and are skipped otherwise.
-
-PENDING lists the campaign's tags whose fixes are other changes, not in this tree yet: each is expected to fail
-here (strict: a tag that passes fails the test, so that it is taken off the list once its fix is in).
 """
 import json
 import os
@@ -15,9 +12,6 @@ import pytest
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 
-PENDING = {
-    "cli-double": "the program's --precision double",
-}
 FAILURES = ("SILENT WRONG", "BAD ERROR", "CRASH", "HANG")
 
 
@@ -37,18 +31,7 @@ def test_campaign_size(outcomes):
     assert len(outcomes) >= 500
 
 
-def test_no_failure_outside_pending(outcomes):
+def test_no_failure(outcomes):
     failed = [f"#{c['id']} [{c['tag']}] {c['name']}: {c['outcome']}: {c['detail']}" for c in outcomes
-              if c["tag"] not in PENDING and c["outcome"] in FAILURES]
+              if c["outcome"] in FAILURES]
     assert not failed, "\n".join(failed)
-
-
-@pytest.mark.parametrize("tag", sorted(PENDING))
-@pytest.mark.xfail(strict=True, reason="fixed by another change of the same issue: take the tag off PENDING "
-                                       "once it passes")
-def test_pending(outcomes, tag):
-    cases = [c for c in outcomes if c["tag"] == tag]
-    if cases and all(c["outcome"] == "skipped" for c in cases):
-        pytest.skip(f"{tag}: every case skipped here ({cases[0]['detail']})")
-    failed = [f"#{c['id']} {c['name']}: {c['outcome']}: {c['detail']}" for c in cases if c["outcome"] in FAILURES]
-    assert cases and not failed, "\n".join(failed)
