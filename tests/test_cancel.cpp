@@ -109,21 +109,27 @@ TEST_CASE("cancel: ARAP iterations stop between iterations with out untouched", 
     Points<double> reference;
     d.deform(moved, reference);
 
-    // A check that never says stop: asked once per iteration, every bit as without it.
+    // A check that never says stop: asked before every 64 blocks of the MLS pass (into the refinement's
+    // scratch) and once per iteration, every bit as without it. With one thread the pass is one range:
+    // ceil(blocks / 64) checks.
     Counter never;
     Points<double> same;
     d.deform(moved, same, never.check());
-    CHECK(never.calls == o.arap_iterations);
+    const long mls_checks = (human().v.rows() + 16 * 64 - 1) / (16 * 64);
+    if (threads == 1)
+      CHECK(never.calls == mls_checks + o.arap_iterations);
+    else
+      CHECK(never.calls >= mls_checks + o.arap_iterations);
     CHECK(bitwise_equal(same, reference));
 
-    // Stopped before the third iteration: Cancelled, out as it was (both outputs), and the session's
-    // scratch does not leak into the next frame.
+    // Stopped before the third iteration (one thread), or anywhere in the frame: Cancelled, out as it was
+    // (both outputs), and the session's scratch does not leak into the next frame.
     Counter stop;
-    stop.stop_at = 3;
+    stop.stop_at = mls_checks + 3;
     Points<double> out = Points<double>::Constant(human().v.rows(), 3, -7.25);
     const Points<double> sentinel = out;
     CHECK_THROWS_AS(d.deform(moved, out, stop.check()), Cancelled);
-    CHECK(stop.calls == 3);
+    if (threads == 1) CHECK(stop.calls == stop.stop_at);
     CHECK(bitwise_equal(out, sentinel));
     PointsRowMajor<double> buffer = PointsRowMajor<double>::Constant(human().v.rows(), 3, -7.25);
     CHECK_THROWS_AS(d.deform(moved, InterleavedView<double>(buffer.data(), buffer.rows(), 3), [] { return true; }),
@@ -159,4 +165,37 @@ TEST_CASE("cancel: the region's nearest-vertex scan stops when told", "[cancel][
   stop.stop_at = 50;
   CHECK_THROWS_AS(Deformer<double>(human().v, rest, o, stop.check()), Cancelled);  // no triangles: the scan
   CHECK(stop.calls == 50);
+}
+
+TEST_CASE("cancel: the MLS pass stops between chunks of blocks, bitwise as unchecked otherwise", "[cancel][deformer]") {
+  // On-the-fly weights with many handles make one MLS pass long (n x k work): it checks before every 64
+  // blocks (1,024 vertices). Without ARAP it writes `out` directly, so a stopped pass leaves `out` partly
+  // written (deformer.hpp); the check never changes a bit of a pass it does not stop.
+  const auto [rest, moved] = limb_handles();
+  for (WeightStorage ws : {WeightStorage::precomputed, WeightStorage::on_the_fly})
+    for (int threads : {1, 0}) {
+      INFO("threads " << threads << (ws == WeightStorage::on_the_fly ? ", on the fly" : ", precomputed"));
+      Options o;
+      o.threads = threads;
+      o.weight_storage = ws;
+      const Deformer<double> d(human().v, rest, o);
+      Points<double> reference, same;
+      d.deform(moved, reference);
+      Counter never;
+      d.deform(moved, same, never.check());
+      const long checks = (human().v.rows() + 16 * 64 - 1) / (16 * 64);
+      if (threads == 1)
+        CHECK(never.calls == checks);
+      else
+        CHECK(never.calls >= checks);
+      CHECK(bitwise_equal(same, reference));
+      Counter stop;
+      stop.stop_at = 2;
+      Points<double> out;
+      CHECK_THROWS_AS(d.deform(moved, out, stop.check()), Cancelled);
+      if (threads == 1) CHECK(stop.calls == 2);
+      Points<double> next;
+      d.deform(moved, next);
+      CHECK(bitwise_equal(next, reference));
+    }
 }

@@ -518,9 +518,20 @@ class PyDeformer {
     py::array_t<T> result = output<T>(out);
     const Deformer<T>& d = get<T>();
     T* data = result.mutable_data();
-    // Only ARAP frames are long enough to be worth watching (the library checks between iterations).
-    interruptible(d.options().arap_iterations > 0, [&](const CancelCheck& cancel) {
-      d.deform(h, InterleavedView<T>(data, d.vertex_count(), 3), cancel);
+    // Watched: ARAP frames (the library checks between iterations, `out` untouched when stopped) and plain
+    // frames of at least 2^24 vertex-handle pairs (about 20 ms and more; the library checks between chunks of
+    // its MLS pass). A plain frame writes its output directly, so where the caller gave `out` a watched one
+    // deforms into a new array and copies it over only when it has finished: `out` stays untouched when
+    // Ctrl-C stops it.
+    const std::size_t n = static_cast<std::size_t>(d.vertex_count());
+    const std::size_t k = static_cast<std::size_t>(h.point_count() + 2 * h.segment_count());
+    const bool arap = d.options().arap_iterations > 0, long_frame = n * k >= (std::size_t(1) << 24);
+    const bool scratch = !arap && long_frame && !out.is_none();
+    py::array_t<T> work = scratch ? py::array_t<T>({d.vertex_count(), Eigen::Index(3)}) : result;
+    T* target = work.mutable_data();
+    interruptible(arap || long_frame, [&](const CancelCheck& cancel) {
+      d.deform(h, InterleavedView<T>(target, d.vertex_count(), 3), cancel);
+      if (scratch) std::memcpy(data, target, sizeof(T) * 3 * n);
     });
     return result;
   }

@@ -128,9 +128,10 @@ class Deformer {
   /// targets map a vertex beyond T's range) is never returned: std::invalid_argument names the vertex, and
   /// `out` is then unspecified (untouched with arap_iterations > 0). With arap_iterations > 0 or a region,
   /// concurrent calls on one session take turns (the refinement's or the region's scratch belongs to the
-  /// session). `cancel` (cancel.hpp) is checked before each ARAP iteration, where a frame's time is the
-  /// iteration count's, and throws Cancelled with `out` untouched; the MLS pass itself is not interrupted (its
-  /// time is that of one pass over the table, about what reading the table once costs).
+  /// session). `cancel` (cancel.hpp) is checked before every 64 blocks (1,024 vertices) of the MLS pass and
+  /// before each ARAP iteration, and throws Cancelled. With arap_iterations > 0 `out` is then untouched;
+  /// without, the MLS pass writes `out` directly (no scratch, no allocation), so a pass stopped part-way leaves
+  /// `out` partly written: give a scratch output where that matters (the Python binding does).
   void deform(const Handles<T>& moved_handles, Points<T>& out, const CancelCheck& cancel = {}) const;
   /// The same, writing interleaved xyz (e.g. a mapped vertex buffer of vertex_count() * 3 values).
   void deform(const Handles<T>& moved_handles, InterleavedView<T> out, const CancelCheck& cancel = {}) const;

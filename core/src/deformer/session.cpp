@@ -123,11 +123,12 @@ struct Deformer<T>::Impl {
 
   /// One frame into `out` (vertex v, coordinate c at out[c * cstride + v * vstride]): over the whole model,
   /// or over the region, scattered, with the other vertices at rest.
-  void frame(const Handles<T>& moved, T* out, std::size_t vstride, std::size_t cstride) const {
-    if (!region) return run(moved, out, vstride, cstride);
+  void frame(const Handles<T>& moved, T* out, std::size_t vstride, std::size_t cstride,
+             const CancelCheck& cancel) const {
+    if (!region) return run(moved, out, vstride, cstride, false, cancel);
     const std::lock_guard<std::mutex> lock(region->mutex);
     region->set_targets(moved);
-    run(region->moved, region->compact.data(), 1, data.n);
+    run(region->moved, region->compact.data(), 1, data.n, false, cancel);
     region->scatter(out, vstride, cstride);
   }
 
@@ -146,8 +147,9 @@ struct Deformer<T>::Impl {
 
   /// One frame for validated `moved`: vertex v, coordinate c goes to out[c * cstride + v * vstride], in the
   /// caller's units or, with `local`, the local frame's (times 2^-e: data.hpp, Units). Nothing is allocated
-  /// here; scratch lives on the stack of each block.
-  void run(const Handles<T>& moved, T* out, std::size_t vstride, std::size_t cstride, bool local = false) const {
+  /// here; scratch lives on the stack of each block. `cancel` is checked before every kCancelBlocks blocks.
+  void run(const Handles<T>& moved, T* out, std::size_t vstride, std::size_t cstride, bool local = false,
+           const CancelCheck& cancel = {}) const {
     kernels::DeformFrame<T> fr{};
     fr.transform = data.transform;
     fr.method = options.method;
@@ -177,8 +179,20 @@ struct Deformer<T>::Impl {
     fr.out_vertex_stride = vstride;
     fr.out_coord_stride = cstride;
     const kernels::DeformBlocksFn<T> blocks = kernel();
-    detail::parallel_ranges(data.blocks, options.threads, arena.get(),
-                            [&](std::size_t b0, std::size_t b1) { blocks(fr, b0, b1); });
+    if (!cancel) {
+      detail::parallel_ranges(data.blocks, options.threads, arena.get(),
+                              [&](std::size_t b0, std::size_t b1) { blocks(fr, b0, b1); });
+      return;
+    }
+    // 64 blocks (1,024 vertices) between checks: with on-the-fly weights and thousands of handles that is a
+    // few milliseconds, and each block's result does not depend on the cut (bitwise as without a check).
+    constexpr std::size_t kCancelBlocks = 64;
+    detail::parallel_ranges(data.blocks, options.threads, arena.get(), [&](std::size_t b0, std::size_t b1) {
+      for (std::size_t b = b0; b < b1; b += kCancelBlocks) {
+        detail::throw_if_cancelled(cancel);
+        blocks(fr, b, std::min(b1, b + kCancelBlocks));
+      }
+    });
   }
 };
 
@@ -230,14 +244,14 @@ void Deformer<T>::deform(const Handles<T>& moved_handles, Points<T>& out, const 
   const auto n = static_cast<Eigen::Index>(impl().vertices());
   if (out.rows() != n) out.resize(n, 3);
   if (!impl().arap) {
-    impl().frame(moved_handles, out.data(), 1, static_cast<std::size_t>(n));
+    impl().frame(moved_handles, out.data(), 1, static_cast<std::size_t>(n), cancel);
     return detail::check_result(out.data(), static_cast<std::size_t>(n), false);
   }
   detail::ArapStage<T>& arap = *impl().arap;
   const std::lock_guard<std::mutex> lock(arap.mutex);
   // MLS's result in the local frame, handed to the refinement as it is (no rounding to the caller's units in
   // between: the two stages together scale with the scene to the bit). out untouched on a throw.
-  impl().run(moved_handles, arap.mls.data(), 1, static_cast<std::size_t>(n), true);
+  impl().run(moved_handles, arap.mls.data(), 1, static_cast<std::size_t>(n), true, cancel);
   detail::check_result(arap.mls.data(), static_cast<std::size_t>(n), false);
   arap.run(arap.mls, impl().options.arap_iterations, std::ilogb(impl().data.scale), cancel);
   out = arap.mls;
@@ -251,12 +265,12 @@ void Deformer<T>::deform(const Handles<T>& moved_handles, InterleavedView<T> out
     throw std::invalid_argument("Deformer: the interleaved output has " + std::to_string(out.rows()) +
                                 " rows but the model has " + std::to_string(impl().vertices()) + " vertices");
   if (!impl().arap) {
-    impl().frame(moved_handles, out.data(), 3, 1);
+    impl().frame(moved_handles, out.data(), 3, 1, cancel);
     return detail::check_result(out.data(), impl().vertices(), true);
   }
   detail::ArapStage<T>& arap = *impl().arap;
   const std::lock_guard<std::mutex> lock(arap.mutex);
-  impl().run(moved_handles, arap.mls.data(), 1, static_cast<std::size_t>(impl().data.n), true);
+  impl().run(moved_handles, arap.mls.data(), 1, static_cast<std::size_t>(impl().data.n), true, cancel);
   detail::check_result(arap.mls.data(), impl().data.n, false);
   arap.run(arap.mls, impl().options.arap_iterations, std::ilogb(impl().data.scale), cancel);
   out = arap.mls;
