@@ -17,28 +17,30 @@ namespace mlsdeform::kernels {
 /// h <- 2^-e h with max |h_ij| in [1, 2) per lane (the scalar fit_rotation's exact normalisation); returns
 /// the lanes with H = 0 (left at zero).
 ///
-/// For a subnormal m 2^-e is not a float (2^149 at m = denorm_min), and pow2_inverse_exponent clamps it to
-/// 2^126 (double: 2^1022): that leaves max |h| in [2^-23, 1) (double: [2^-52, 1)), where the eighth powers
-/// in the quartic's coefficients underflow (H = 1e-44 I gave NaN); m >= 2^127 lands in [2, 4). Those
-/// lanes take a second exact power of two, as the scalar code multiplies by two factors. Both products are
-/// exact: the first only shifts exponents (a subnormal entry gains leading bits), the second leaves every
-/// nonzero entry at >= 2^-23 max |h|, a normal number. Rare, so only when some lane needs it: the compare
-/// reads m alone and does not lengthen the chain from m to the normalised h.
+/// For a subnormal m, 2^-e is not a number of T (2^149 at m = denorm_min): pow2_inverse_exponent clamps it
+/// to 2^126 (double: 2^1022), which leaves max |h| in [2^-23, 1) (double: [2^-52, 1)), and m >= 2^127
+/// (2^1023) in [2, 4). The fit forms powers of h up to the sixth (n3 = ||h||^6, dk^2 against it; the
+/// quartic's coefficients, the fourth). In float (2^-23)^6 = 2^-138 is below the normal range (H = 1e-44 I
+/// gave NaN), so float takes a second power of two, as the scalar code multiplies by two factors: 1 in the
+/// other lanes, branch-free (cheaper than a branch to the rare lanes: bench_rotation_fit). For a subnormal m
+/// both products are exact: the first only shifts exponents (a subnormal entry gains leading bits), the
+/// second leaves every nonzero entry at >= 2^-23 max |h|, a normal number. In double (2^-52)^6 = 2^-312 is
+/// far inside the range, and every stage is exact under a power-of-two scaling that neither underflows nor
+/// overflows, so one factor gives bitwise the result of max |h| in [1, 2) (test_batch_accuracy checks both
+/// precisions at every subnormal scale).
 template <class V>
 MLSDEFORM_KERNEL_INLINE mask_of<V> normalise(V (&h)[9]) {
   using T = scalar_of<V>;
-  using L = std::numeric_limits<T>;
   V m = abs(h[0]);
   for (int i = 1; i < 9; ++i) m = max(m, abs(h[i]));
   const mask_of<V> zero = m == V(T(0));
   const V m1 = select(zero, V(T(1)), m);
   const V scale = pow2_inverse_exponent(m1);
-  for (int i = 0; i < 9; ++i) h[i] = h[i] * scale;
-  // if (m is subnormal || m >= 2^127) h *= 2^-ilogb(m 2^-e)       (double: 2^1023)
-  constexpr T big = sizeof(T) == 4 ? T(0x1p127f) : T(0x1p1023);
-  if (any((m1 < V(L::min())) | (m1 >= V(big)))) {
-    const V rescale = pow2_inverse_exponent(m1 * scale);  // 1 in the other lanes
-    for (int i = 0; i < 9; ++i) h[i] = h[i] * rescale;
+  if constexpr (sizeof(T) == 4) {
+    const V rescale = pow2_inverse_exponent(m1 * scale);  // if (m subnormal or >= 2^127) h *= 2^-ilogb(m 2^-e)
+    for (int i = 0; i < 9; ++i) h[i] = (h[i] * scale) * rescale;
+  } else {
+    for (int i = 0; i < 9; ++i) h[i] = h[i] * scale;
   }
   return zero;
 }
