@@ -15,8 +15,8 @@
 // o + s e_m are exact in T, |d_jc| <= 1, |beta_j0| <= 4 and |beta_jm| <= 1 for m > 0, so the folded
 // coefficients are at most 7 sum_j |c_j|, with targets no farther from the handles than 2 s. The kernels' rounding of
 // the four folded terms is then that of at most 16 terms of the handles' own size, instead of one per handle; only a
-// vertex snapped to a fixed handle (closer than 64 eps(T) times the scene size) loses its exact interpolation, and
-// lands within a few eps(T) |z| of it.
+// vertex snapped to a fixed handle (snap.hpp) loses its exact interpolation, and lands within a few eps(T) |z| of
+// it. Callers fold more than four handles only (fewer would add columns).
 #pragma once
 
 #include <mlsdeform/types.hpp>
