@@ -80,6 +80,7 @@ int deform(const DeformArgs& a) {
                 std::is_same_v<T, float> ? "float" : "double",
                 a.options.backend == Backend::simd ? ("simd (" + std::string(to_string(isa)) + ")").c_str() : "scalar",
                 threads, then_arap.c_str(), setup_ms, double(deformer->memory_bytes()) / (1 << 20));
+    std::fflush(stdout);  // seen before a long first frame, also through a pipe
   }
 
   BasicMesh<T> result = mesh;

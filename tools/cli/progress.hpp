@@ -26,6 +26,7 @@ class Progress {
     } else {
       std::printf("frame %zu/%zu: deform %.3f ms, write %.1f ms -> %s\n", index + 1, total_, deform_ms, write_ms,
                   path.c_str());
+      std::fflush(stdout);  // a line per frame as it is written, also through a pipe
     }
   }
   /// Ends a bar cut short by an error, so the error message starts on its own line.
