@@ -42,18 +42,18 @@
 // A plain program rather than Google Benchmark: each row needs its result measured once and one time, not a
 // timing loop per benchmark. Usage:
 //   bench_quality [--threads N] [--min-time S] [--precision float|double] [--json FILE] [--centroids]
-#include "common.hpp"
-#include "meshes.hpp"
-#include "quality.hpp"
+#include "bench/common.hpp"
+#include "tests/support/meshes.hpp"
+#include "tests/support/quality.hpp"
 
 #ifdef MLSDEFORM_HAVE_CGAL
-#include "quality_cgal.hpp"
+#include "bench/quality_cgal.hpp"
 
 #include <CGAL/version.h>
 #endif
 
-#include "deformer/local_frame.hpp"
-#include "deformer/rbf_centroids.hpp"
+#include "core/src/deformer/local_frame.hpp"
+#include "core/src/deformer/rbf_centroids.hpp"
 
 #include <mlsdeform/arap.hpp>
 #include <mlsdeform/batch.hpp>

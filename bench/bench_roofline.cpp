@@ -20,13 +20,13 @@
 //        w q_i and w q_i p_i^T), plus per vertex the fit's counted flops and 21 to apply R (v - p*) + q*.
 //        Bytes: Deformer::memory_bytes() (everything the frame reads from the precomputation) + 12 per
 //        vertex written.
-#include "cases.hpp"
-#include "common.hpp"
-#include "deform_common.hpp"
-#include "flop_count.hpp"
-#include "reference.hpp"
+#include "bench/cases.hpp"
+#include "bench/common.hpp"
+#include "bench/deform_common.hpp"
+#include "bench/flop_count.hpp"
+#include "bench/reference.hpp"
 
-#include "rotation/axis_angle.hpp"  // core/src: the scalar reference, instantiated on bench::Counted for the count
+#include "core/src/rotation/axis_angle.hpp"  // the scalar reference, instantiated on bench::Counted for the count
 
 #include <mlsdeform/batch.hpp>
 #include <mlsdeform/deformer.hpp>

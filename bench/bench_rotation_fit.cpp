@@ -17,11 +17,11 @@
 // Extra options (before the Google Benchmark ones):
 //   --cases=N           size of the set (default 1000000)
 //   --error_sweep=FILE  also write the error-versus-distance-from-half-turn data (CSV) for the report's plot
-#include "cases.hpp"
-#include "common.hpp"
-#include "paper_literal.hpp"
-#include "qcp.hpp"
-#include "reference.hpp"
+#include "bench/cases.hpp"
+#include "bench/common.hpp"
+#include "bench/paper_literal.hpp"
+#include "bench/qcp.hpp"
+#include "bench/reference.hpp"
 
 #include <mlsdeform/batch.hpp>
 #include <mlsdeform/rotation.hpp>

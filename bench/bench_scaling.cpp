@@ -13,7 +13,7 @@
 // Counters: ms_per_frame, fps, memory_bytes (Deformer::memory_bytes(), the precomputation's footprint),
 // ns_per_vertex_handle. Each benchmark first checks 2,000 evenly spread vertices (all when fewer) of one
 // frame against the reference in double (tests/support/mls_reference.hpp).
-#include "deform_common.hpp"
+#include "bench/deform_common.hpp"
 
 #include <mlsdeform/batch.hpp>
 #include <mlsdeform/deformer.hpp>

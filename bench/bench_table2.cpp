@@ -21,7 +21,7 @@
 //   Cylinder 1,058 / 322  generated open cylinder, 46 around x 23 rings
 // Handles are random mesh vertices (fixed seed); the frame twists them by up to 90 degrees about the
 // model's long axis and bends them (tests/support/scenes.hpp: twisted_mesh_scene).
-#include "deform_common.hpp"
+#include "bench/deform_common.hpp"
 
 #include <mlsdeform/batch.hpp>
 #include <mlsdeform/deformer.hpp>

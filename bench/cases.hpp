@@ -4,7 +4,7 @@
 // rounded to float. Deterministic for a given seed (tests/support's Rng, no std:: distributions).
 #pragma once
 
-#include "random.hpp"  // tests/support
+#include "tests/support/random.hpp"
 
 #include <mlsdeform/rotation.hpp>
 

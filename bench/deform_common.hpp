@@ -4,11 +4,11 @@
 // come from the same library (scenes.hpp, meshes.hpp).
 #pragma once
 
-#include "common.hpp"
-#include "meshes.hpp"         // tests/support
-#include "mls_reference.hpp"  // tests/support
-#include "naive_mls.hpp"
-#include "scenes.hpp"  // tests/support
+#include "bench/common.hpp"
+#include "bench/naive_mls.hpp"
+#include "tests/support/meshes.hpp"
+#include "tests/support/mls_reference.hpp"
+#include "tests/support/scenes.hpp"
 
 #include <mlsdeform/deformer.hpp>
 

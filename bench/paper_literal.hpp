@@ -5,7 +5,7 @@
 // library solves (14) in a frame turned by pi about the best axis (Shuster's sequential rotations) instead.
 #pragma once
 
-#include "rotation/axis_angle.hpp"  // core/src: invariants, maximum_root (the library's scalar reference)
+#include "core/src/rotation/axis_angle.hpp"  // invariants, maximum_root (the library's scalar reference)
 
 #include <mlsdeform/rotation.hpp>
 

@@ -1,5 +1,5 @@
 // See quality_cgal.hpp.
-#include "quality_cgal.hpp"
+#include "bench/quality_cgal.hpp"
 
 #include <CGAL/Simple_cartesian.h>
 #include <CGAL/Surface_mesh.h>

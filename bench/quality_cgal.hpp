@@ -3,7 +3,7 @@
 // where CMake finds CGAL (MLSDEFORM_HAVE_CGAL); CGAL is GPL and stays in this program, never in the library.
 #pragma once
 
-#include "meshes.hpp"
+#include "tests/support/meshes.hpp"
 
 #include <Eigen/Core>
 

@@ -26,8 +26,8 @@
 // Stored references are rounded to double (R* loses <= eps_double / 2 per entry, far inside 1.5 c_o eps).
 #pragma once
 
-#include "accuracy_bounds.hpp"  // tests/support
-#include "rotation_cases.hpp"   // tests/support
+#include "tests/support/accuracy_bounds.hpp"
+#include "tests/support/rotation_cases.hpp"
 
 #include <mlsdeform/rotation.hpp>
 

@@ -2,4 +2,4 @@
 // agreement tests run it wherever the CPU has it.
 #define MLSDEFORM_ISA_ARCH xsimd::avx512f
 #define MLSDEFORM_ISA_NAME avx512
-#include "isa_instance.inc"
+#include "kernels/isa_instance.inc"

@@ -5,7 +5,7 @@
 // symbol for the baseline path.
 #pragma once
 
-#include "contract.hpp"
+#include "kernels/contract.hpp"
 
 #include <mlsdeform/stats.hpp>
 

@@ -3,9 +3,9 @@
 // against its scalar twin (core/src/scalar_kernels.cpp) on every ISA.
 #pragma once
 
-#include "contract.hpp"
-#include "deformer/stages.hpp"
-#include "rotation/axis_angle.hpp"
+#include "kernels/contract.hpp"
+#include "kernels/deformer/stages.hpp"
+#include "kernels/rotation/axis_angle.hpp"
 
 namespace mlsdeform::kernels {
 

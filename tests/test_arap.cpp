@@ -5,9 +5,9 @@
 // rotations) moves x by at most |db|_2 / lambda_min(L_ff), and the solve's own rounding is a few eps
 // kappa(L_ff) |x|. The test computes lambda_min and kappa of L_ff independently (dense, long double, from its
 // own cotangent weights) for the small tube it deforms.
-#include "accuracy_bounds.hpp"
-#include "isa_guard.hpp"
-#include "rotation_cases.hpp"
+#include "tests/support/accuracy_bounds.hpp"
+#include "tests/support/isa_guard.hpp"
+#include "tests/support/rotation_cases.hpp"
 
 #include <mlsdeform/mlsdeform.hpp>
 

@@ -6,9 +6,9 @@
 // MLSDEFORM_SEED as in the scalar suite; MLSDEFORM_BATCH_CASES sets the matrices per family and precision
 // (default 4,000; 400 under the sanitizers). The families' order within a batch is interleaved so that every
 // SIMD batch mixes families (a lane's result must not depend on its neighbours).
-#include "accuracy_bounds.hpp"
-#include "isa_guard.hpp"
-#include "rotation_cases.hpp"
+#include "tests/support/accuracy_bounds.hpp"
+#include "tests/support/isa_guard.hpp"
+#include "tests/support/rotation_cases.hpp"
 
 #include <mlsdeform/mlsdeform.hpp>
 

@@ -1,6 +1,6 @@
 // The batched (SIMD) rotation fits against the scalar reference and a long-double SVD, on every ISA this
 // CPU runs, on sizes around the lane width and on random and degenerate inputs.
-#include "isa_guard.hpp"  // tests/support
+#include "tests/support/isa_guard.hpp"
 
 #include <mlsdeform/mlsdeform.hpp>
 

@@ -2,7 +2,7 @@
 // Cancelled, changing nothing; an empty check, or one that never says stop, changes no bit of any result.
 // Nothing here is timed: the checks are counted (the granularity is the documented block) and a check that
 // says stop after a given number of calls shows where the call stops.
-#include "meshes.hpp"  // tests/support
+#include "tests/support/meshes.hpp"
 
 #include <mlsdeform/mlsdeform.hpp>
 

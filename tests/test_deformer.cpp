@@ -3,9 +3,9 @@
 // invariance, thread-count invariance, the stateful API, the interleaved output and the memory figures.
 // Tolerances: the per-vertex bound of test_deformer_common.hpp (derived from eps and the conditioning of
 // each vertex's fit), or exact equality where the algorithm is exact.
-#include "test_deformer_common.hpp"
+#include "tests/test_deformer_common.hpp"
 
-#include "deformer/data.hpp"
+#include "core/src/deformer/data.hpp"
 
 #include <atomic>
 #include <cstdio>

@@ -3,10 +3,10 @@
 // reader, and the direct per-vertex MLS evaluation with its derived error bound, mls_reference.hpp).
 #pragma once
 
-#include "meshes.hpp"         // tests/support
-#include "mls_reference.hpp"  // tests/support
-#include "random.hpp"         // tests/support
-#include "scenes.hpp"         // tests/support
+#include "tests/support/meshes.hpp"
+#include "tests/support/mls_reference.hpp"
+#include "tests/support/random.hpp"
+#include "tests/support/scenes.hpp"
 
 #include <mlsdeform/mlsdeform.hpp>
 

@@ -14,7 +14,7 @@
 // coefficients (test_deformer_common.hpp) and 16 eps |vhat| of the rotation fit, on values of size at most
 // Q = max_j |q_j| + the scene's diagonal: tau = 2 (J + 32) eps Q. A jump (the map's value on the handle
 // differing from its limit) shows as a fixed difference at delta = 1e-12 that no O(delta) bound admits.
-#include "test_deformer_common.hpp"
+#include "tests/test_deformer_common.hpp"
 
 #include <cstdio>
 

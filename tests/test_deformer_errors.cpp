@@ -1,6 +1,6 @@
 // Bad input: std::invalid_argument with a message naming the problem, and `out` left
 // untouched (bitwise, size included).
-#include "test_deformer_common.hpp"
+#include "tests/test_deformer_common.hpp"
 
 #include <limits>
 

@@ -2,7 +2,7 @@
 // RotationMethod::svd; test_deformer_common.hpp) on real meshes twisted by up to 180 degrees, and every
 // rotation method against svd on the same frames. Prints the largest deviations. The bundled human comes from
 // data/; spot from ../shared/data/meshes, skipped with a warning when that folder is absent.
-#include "test_deformer_common.hpp"
+#include "tests/test_deformer_common.hpp"
 
 #include <cstdio>
 #include <iostream>

@@ -1,5 +1,5 @@
 // WeightStorage::on_the_fly against the precomputed table, scalar and SIMD, and its limits.
-#include "scenes.hpp"  // tests/support
+#include "tests/support/scenes.hpp"
 
 #include <mlsdeform/mlsdeform.hpp>
 

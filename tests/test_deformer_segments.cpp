@@ -1,9 +1,9 @@
 // Segment handles (paper Sec. 6.2): the weight moments by quadrature against closed forms, the paper's
 // constant-weight formulas against the direct evaluation, and the exact integral against the same segments
 // densely sampled as point handles.
-#include "test_deformer_common.hpp"
+#include "tests/test_deformer_common.hpp"
 
-#include "deformer/weights.hpp"
+#include "core/src/deformer/weights.hpp"
 
 #include <iostream>
 

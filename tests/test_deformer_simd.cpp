@@ -1,8 +1,8 @@
 // The SIMD deformation (Backend::simd) against the scalar reference (Backend::scalar), on every ISA this CPU
 // runs, on vertex counts around the lane width, for the three transforms, point and segment handles, with
 // degenerate configurations (collinear handles, vertices on handles, half-turns); thread-count invariance.
-#include "isa_guard.hpp"  // tests/support
-#include "scenes.hpp"     // tests/support
+#include "tests/support/isa_guard.hpp"
+#include "tests/support/scenes.hpp"
 
 #include <mlsdeform/mlsdeform.hpp>
 

@@ -1,6 +1,6 @@
 // Snapping (core/src/deformer/snap.hpp) is decided by each vertex's own neighbourhood: a vertex far away from
 // the model changes which vertices go exactly onto a handle nowhere else, and collapses nothing.
-#include "test_deformer_common.hpp"
+#include "tests/test_deformer_common.hpp"
 
 #include <algorithm>
 #include <array>

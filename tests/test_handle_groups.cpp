@@ -2,9 +2,9 @@
 // A group of every handle moves the whole mesh by that rigid motion (to a bound derived below), a group of
 // one handle sets exactly what set_point_target / set_segment_target would, the rotation check accepts the
 // rotations users build in T and refuses the rest, and a refused call changes nothing.
-#include "test_deformer_common.hpp"
+#include "tests/test_deformer_common.hpp"
 
-#include "deformer/validation.hpp"
+#include "core/src/deformer/validation.hpp"
 
 #include <Eigen/Geometry>
 

@@ -13,7 +13,7 @@
 //   angle       <= 2 sqrt(3) beta kappa + (3/2) c_o eps
 //   scale (rel) <= (2 sqrt(3) + 1) beta + (3/2) c_o eps   (numerator trace(R^T H), denominator sum w |phat|^2)
 //   translation <= (n + 2) eps (Q + s P) + s |p*| (scale tol + angle tol) + 2 eps |t|   (t = q* - s R p*)
-#include "rotation_cases.hpp"
+#include "tests/support/rotation_cases.hpp"
 
 #include <mlsdeform/mlsdeform.hpp>
 

@@ -1,7 +1,7 @@
 // The shape-quality measures of the quality benchmark (tests/support/quality.hpp) and the mesh helpers they
 // need: the OBJ and PLY triangle readers and the triangulated box surface.
-#include "meshes.hpp"
-#include "quality.hpp"
+#include "tests/support/meshes.hpp"
+#include "tests/support/quality.hpp"
 
 #include <catch2/catch.hpp>
 

@@ -9,9 +9,9 @@
 // by at most eps(T) (J + 2) B Q + (J + 4) eps(double) kappa(M) B Q with B = sum_j |beta_j| and Q = max |q_j|.
 // What the rest of a vertex's transform adds (the rotation, mu) is the MLS path's own, bounded per vertex by
 // the direct evaluation (tests/support/mls_reference.hpp, the bound the deformer tests use).
-#include "test_deformer_common.hpp"
+#include "tests/test_deformer_common.hpp"
 
-#include "deformer/rbf_centroids.hpp"
+#include "core/src/deformer/rbf_centroids.hpp"
 
 #include <Eigen/SVD>
 

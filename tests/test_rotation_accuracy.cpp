@@ -11,8 +11,8 @@
 // Tolerances: derived in tests/support/accuracy_bounds.hpp from the precision and the conditioning (two
 // operation-count constants: c_o = 64, and c_b = 16, or 64 for axis_angle and horn_matrix); the report
 // tools/accuracy_report counts the cases beyond the same bounds, and beyond c_b = 16 for every method.
-#include "accuracy_bounds.hpp"
-#include "rotation_cases.hpp"
+#include "tests/support/accuracy_bounds.hpp"
+#include "tests/support/rotation_cases.hpp"
 
 #include <mlsdeform/mlsdeform.hpp>
 

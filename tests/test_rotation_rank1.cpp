@@ -6,7 +6,7 @@
 // H by at most |dH| / (s1 - s2) = eps (s2 = 0; Wedin); the fit is backward stable for the top pair (its
 // polish leaves the rotation's error in the rank-1 direction at a few eps); R p is rounded on top (3 eps).
 // Measured: 3.2 eps at most over 2 * 10^5 random cases per precision.
-#include "isa_guard.hpp"
+#include "tests/support/isa_guard.hpp"
 
 #include <mlsdeform/mlsdeform.hpp>
 

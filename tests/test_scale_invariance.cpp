@@ -21,8 +21,8 @@
 //  - Handle groups: transform_handles rounds each image once (ldexp(image, k) bitwise, checked); an image
 //    rounded to a subnormal then is not the unscaled image times 2^k, so the deformation that follows is
 //    compared with the unscaled deformer run on those rounded targets divided back by 2^k (exact).
-#include "isa_guard.hpp"  // tests/support
-#include "meshes.hpp"     // tests/support
+#include "tests/support/isa_guard.hpp"
+#include "tests/support/meshes.hpp"
 
 #include <mlsdeform/mlsdeform.hpp>
 

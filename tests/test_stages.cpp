@@ -8,12 +8,12 @@
 // -ffp-contract=off, core/ with baseline flags that have no FMA), so there the SIMD result must equal the
 // scalar one bit for bit. The rotation stages fuse products on FMA ISAs, so there both sides are checked
 // against the long-double value instead.
-#include "accuracy_bounds.hpp"
-#include "isa_guard.hpp"
-#include "rotation_cases.hpp"
+#include "tests/support/accuracy_bounds.hpp"
+#include "tests/support/isa_guard.hpp"
+#include "tests/support/rotation_cases.hpp"
 
-#include "dispatch.hpp"
-#include "rotation/axis_angle.hpp"
+#include "core/src/dispatch.hpp"
+#include "core/src/rotation/axis_angle.hpp"
 
 #include <mlsdeform/batch.hpp>
 

@@ -15,9 +15,9 @@
 //   Altogether (gamma_a + gamma_b + gamma_a gamma_b <= gamma_{a+b}): |dA| <= gamma_{3w+6} P^T |L| |D| |L^T| P.
 // So |b - A x| <= gamma_k P^T |L| |D| |L^T| P |x| componentwise, k as above, which the test checks in long
 // double with the solver's own L and D.
-#include "arap/nested_dissection.hpp"
-#include "arap/subtree_ldlt.hpp"
-#include "random.hpp"
+#include "core/src/arap/nested_dissection.hpp"
+#include "core/src/arap/subtree_ldlt.hpp"
+#include "tests/support/random.hpp"
 
 #include <Eigen/SparseCholesky>
 #include <catch2/catch.hpp>

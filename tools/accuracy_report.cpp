@@ -10,8 +10,8 @@
 // the test suite); with the same seed and a multiple of the family count, the report covers exactly the
 // cases the suite judges. The output depends only on the seed, the case count and the library, not on
 // --threads.
-#include "accuracy_bounds.hpp"
-#include "rotation_cases.hpp"
+#include "tests/support/accuracy_bounds.hpp"
+#include "tests/support/rotation_cases.hpp"
 
 #include <mlsdeform/mlsdeform.hpp>
 

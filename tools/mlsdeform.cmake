@@ -19,7 +19,7 @@ add_library(mlsdeform_cli STATIC
   ${_cli}/cmd_deform.cpp
   ${_cli}/cmd_demo.cpp
   ${_cli}/cmd_figures.cpp)
-target_include_directories(mlsdeform_cli PUBLIC ${_cli})
+target_include_directories(mlsdeform_cli PUBLIC ${PROJECT_SOURCE_DIR})
 target_link_libraries(mlsdeform_cli
   PUBLIC mlsdeform::mlsdeform
   PRIVATE nlohmann_json::nlohmann_json ZLIB::ZLIB mlsdeform_warnings)

@@ -1,4 +1,4 @@
-#include "dispatch.hpp"
+#include "core/src/dispatch.hpp"
 
 #include <atomic>
 #include <cstdlib>

@@ -3,7 +3,7 @@
 
 #include <mlsdeform/batch.hpp>
 
-#include "kernel_table.hpp"
+#include "kernels/kernel_table.hpp"
 
 namespace mlsdeform::detail {
 

@@ -1,4 +1,4 @@
-#include "parallel.hpp"
+#include "core/src/parallel.hpp"
 
 #include <tbb/info.h>
 

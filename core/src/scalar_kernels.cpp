@@ -1,11 +1,11 @@
 // The scalar reference as an entry of the kernel table (kernels/kernel_table.hpp), like any ISA: the rotation
 // fits one matrix at a time (fit_rotation) and the deformer's reference (deformer/reference.hpp), over the
 // same layouts and the same DeformFrame as the SIMD kernels. Compiled with the baseline flags.
-#include "deformer/reference.hpp"
-#include "deformer/stages.hpp"
-#include "rotation/axis_angle.hpp"
+#include "core/src/deformer/reference.hpp"
+#include "core/src/deformer/stages.hpp"
+#include "core/src/rotation/axis_angle.hpp"
 
-#include <kernel_table.hpp>
+#include "kernels/kernel_table.hpp"
 
 #include <mlsdeform/rotation.hpp>
 

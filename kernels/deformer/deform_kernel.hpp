@@ -11,11 +11,11 @@
 // world_scale before they are stored.
 #pragma once
 
-#include "../contract.hpp"
-#include "../kernel_table.hpp"
-#include "../rotation/axis_angle.hpp"
-#include "../rotation/horn_jacobi.hpp"
-#include "stages.hpp"
+#include "kernels/contract.hpp"
+#include "kernels/deformer/stages.hpp"
+#include "kernels/kernel_table.hpp"
+#include "kernels/rotation/axis_angle.hpp"
+#include "kernels/rotation/horn_jacobi.hpp"
 
 namespace mlsdeform::kernels {
 

@@ -7,7 +7,7 @@
 //   apply               v' = q* + mu R vhat                            (Algorithm 1 steps 8-10)
 #pragma once
 
-#include "../simd.hpp"
+#include "kernels/simd.hpp"
 
 namespace mlsdeform::kernels {
 

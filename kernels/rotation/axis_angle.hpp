@@ -4,13 +4,13 @@
 // and for the lanes this fast path cannot settle a careful path: K's top eigenvector by Jacobi (jacobi.hpp).
 #pragma once
 
-#include "../contract.hpp"
-#include "../kernel_table.hpp"
-#include "invariants.hpp"
-#include "jacobi.hpp"
-#include "maximum_root.hpp"
-#include "rotation_axis.hpp"
-#include "sin_cos.hpp"
+#include "kernels/contract.hpp"
+#include "kernels/kernel_table.hpp"
+#include "kernels/rotation/invariants.hpp"
+#include "kernels/rotation/jacobi.hpp"
+#include "kernels/rotation/maximum_root.hpp"
+#include "kernels/rotation/rotation_axis.hpp"
+#include "kernels/rotation/sin_cos.hpp"
 
 namespace mlsdeform::kernels {
 

@@ -4,8 +4,8 @@
 // data-dependent branching; McAdams et al. 2011 use it for their 3x3 SIMD SVD).
 #pragma once
 
-#include "axis_angle.hpp"
-#include "jacobi.hpp"
+#include "kernels/rotation/axis_angle.hpp"
+#include "kernels/rotation/jacobi.hpp"
 
 namespace mlsdeform::kernels {
 

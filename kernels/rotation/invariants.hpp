@@ -4,7 +4,7 @@
 // FMA ISAs, a product and a sum on SSE4.2).
 #pragma once
 
-#include "../simd.hpp"
+#include "kernels/simd.hpp"
 
 namespace mlsdeform::kernels {
 

@@ -13,8 +13,8 @@
 // stable and converges quadratically; it handles every input alike, multiple eigenvalues included.
 #pragma once
 
-#include "../contract.hpp"
-#include "../simd.hpp"
+#include "kernels/contract.hpp"
+#include "kernels/simd.hpp"
 
 namespace mlsdeform::kernels {
 

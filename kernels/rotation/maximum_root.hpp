@@ -3,8 +3,8 @@
 // under a mask; the loop ends when no lane is active.
 #pragma once
 
-#include "../contract.hpp"
-#include "invariants.hpp"
+#include "kernels/contract.hpp"
+#include "kernels/rotation/invariants.hpp"
 
 namespace mlsdeform::kernels {
 

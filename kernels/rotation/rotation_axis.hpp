@@ -4,7 +4,7 @@
 // one power step. The careful path is jacobi.hpp.
 #pragma once
 
-#include "../simd.hpp"
+#include "kernels/simd.hpp"
 
 namespace mlsdeform::kernels {
 

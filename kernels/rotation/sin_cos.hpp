@@ -3,7 +3,7 @@
 // sin a e = 2 w x / n, so R = ((w^2 - |x|^2) I + 2 x x^T + 2 w [x]_x) / n, sums of products fused (mul_add).
 #pragma once
 
-#include "../simd.hpp"
+#include "kernels/simd.hpp"
 
 namespace mlsdeform::kernels {
 

@@ -3,8 +3,8 @@
 // (test_cli_commands.cpp), so that every case is refused both by read_mesh and through `mlsdeform deform`.
 #pragma once
 
-#include "file_io.hpp"
-#include "mesh.hpp"
+#include "tools/cli/file_io.hpp"
+#include "tools/cli/mesh.hpp"
 
 #include <array>
 #include <cstdint>

@@ -2,10 +2,10 @@
 // What the program promises: the option changes the result, handle vertices stay on their targets, the
 // faces written are the input's (the triangulation is internal), a mesh without faces is refused (exit code
 // 2, one line naming the file, nothing written), and N must be a whole number >= 0.
-#include "cli_test_util.hpp"
+#include "tests/cli/cli_test_util.hpp"
 
-#include "mesh.hpp"
-#include "scenes.hpp"
+#include "tools/cli/mesh.hpp"
+#include "tools/cli/scenes.hpp"
 
 #include <catch2/catch.hpp>
 

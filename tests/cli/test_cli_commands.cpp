@@ -1,9 +1,9 @@
 // End-to-end tests of the mlsdeform program: each subcommand on small inputs, and each kind of bad input
 // (exit code 2, one line on stderr naming the file and the problem, no output file and no temporary left).
-#include "cli_test_util.hpp"
-#include "malformed_meshes.hpp"
+#include "tests/cli/cli_test_util.hpp"
+#include "tests/cli/malformed_meshes.hpp"
 
-#include "mesh.hpp"
+#include "tools/cli/mesh.hpp"
 
 #include <catch2/catch.hpp>
 

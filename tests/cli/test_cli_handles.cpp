@@ -1,6 +1,6 @@
 // The handles file of the command-line tool (tools/cli/handles_file.cpp): what it accepts, what it resolves to,
 // and a one-line error with the JSON path for each kind of mistake.
-#include "handles_file.hpp"
+#include "tools/cli/handles_file.hpp"
 
 #include <catch2/catch.hpp>
 

@@ -1,12 +1,12 @@
 // Mesh reading and writing of the command-line tool (tools/cli/mesh_*.cpp): every format round-trips vertex
 // count, faces and coordinates, the file's vertex order is kept, and malformed files fail with a message
 // naming the file.
-#include "cli_test_util.hpp"
-#include "malformed_meshes.hpp"
+#include "tests/cli/cli_test_util.hpp"
+#include "tests/cli/malformed_meshes.hpp"
 
-#include "error.hpp"
-#include "file_io.hpp"
-#include "mesh.hpp"
+#include "tools/cli/error.hpp"
+#include "tools/cli/file_io.hpp"
+#include "tools/cli/mesh.hpp"
 
 #include <catch2/catch.hpp>
 

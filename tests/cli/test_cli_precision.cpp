@@ -6,10 +6,10 @@
 // Most cases make every vertex a point handle that stays where it is: such a vertex is put exactly on its
 // target (the library's snapping), so the output must equal the input bit for bit, and any rounding on the way
 // (reading, resolving handles, writing) shows.
-#include "../support/accuracy_bounds.hpp"
-#include "cli_test_util.hpp"
+#include "tests/cli/cli_test_util.hpp"
+#include "tests/support/accuracy_bounds.hpp"
 
-#include "mesh.hpp"
+#include "tools/cli/mesh.hpp"
 
 #include <catch2/catch.hpp>
 

@@ -1,10 +1,10 @@
 // End-to-end tests of the handles file's "region" (Options::region): the vertices outside it are written
 // exactly as read, the region follows the handles, a point cloud gets its ring from the nearest vertices,
 // and bad regions end with exit code 2, one line naming the file and the JSON path, and nothing written.
-#include "cli_test_util.hpp"
+#include "tests/cli/cli_test_util.hpp"
 
-#include "mesh.hpp"
-#include "scenes.hpp"
+#include "tools/cli/mesh.hpp"
+#include "tools/cli/scenes.hpp"
 
 #include <catch2/catch.hpp>
 

@@ -8,8 +8,8 @@
 //
 // A change that is meant to alter results (a new algorithm, a different rounding) updates the table below, and
 // its commit says why; the failure message prints the new hashes. A change meant to keep behaviour must not.
-#include "../support/isa_guard.hpp"
-#include "scenes.hpp"
+#include "tests/support/isa_guard.hpp"
+#include "tools/cli/scenes.hpp"
 
 #include <mlsdeform/batch.hpp>
 
@@ -56,7 +56,7 @@ struct Expected {
 
 // Written by this test's failure message at commit time (g++ 12, Debian 12).
 const Expected kExpected[] = {
-#include "scene_hashes.inc"
+#include "tests/cli/scene_hashes.inc"
 };
 
 }  // namespace

@@ -1,9 +1,9 @@
 // The program on a model with one stray vertex far away: snapping (core/src/deformer/snap.hpp) is decided by
 // each vertex's own neighbourhood, so the stray changes which vertices land exactly on a handle nowhere else,
 // and no two distinct vertices come out at one point.
-#include "cli_test_util.hpp"
+#include "tests/cli/cli_test_util.hpp"
 
-#include "mesh.hpp"
+#include "tools/cli/mesh.hpp"
 
 #include <catch2/catch.hpp>
 

@@ -6,7 +6,7 @@
 // -fsanitize=fuzzer,address,undefined by tests/cli.cmake; the test suite runs it for 20000 inputs.
 //
 //   build/tests/fuzz_handles -dict=tests/fuzz/handles.dict NEW_CORPUS_DIR tests/fuzz/corpus
-#include "handles_file.hpp"
+#include "tools/cli/handles_file.hpp"
 
 #include <cmath>
 #include <cstdint>

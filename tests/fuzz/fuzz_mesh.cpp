@@ -9,9 +9,9 @@
 // -fsanitize=fuzzer,address,undefined by tests/cli.cmake; the test suite runs each for a bounded number of inputs.
 //
 //   FUZZ_MESH_FORMAT=ply build/tests/fuzz_mesh -dict=tests/fuzz/mesh.dict NEW_CORPUS_DIR tests/fuzz/corpus_ply
-#include "error.hpp"
-#include "file_io.hpp"
-#include "mesh.hpp"
+#include "tools/cli/error.hpp"
+#include "tools/cli/file_io.hpp"
+#include "tools/cli/mesh.hpp"
 
 #include <cmath>
 #include <cstdint>

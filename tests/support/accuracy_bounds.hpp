@@ -30,7 +30,7 @@
 //   The reference's own error (long-double eps = 2^-64, i.e. 2^-11 of double's eps) is neglected.
 #pragma once
 
-#include "rotation_cases.hpp"
+#include "tests/support/rotation_cases.hpp"
 
 #include <limits>
 #include <numbers>

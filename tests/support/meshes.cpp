@@ -1,7 +1,7 @@
 // See meshes.hpp.
-#include "meshes.hpp"
+#include "tests/support/meshes.hpp"
 
-#include "random.hpp"
+#include "tests/support/random.hpp"
 
 #include <zlib.h>
 

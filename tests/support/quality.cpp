@@ -1,5 +1,5 @@
 // See quality.hpp.
-#include "quality.hpp"
+#include "tests/support/quality.hpp"
 
 #include <Eigen/Geometry>
 

@@ -15,7 +15,7 @@
 //     shows as a tail of large values along a line of edges.
 #pragma once
 
-#include "meshes.hpp"
+#include "tests/support/meshes.hpp"
 
 #include <mlsdeform/rotation.hpp>
 

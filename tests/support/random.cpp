@@ -1,5 +1,5 @@
 // See random.hpp.
-#include "random.hpp"
+#include "tests/support/random.hpp"
 
 #include <algorithm>
 #include <cmath>

@@ -1,5 +1,5 @@
 // See rotation_cases.hpp.
-#include "rotation_cases.hpp"
+#include "tests/support/rotation_cases.hpp"
 
 #include <Eigen/LU>
 #include <Eigen/SVD>

@@ -16,7 +16,7 @@
 // reference judges exactly the H the method sees. A failing case is reproduced with make_case(f, seed, i).
 #pragma once
 
-#include "random.hpp"  // Rng
+#include "tests/support/random.hpp"  // Rng
 
 #include <mlsdeform/rotation.hpp>
 

@@ -1,7 +1,7 @@
 // See scenes.hpp.
-#include "scenes.hpp"
+#include "tests/support/scenes.hpp"
 
-#include "meshes.hpp"
+#include "tests/support/meshes.hpp"
 
 #include <cmath>
 #include <numbers>

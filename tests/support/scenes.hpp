@@ -7,7 +7,7 @@
 //                       deformation benchmarks)
 #pragma once
 
-#include "random.hpp"
+#include "tests/support/random.hpp"
 
 #include <mlsdeform/deformer.hpp>  // Handles
 

@@ -1,10 +1,10 @@
 // `mlsdeform deform`: a mesh file and a handles file in, one deformed mesh (or one per animation frame) out.
-#include "commands.hpp"
-#include "error.hpp"
-#include "file_io.hpp"
-#include "handles_file.hpp"
-#include "mesh.hpp"
-#include "progress.hpp"
+#include "tools/cli/commands.hpp"
+#include "tools/cli/error.hpp"
+#include "tools/cli/file_io.hpp"
+#include "tools/cli/handles_file.hpp"
+#include "tools/cli/mesh.hpp"
+#include "tools/cli/progress.hpp"
 
 #include <algorithm>
 #include <chrono>

@@ -2,11 +2,11 @@
 // cylinder (Table 2's sizes), times Deformer::deform with the scalar and the SIMD backend, runs the human again
 // with surface-ARAP iterations after MLS, and writes the results (in several formats) and before/after images
 // into one folder.
-#include "commands.hpp"
-#include "error.hpp"
-#include "mesh.hpp"
-#include "render.hpp"
-#include "scenes.hpp"
+#include "tools/cli/commands.hpp"
+#include "tools/cli/error.hpp"
+#include "tools/cli/mesh.hpp"
+#include "tools/cli/render.hpp"
+#include "tools/cli/scenes.hpp"
 
 #include <mlsdeform/batch.hpp>
 

@@ -2,7 +2,7 @@
 // Each returns the process exit code and throws InputError for bad input (exit code 2).
 #pragma once
 
-#include "mesh.hpp"
+#include "tools/cli/mesh.hpp"
 
 #include <mlsdeform/batch.hpp>
 #include <mlsdeform/deformer.hpp>

@@ -1,6 +1,6 @@
-#include "file_io.hpp"
+#include "tools/cli/file_io.hpp"
 
-#include "error.hpp"
+#include "tools/cli/error.hpp"
 
 #include <zlib.h>
 

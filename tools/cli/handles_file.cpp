@@ -1,6 +1,6 @@
-#include "handles_file.hpp"
+#include "tools/cli/handles_file.hpp"
 
-#include "file_io.hpp"
+#include "tools/cli/file_io.hpp"
 
 #include <nlohmann/json.hpp>
 

@@ -6,7 +6,7 @@
 // InputError with the JSON path (RFC 6901 pointer, e.g. "/points/2/vertex") of the offending value.
 #pragma once
 
-#include "error.hpp"
+#include "tools/cli/error.hpp"
 
 #include <mlsdeform/deformer.hpp>
 

@@ -1,7 +1,7 @@
 // mlsdeform CLI: a polygon mesh as read from and written to files.
 #pragma once
 
-#include "file_io.hpp"
+#include "tools/cli/file_io.hpp"
 
 #include <mlsdeform/arap.hpp>
 #include <mlsdeform/types.hpp>

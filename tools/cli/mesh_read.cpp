@@ -7,9 +7,9 @@
 // Memory: the input is streamed (a buffer of 1 MiB, longer only for a longer line), never held whole, and
 // what is built grows in blocks (std::deque) where its final size is not known yet, then is copied once into
 // the mesh's arrays: the peak is about twice the final arrays, whatever the input's size or format.
-#include "error.hpp"
-#include "file_io.hpp"
-#include "mesh.hpp"
+#include "tools/cli/error.hpp"
+#include "tools/cli/file_io.hpp"
+#include "tools/cli/mesh.hpp"
 
 #include <algorithm>
 #include <bit>

@@ -1,8 +1,8 @@
 // Mesh writing (OBJ, OFF, PLY) and the geometry helpers writers and renderers need, keeping the vertex order
 // and writing numbers that read back exactly.
-#include "error.hpp"
-#include "file_io.hpp"
-#include "mesh.hpp"
+#include "tools/cli/error.hpp"
+#include "tools/cli/file_io.hpp"
+#include "tools/cli/mesh.hpp"
 
 #include <mlsdeform/version.hpp>
 

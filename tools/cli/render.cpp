@@ -1,7 +1,7 @@
-#include "render.hpp"
+#include "tools/cli/render.hpp"
 
-#include "error.hpp"
-#include "file_io.hpp"
+#include "tools/cli/error.hpp"
+#include "tools/cli/file_io.hpp"
 
 #include <nlohmann/json.hpp>
 

@@ -2,7 +2,7 @@
 // JSON spec, and drawn by tools/figures.py with Debian's python3-matplotlib.
 #pragma once
 
-#include "mesh.hpp"
+#include "tools/cli/mesh.hpp"
 
 #include <mlsdeform/deformer.hpp>
 

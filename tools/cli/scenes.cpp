@@ -1,4 +1,4 @@
-#include "scenes.hpp"
+#include "tools/cli/scenes.hpp"
 
 #include <Eigen/Geometry>
 #include <Eigen/QR>

@@ -3,7 +3,7 @@
 // and a runner that times Deformer::deform per frame.
 #pragma once
 
-#include "mesh.hpp"
+#include "tools/cli/mesh.hpp"
 
 #include <mlsdeform/deformer.hpp>
 

@@ -11,16 +11,16 @@
 // input by a power of two 2^k shifts e and f by k and changes no bit of the scaled problem: the result is
 // the unscaled one times 2^k, rounded once to T. (The rest terms of b, in units of 2^e, enter the system in
 // units of 2^f through the factor 2^(e - f) <= 1, which is itself scale-free.)
-#include "../dispatch.hpp"
-#include "../parallel.hpp"
-#include "../pow2.hpp"
-#include "one_rings.hpp"
-#include "subtree_ldlt.hpp"
+#include "core/src/arap/one_rings.hpp"
+#include "core/src/arap/subtree_ldlt.hpp"
+#include "core/src/dispatch.hpp"
+#include "core/src/parallel.hpp"
+#include "core/src/pow2.hpp"
 
 #include <mlsdeform/arap.hpp>
 #include <mlsdeform/batch.hpp>
 
-#include <kernel_table.hpp>
+#include "kernels/kernel_table.hpp"
 
 #include <tbb/info.h>
 #include <Eigen/SparseCore>

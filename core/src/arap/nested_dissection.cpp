@@ -1,5 +1,5 @@
 // coordinate_nested_dissection (nested_dissection.hpp).
-#include "nested_dissection.hpp"
+#include "core/src/arap/nested_dissection.hpp"
 
 #include <algorithm>
 #include <cstddef>

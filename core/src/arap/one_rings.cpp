@@ -1,5 +1,5 @@
 // cotangent_one_rings (one_rings.hpp).
-#include "one_rings.hpp"
+#include "core/src/arap/one_rings.hpp"
 
 #include <Eigen/Geometry>  // cross
 

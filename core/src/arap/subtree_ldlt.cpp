@@ -1,8 +1,8 @@
 // SubtreeLdlt (subtree_ldlt.hpp): the factor, the substitution's schedule, forward and backward substitution.
-#include "subtree_ldlt.hpp"
+#include "core/src/arap/subtree_ldlt.hpp"
 
-#include "../parallel.hpp"
-#include "nested_dissection.hpp"
+#include "core/src/arap/nested_dissection.hpp"
+#include "core/src/parallel.hpp"
 
 #include <Eigen/SparseCholesky>
 

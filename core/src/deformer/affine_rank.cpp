@@ -1,6 +1,6 @@
 // check_affine_rank and singular_values (validation.hpp), apart from the other checks: Eigen's SVD is slow to
 // compile, and this is its one instantiation.
-#include "validation.hpp"
+#include "core/src/deformer/validation.hpp"
 
 #include <Eigen/QR>
 #include <Eigen/SVD>

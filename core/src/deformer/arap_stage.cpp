@@ -1,6 +1,6 @@
-#include "arap_stage.hpp"
+#include "core/src/deformer/arap_stage.hpp"
 
-#include "../pow2.hpp"
+#include "core/src/pow2.hpp"
 
 #include <algorithm>
 #include <cmath>

@@ -55,7 +55,7 @@
 //   D (similarity only):       [v]
 #pragma once
 
-#include <contract.hpp>
+#include "kernels/contract.hpp"
 
 #include <mlsdeform/deformer.hpp>
 

@@ -1,7 +1,7 @@
-#include "local_frame.hpp"
+#include "core/src/deformer/local_frame.hpp"
 
-#include "../pow2.hpp"
-#include "validation.hpp"
+#include "core/src/deformer/validation.hpp"
+#include "core/src/pow2.hpp"
 
 #include <algorithm>
 #include <limits>

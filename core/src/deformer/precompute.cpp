@@ -1,9 +1,9 @@
-#include "precompute.hpp"
+#include "core/src/deformer/precompute.hpp"
 
-#include "fold.hpp"
-#include "snap.hpp"
-#include "validation.hpp"
-#include "weights.hpp"
+#include "core/src/deformer/fold.hpp"
+#include "core/src/deformer/snap.hpp"
+#include "core/src/deformer/validation.hpp"
+#include "core/src/deformer/weights.hpp"
 
 #include <algorithm>
 #include <cmath>

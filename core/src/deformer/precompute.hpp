@@ -3,8 +3,8 @@
 // (precompute_on_the_fly.cpp), over blocks of kLanes vertices in parallel.
 #pragma once
 
-#include "data.hpp"
-#include "local_frame.hpp"
+#include "core/src/deformer/data.hpp"
+#include "core/src/deformer/local_frame.hpp"
 
 #include <mlsdeform/deformer.hpp>
 

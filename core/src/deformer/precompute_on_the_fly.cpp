@@ -1,9 +1,9 @@
 // Paper Sec. 5 for on-the-fly weights (WeightStorage::on_the_fly): no table; the rest geometry in the local
 // frame, from which the kernels recompute the weights every frame (core/src/deformer/reference.hpp).
-#include "precompute.hpp"
+#include "core/src/deformer/precompute.hpp"
 
-#include "../parallel.hpp"
-#include "snap.hpp"
+#include "core/src/deformer/snap.hpp"
+#include "core/src/parallel.hpp"
 
 #include <algorithm>
 #include <cmath>

@@ -1,12 +1,12 @@
 // Paper Sec. 5 for precomputed weights: per vertex, the centroid weights omega_j and the vectors A_j (or the
 // affine alpha_j), p*, vhat and D, in double in the local frame, rounded to T once (data.hpp has the algebra).
-#include "precompute.hpp"
+#include "core/src/deformer/precompute.hpp"
 
-#include "../parallel.hpp"
-#include "fold.hpp"
-#include "rbf_centroids.hpp"
-#include "snap.hpp"
-#include "weights.hpp"
+#include "core/src/deformer/fold.hpp"
+#include "core/src/deformer/rbf_centroids.hpp"
+#include "core/src/deformer/snap.hpp"
+#include "core/src/deformer/weights.hpp"
+#include "core/src/parallel.hpp"
 
 #include <Eigen/Eigenvalues>
 

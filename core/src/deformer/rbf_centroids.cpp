@@ -1,6 +1,6 @@
-#include "rbf_centroids.hpp"
+#include "core/src/deformer/rbf_centroids.hpp"
 
-#include "validation.hpp"
+#include "core/src/deformer/validation.hpp"
 
 #include <algorithm>
 #include <array>

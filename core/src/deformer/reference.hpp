@@ -13,9 +13,9 @@
 // the targets: bitwise the same for any thread count or block schedule.
 #pragma once
 
-#include "stages.hpp"
+#include "core/src/deformer/stages.hpp"
 
-#include <contract.hpp>
+#include "kernels/contract.hpp"
 
 #include <mlsdeform/rotation.hpp>
 

@@ -1,8 +1,8 @@
-#include "region.hpp"
+#include "core/src/deformer/region.hpp"
 
-#include "../parallel.hpp"
-#include "../pow2.hpp"
-#include "fold.hpp"
+#include "core/src/deformer/fold.hpp"
+#include "core/src/parallel.hpp"
+#include "core/src/pow2.hpp"
 
 #include <algorithm>
 #include <array>

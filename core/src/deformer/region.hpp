@@ -9,7 +9,7 @@
 // by index range can have a ring of thousands).
 #pragma once
 
-#include "precompute.hpp"
+#include "core/src/deformer/precompute.hpp"
 
 #include <mlsdeform/arap.hpp>
 #include <mlsdeform/deformer.hpp>

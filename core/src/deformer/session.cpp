@@ -1,13 +1,13 @@
 // The Deformer session (deformer.hpp): construction (precompute.hpp), targets, and the per-frame driver that
 // hands a DeformFrame (kernels/contract.hpp) to the kernel table over blocks of kLanes vertices.
-#include "../all_finite.hpp"
-#include "../dispatch.hpp"
-#include "../parallel.hpp"
-#include "../pow2.hpp"
-#include "arap_stage.hpp"
-#include "precompute.hpp"
-#include "region.hpp"
-#include "validation.hpp"
+#include "core/src/all_finite.hpp"
+#include "core/src/deformer/arap_stage.hpp"
+#include "core/src/deformer/precompute.hpp"
+#include "core/src/deformer/region.hpp"
+#include "core/src/deformer/validation.hpp"
+#include "core/src/dispatch.hpp"
+#include "core/src/parallel.hpp"
+#include "core/src/pow2.hpp"
 
 #include <mlsdeform/deformer.hpp>
 

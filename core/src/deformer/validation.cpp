@@ -1,4 +1,4 @@
-#include "validation.hpp"
+#include "core/src/deformer/validation.hpp"
 
 #include <Eigen/LU>
 

@@ -20,12 +20,12 @@
 // clustered eigenvalues of K): top_eigenvector (Jacobi), sin_cos.
 #pragma once
 
-#include "jacobi.hpp"
-#include "maximum_root.hpp"
-#include "rotation_axis.hpp"
-#include "sin_cos.hpp"
+#include "core/src/rotation/jacobi.hpp"
+#include "core/src/rotation/maximum_root.hpp"
+#include "core/src/rotation/rotation_axis.hpp"
+#include "core/src/rotation/sin_cos.hpp"
 
-#include <contract.hpp>
+#include "kernels/contract.hpp"
 
 namespace mlsdeform::detail {
 

@@ -2,9 +2,9 @@
 // (max |H_ij| in [1, 2) or H = 0) and returns the proper rotation maximising trace(R^T H).
 #pragma once
 
-#include "invariants.hpp"
-#include "rotation_axis.hpp"
-#include "sin_cos.hpp"
+#include "core/src/rotation/invariants.hpp"
+#include "core/src/rotation/rotation_axis.hpp"
+#include "core/src/rotation/sin_cos.hpp"
 
 #include <Eigen/Eigenvalues>
 #include <Eigen/SVD>

@@ -1,4 +1,4 @@
-#include "baselines.hpp"
+#include "core/src/rotation/baselines.hpp"
 
 namespace mlsdeform::detail {
 

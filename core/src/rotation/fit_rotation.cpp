@@ -1,5 +1,5 @@
-#include "axis_angle.hpp"
-#include "baselines.hpp"
+#include "core/src/rotation/axis_angle.hpp"
+#include "core/src/rotation/baselines.hpp"
 
 #include <mlsdeform/rotation.hpp>
 

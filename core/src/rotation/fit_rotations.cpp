@@ -1,6 +1,6 @@
-#include "../all_finite.hpp"
-#include "../dispatch.hpp"
-#include "../parallel.hpp"
+#include "core/src/all_finite.hpp"
+#include "core/src/dispatch.hpp"
+#include "core/src/parallel.hpp"
 
 #include <mlsdeform/batch.hpp>
 

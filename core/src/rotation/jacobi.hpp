@@ -3,7 +3,7 @@
 // skip threshold and the stopping rule).
 #pragma once
 
-#include <contract.hpp>
+#include "kernels/contract.hpp"
 
 #include <Eigen/Core>
 

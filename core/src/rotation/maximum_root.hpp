@@ -5,9 +5,9 @@
 // kernels/rotation/maximum_root.hpp.
 #pragma once
 
-#include "invariants.hpp"
+#include "core/src/rotation/invariants.hpp"
 
-#include <contract.hpp>
+#include "kernels/contract.hpp"
 
 #include <cmath>
 #include <limits>

@@ -1,4 +1,4 @@
-#include "../pow2.hpp"
+#include "core/src/pow2.hpp"
 
 #include <mlsdeform/point_fit.hpp>
 

@@ -11,9 +11,9 @@
 // (jacobi.hpp). SIMD twin: kernels/rotation/rotation_axis.hpp.
 #pragma once
 
-#include "invariants.hpp"
+#include "core/src/rotation/invariants.hpp"
 
-#include <contract.hpp>
+#include "kernels/contract.hpp"
 
 #include <Eigen/Core>
 
