@@ -56,9 +56,12 @@ def main():
             def frames():
                 for _ in range(reps):
                     d.deform(points=Qt, out=X)
+
             py = best_of(frames) / reps
-            print(f"{np.dtype(dtype).name:8} {threads or 'all':>7} {1e3 * cpp:9.3f} {1e3 * py:9.3f} "
-                  f"{100 * (py / cpp - 1):8.1f}%")
+            print(
+                f"{np.dtype(dtype).name:8} {threads or 'all':>7} {1e3 * cpp:9.3f} {1e3 * py:9.3f} "
+                f"{100 * (py / cpp - 1):8.1f}%"
+            )
     print("\nfit_rotations, 10^6 matrices, one thread (ms, best of 7); Python with out= (no new array)")
     print(f"{'dtype':8} {'C++ batch':>10} {'Python':>9} {'overhead':>9}")
     for dtype in (np.float32, np.float64):
@@ -67,8 +70,10 @@ def main():
         R = np.empty_like(H)
         py_out = best_of(lambda: mlsdeform.fit_rotations(H, out=R))
         py_new = best_of(lambda: mlsdeform.fit_rotations(H))
-        print(f"{np.dtype(dtype).name:8} {1e3 * cpp:10.2f} {1e3 * py_out:9.2f} {100 * (py_out / cpp - 1):8.1f}%"
-              f"   (returning a new array: {1e3 * py_new:.2f} ms, {100 * (py_new / cpp - 1):.1f}%)")
+        print(
+            f"{np.dtype(dtype).name:8} {1e3 * cpp:10.2f} {1e3 * py_out:9.2f} {100 * (py_out / cpp - 1):8.1f}%"
+            f"   (returning a new array: {1e3 * py_new:.2f} ms, {100 * (py_new / cpp - 1):.1f}%)"
+        )
 
 
 if __name__ == "__main__":

@@ -47,8 +47,12 @@ def main():
     Q[4] += [0.1, 0.3, 0.2]
     Q[5] += [-0.1, 0.3, 0.2]
     forearm = np.flatnonzero(np.linalg.norm(V - V[2445], axis=1) < 0.3)
-    regions = [("whole model", None), (f"right forearm ({len(forearm)})", forearm),
-               ("range(3000)", np.arange(3000)), ("range(6000)", np.arange(6000))]
+    regions = [
+        ("whole model", None),
+        (f"right forearm ({len(forearm)})", forearm),
+        ("range(3000)", np.arange(3000)),
+        ("range(6000)", np.arange(6000)),
+    ]
     print("\nms per frame (best of 5 runs of 50 frames), weight storage, memory_bytes")
     print(f"{'region':22} {'faces':>5} {'ms':>8} {'storage':>12} {'MiB':>6}")
     for name, region in regions:
@@ -59,8 +63,10 @@ def main():
             d._time_cpp_deform(points=Q, reps=10)
             ms = 1e3 * min(d._time_cpp_deform(points=Q, reps=50) for _ in range(5))
             storage = "precomputed" if d.uses_precomputed_weights else "on the fly"
-            print(f"{name:22} {'yes' if faces is not None else 'no':>5} {ms:8.3f} {storage:>12} "
-                  f"{d.memory_bytes / 2**20:6.1f}")
+            print(
+                f"{name:22} {'yes' if faces is not None else 'no':>5} {ms:8.3f} {storage:>12} "
+                f"{d.memory_bytes / 2**20:6.1f}"
+            )
 
 
 if __name__ == "__main__":

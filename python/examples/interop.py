@@ -14,6 +14,7 @@ def main(argv):
     png = argv[1] if len(argv) > 1 else "mlsdeform-interop.png"
     try:
         import open3d as o3d
+
         mesh = o3d.geometry.TriangleMesh.create_cylinder(radius=0.3, height=2.0, resolution=40, split=40)
         V = np.asarray(mesh.vertices)
         F = np.asarray(mesh.triangles)
@@ -35,6 +36,7 @@ def main(argv):
         print(f"deformed mesh: {len(mesh.vertices)} vertices, watertight {mesh.is_watertight()}")
     try:
         import matplotlib
+
         matplotlib.use("Agg")
         import matplotlib.pyplot as plt
     except ImportError:

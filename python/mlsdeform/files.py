@@ -56,6 +56,7 @@ class Faces:
 
 # ---- reading meshes -----------------------------------------------------------------------------------------
 
+
 def _open(path):
     with open(path, "rb") as f:
         magic = f.read(2)
@@ -130,9 +131,24 @@ def _decimals(text, dtype):
     return f.astype(dtype, copy=False)
 
 
-_PLY_TYPES = {"char": "i1", "int8": "i1", "uchar": "u1", "uint8": "u1", "short": "i2", "int16": "i2",
-              "ushort": "u2", "uint16": "u2", "int": "i4", "int32": "i4", "uint": "u4", "uint32": "u4",
-              "float": "f4", "float32": "f4", "double": "f8", "float64": "f8"}
+_PLY_TYPES = {
+    "char": "i1",
+    "int8": "i1",
+    "uchar": "u1",
+    "uint8": "u1",
+    "short": "i2",
+    "int16": "i2",
+    "ushort": "u2",
+    "uint16": "u2",
+    "int": "i4",
+    "int32": "i4",
+    "uint": "u4",
+    "uint32": "u4",
+    "float": "f4",
+    "float32": "f4",
+    "double": "f8",
+    "float64": "f8",
+}
 
 
 def _read_ply(data, path):
@@ -151,8 +167,14 @@ def _read_ply(data, path):
             elements.append((p[1], int(p[2]), []))
         elif p[0] == "property" and elements and len(p) == 3 and p[1] in _PLY_TYPES:
             elements[-1][2].append((p[2], _PLY_TYPES[p[1]], None))
-        elif (p[0] == "property" and elements and len(p) == 5 and p[1] == "list" and p[2] in _PLY_TYPES
-              and p[3] in _PLY_TYPES):
+        elif (
+            p[0] == "property"
+            and elements
+            and len(p) == 5
+            and p[1] == "list"
+            and p[2] in _PLY_TYPES
+            and p[3] in _PLY_TYPES
+        ):
             elements[-1][2].append((p[4], _PLY_TYPES[p[3]], _PLY_TYPES[p[2]]))
         else:
             raise ValueError(f"{path}: malformed PLY header line: {line!r}")
@@ -189,7 +211,7 @@ def _ply_ascii_element(tokens, pos, count, props, path, name):
     out = {}
     if all(ctype is None for _, _, ctype in props):
         width = len(props)
-        block = tokens[pos:pos + count * width]
+        block = tokens[pos : pos + count * width]
         if len(block) != count * width:
             raise ValueError(f"{path}: malformed PLY: truncated in element {name}")
         try:
@@ -208,7 +230,7 @@ def _ply_ascii_element(tokens, pos, count, props, path, name):
                     pos += 1
                 else:
                     n = int(tokens[pos])
-                    columns[p].append([int(t) for t in tokens[pos + 1:pos + 1 + n]])
+                    columns[p].append([int(t) for t in tokens[pos + 1 : pos + 1 + n]])
                     pos += 1 + n
     except (IndexError, ValueError):
         raise ValueError(f"{path}: malformed PLY: truncated or not a number in element {name}") from None
@@ -217,8 +239,10 @@ def _ply_ascii_element(tokens, pos, count, props, path, name):
             columns[p] = np.array(columns[p], dtype="S")
         else:
             lists = columns[p]
-            columns[p] = (np.array([len(x) for x in lists], np.int64),
-                          np.fromiter((i for x in lists for i in x), np.int64))
+            columns[p] = (
+                np.array([len(x) for x in lists], np.int64),
+                np.fromiter((i for x in lists for i in x), np.int64),
+            )
     return columns, pos
 
 
@@ -232,14 +256,15 @@ def _ply_binary_element(data, pos, count, props, order, path, name):
         return {p: table[p] for p, _, _ in props}, pos + count * dtype.itemsize
     if len(props) == 1 and count:
         # The usual face element, one list: read as fixed records when every list has the first one's length.
-        (p, t, ctype), = props
+        ((p, t, ctype),) = props
         first = int(np.frombuffer(data, order + ctype, 1, pos)[0])
         record = np.dtype([("n", order + ctype), ("i", order + t, (first,))])
         if first > 0 and pos + count * record.itemsize <= len(data):
             table = np.frombuffer(data, record, count, pos)
             if np.all(table["n"] == first):
-                return {p: (table["n"].astype(np.int64), table["i"].astype(np.int64).ravel())}, \
-                    pos + count * record.itemsize
+                return {
+                    p: (table["n"].astype(np.int64), table["i"].astype(np.int64).ravel())
+                }, pos + count * record.itemsize
     columns = {p: [] for p, _, _ in props}
     try:
         for _ in range(count):
@@ -257,12 +282,15 @@ def _ply_binary_element(data, pos, count, props, order, path, name):
     for p, _, ctype in props:
         if ctype is not None:
             lists = columns[p]
-            columns[p] = (np.array([len(x) for x in lists], np.int64),
-                          np.concatenate(lists).astype(np.int64) if lists else np.zeros(0, np.int64))
+            columns[p] = (
+                np.array([len(x) for x in lists], np.int64),
+                np.concatenate(lists).astype(np.int64) if lists else np.zeros(0, np.int64),
+            )
     return columns, pos
 
 
 # ---- writing ------------------------------------------------------------------------------------------------
+
 
 def write_atomically(path, write, tag=""):
     """Calls write(file) on a temporary file beside `path`, then renames it to `path`: readers never see a part
@@ -314,9 +342,13 @@ def write_mesh(path, vertices, faces=None, tag=""):
 def _write_ply(f, V, faces):
     scalar = "double" if V.dtype == np.float64 else "float"
     m = len(faces) if faces is not None else 0
-    f.write((f"ply\nformat binary_little_endian 1.0\nelement vertex {len(V)}\nproperty {scalar} x\n"
-             f"property {scalar} y\nproperty {scalar} z\nelement face {m}\n"
-             "property list uchar int vertex_indices\nend_header\n").encode())
+    f.write(
+        (
+            f"ply\nformat binary_little_endian 1.0\nelement vertex {len(V)}\nproperty {scalar} x\n"
+            f"property {scalar} y\nproperty {scalar} z\nelement face {m}\n"
+            "property list uchar int vertex_indices\nend_header\n"
+        ).encode()
+    )
     f.write(np.ascontiguousarray(V, dtype="<f8" if scalar == "double" else "<f4").data)
     if m:
         f.write(faces.ply_block().data)
@@ -337,7 +369,8 @@ def _encode_ply_faces(faces):
     buf = np.zeros(int(m + 4 * faces.counts.sum()), np.uint8)
     buf[starts] = faces.counts
     offsets = np.repeat(starts + 1, faces.counts) + 4 * (
-        np.arange(len(faces.indices)) - np.repeat(np.cumsum(faces.counts) - faces.counts, faces.counts))
+        np.arange(len(faces.indices)) - np.repeat(np.cumsum(faces.counts) - faces.counts, faces.counts)
+    )
     idx = faces.indices.astype("<i4").view(np.uint8).reshape(-1, 4)
     for b in range(4):
         buf[offsets + b] = idx[:, b]
@@ -360,6 +393,7 @@ def _write_obj(f, V, faces):
 
 # ---- the handles file -----------------------------------------------------------------------------------------
 
+
 class Animation:
     """A resolved handles file: rest handles and one target set per output (the frames, or one).
 
@@ -368,8 +402,7 @@ class Animation:
     None. Arrays have the dtype asked for; `targets(i)` gives frame i as keyword arguments of Deformer.deform."""
 
     def __init__(self, points, segments, frames, region, animated):
-        self.points, self.segments, self.frames, self.region, self.animated = points, segments, frames, region, \
-            animated
+        self.points, self.segments, self.frames, self.region, self.animated = points, segments, frames, region, animated
 
     def session_arguments(self):
         """Keyword arguments of mlsdeform.Deformer for the rest pose."""
@@ -401,7 +434,7 @@ def _strip_comments(text):
             j = i + 1
             while j < n and text[j] != '"':
                 j += 2 if text[j] == "\\" else 1
-            out.append(text[i:j + 1])
+            out.append(text[i : j + 1])
             i = j + 1
         elif text.startswith("//", i):
             j = text.find("\n", i)
@@ -466,7 +499,7 @@ class _Node:
 
 def _target(n, segment):
     if n.has("target") and n.has("offset"):
-        n.fail("give \"target\" or \"offset\", not both")
+        n.fail('give "target" or "offset", not both')
     if n.has("target"):
         return ("absolute", n["target"].vec3_pair() if segment else [n["target"].vec3()])
     if n.has("offset"):
@@ -480,21 +513,21 @@ def _frame_entry(n, segment):
     if isinstance(n.v, dict):
         n.only_keys({"target", "offset"})
         if not n.has("target") and not n.has("offset"):
-            n.fail("expected \"target\" or \"offset\"")
+            n.fail('expected "target" or "offset"')
         return _target(n, segment)
     return ("absolute", n.vec3_pair() if segment else [n.vec3()])
 
 
 def _motion(n):
     m = {"axis": [0.0, 0.0, 1.0], "degrees": 0.0, "pivot": None, "translate": [0.0, 0.0, 0.0], "path": n.path}
-    n.require(dict, "a motion {\"rotate\": {...}, \"translate\": [dx, dy, dz]}")
+    n.require(dict, 'a motion {"rotate": {...}, "translate": [dx, dy, dz]}')
     n.only_keys({"rotate", "translate"})
     if n.has("rotate"):
         r = n["rotate"]
-        r.require(dict, "a rotation {\"axis\": [x, y, z], \"degrees\": a, \"pivot\": [x, y, z]}")
+        r.require(dict, 'a rotation {"axis": [x, y, z], "degrees": a, "pivot": [x, y, z]}')
         r.only_keys({"axis", "degrees", "pivot"})
         if not r.has("axis") or not r.has("degrees"):
-            r.fail("missing \"degrees\"" if r.has("axis") else "missing \"axis\"")
+            r.fail('missing "degrees"' if r.has("axis") else 'missing "axis"')
         axis = r["axis"].vec3()
         big = max(abs(x) for x in axis)
         if big == 0:
@@ -524,8 +557,9 @@ def _rotation(a, degrees):
     """Rodrigues: R = c I + s [a]_x + (1 - c) a a^T, summed in the program's order."""
     s, c = _sin_cos_degrees(degrees)
     K = [[0.0, -a[2], a[1]], [a[2], 0.0, -a[0]], [-a[1], a[0], 0.0]]
-    return [[(c * (1.0 if i == j else 0.0) + s * K[i][j]) + ((1 - c) * a[i]) * a[j] for j in range(3)]
-            for i in range(3)]
+    return [
+        [(c * (1.0 if i == j else 0.0) + s * K[i][j]) + ((1 - c) * a[i]) * a[j] for j in range(3)] for i in range(3)
+    ]
 
 
 def read_handles(path, vertices, dtype=np.float32):
@@ -544,35 +578,33 @@ def read_handles(path, vertices, dtype=np.float32):
 
 
 def _resolve(root, V, dtype, path):
-    root.require(dict, "an object {\"points\": [...], \"segments\": [...], ...}")
+    root.require(dict, 'an object {"points": [...], "segments": [...], ...}')
     root.only_keys({"points", "segments", "frames", "region", "groups", "comment"})
     n = len(V)
 
     def vertex(node):
         i = node.index()
         if i >= n:
-            node.fail(f"vertex index {i} out of range (the mesh has {n} vertices"
-                      + (f", 0 to {n - 1})" if n else ")"))
+            node.fail(f"vertex index {i} out of range (the mesh has {n} vertices" + (f", 0 to {n - 1})" if n else ")"))
         return [float(x) for x in V[i]]
 
     points, segments = [], []
     if root.has("points"):
         root["points"].require(list, "an array of point handles")
         for h in root["points"].items():
-            h.require(dict, "a point handle {\"vertex\": i} or {\"rest\": [x, y, z]}")
+            h.require(dict, 'a point handle {"vertex": i} or {"rest": [x, y, z]}')
             h.only_keys({"vertex", "rest", "target", "offset", "name"})
             if h.has("vertex") == h.has("rest"):
-                h.fail("give \"vertex\" or \"rest\", not both" if h.has("vertex") else "missing \"vertex\" or \"rest\"")
+                h.fail('give "vertex" or "rest", not both' if h.has("vertex") else 'missing "vertex" or "rest"')
             rest = vertex(h["vertex"]) if h.has("vertex") else h["rest"].vec3()
             points.append({"rest": rest, "target": _target(h, False), "path": h.path})
     if root.has("segments"):
         root["segments"].require(list, "an array of segment handles")
         for h in root["segments"].items():
-            h.require(dict, "a segment handle {\"vertices\": [i, j]} or {\"rest\": [[x, y, z], [x, y, z]]}")
+            h.require(dict, 'a segment handle {"vertices": [i, j]} or {"rest": [[x, y, z], [x, y, z]]}')
             h.only_keys({"vertices", "rest", "target", "offset", "name"})
             if h.has("vertices") == h.has("rest"):
-                h.fail("give \"vertices\" or \"rest\", not both" if h.has("vertices")
-                       else "missing \"vertices\" or \"rest\"")
+                h.fail('give "vertices" or "rest", not both' if h.has("vertices") else 'missing "vertices" or "rest"')
             if h.has("vertices"):
                 vs = h["vertices"]
                 if not isinstance(vs.v, list) or len(vs.v) != 2:
@@ -582,13 +614,13 @@ def _resolve(root, V, dtype, path):
                 a, b = h["rest"].vec3_pair()
             segments.append({"a": a, "b": b, "target": _target(h, True), "path": h.path})
     if not points and not segments:
-        root.fail("no handles (give at least one entry in \"points\" or \"segments\")")
+        root.fail('no handles (give at least one entry in "points" or "segments")')
     region = None
     if root.has("region"):
         r = root["region"]
         r.require(list, "an array of vertex indices")
         if not r.v:
-            r.fail("no vertices (leave \"region\" out to deform the whole mesh)")
+            r.fail('no vertices (leave "region" out to deform the whole mesh)')
         first = {}
         for i, x in enumerate(r.items()):
             v = x.index()
@@ -602,7 +634,7 @@ def _resolve(root, V, dtype, path):
         root["groups"].require(list, "an array of handle groups")
         owner = {"points": {}, "segments": {}}
         for g in root["groups"].items():
-            g.require(dict, "a group {\"points\": [...], \"segments\": [...], \"rotate\": ..., \"translate\": ...}")
+            g.require(dict, 'a group {"points": [...], "segments": [...], "rotate": ..., "translate": ...}')
             g.only_keys({"points", "segments", "rotate", "translate", "name"})
             members = {}
             for kind, count in (("points", len(points)), ("segments", len(segments))):
@@ -614,12 +646,14 @@ def _resolve(root, V, dtype, path):
                         if i >= count:
                             x.fail(f"no {kind[:-1]} handle {i} (the file has {count})")
                         if i in owner[kind]:
-                            x.fail(f"{kind[:-1]} handle {i} is already in a group (at {owner[kind][i]}); "
-                                   "a handle can be in one group only")
+                            x.fail(
+                                f"{kind[:-1]} handle {i} is already in a group (at {owner[kind][i]}); "
+                                "a handle can be in one group only"
+                            )
                         owner[kind][i] = x.path
                         members[kind].append(i)
             if not members["points"] and not members["segments"]:
-                g.fail("an empty group (give \"points\" or \"segments\")")
+                g.fail('an empty group (give "points" or "segments")')
             motion = _motion(_Node({k: g.v[k] for k in ("rotate", "translate") if k in g.v}, g.path, g.file))
             groups.append({"points": members["points"], "segments": members["segments"], "motion": motion})
     frames = None
@@ -627,24 +661,31 @@ def _resolve(root, V, dtype, path):
         fr = root["frames"]
         fr.require(list, "an array of frames")
         if not fr.v:
-            fr.fail("no frames (leave \"frames\" out for a single output)")
+            fr.fail('no frames (leave "frames" out for a single output)')
         frames = []
         for frame in fr.items():
-            frame.require(dict, "a frame {\"points\": [...], \"segments\": [...], \"groups\": [...]}")
+            frame.require(dict, 'a frame {"points": [...], "segments": [...], "groups": [...]}')
             frame.only_keys({"points", "segments", "groups", "comment"})
             spec = {}
-            for key, count, segment in (("points", len(points), False), ("segments", len(segments), True),
-                                        ("groups", len(groups), None)):
+            for key, count, segment in (
+                ("points", len(points), False),
+                ("segments", len(segments), True),
+                ("groups", len(groups), None),
+            ):
                 spec[key] = [None] * count
                 if frame.has(key):
                     lst = frame[key]
                     lst.require(list, f"an array with one entry per {key[:-1]}")
                     if len(lst.v) != count:
-                        lst.fail(f"{len(lst.v)} entries, expected {count} (one per "
-                                 + ("group" if segment is None else "segment" if segment else "point")
-                                 + (" handle)" if segment is not None else ")"))
-                    spec[key] = [(None if x.v is None else _motion(x)) if segment is None else _frame_entry(x, segment)
-                                 for x in lst.items()]
+                        lst.fail(
+                            f"{len(lst.v)} entries, expected {count} (one per "
+                            + ("group" if segment is None else "segment" if segment else "point")
+                            + (" handle)" if segment is not None else ")")
+                        )
+                    spec[key] = [
+                        (None if x.v is None else _motion(x)) if segment is None else _frame_entry(x, segment)
+                        for x in lst.items()
+                    ]
             frames.append(spec)
 
     def fit(values, where):
@@ -676,7 +717,9 @@ def _resolve(root, V, dtype, path):
         for i, p in enumerate(points):
             kind, value = (spec and spec["points"][i]) or p["target"]
             r = p["rest"]
-            q.append(r if kind == "rest" else value[0] if kind == "absolute" else [r[j] + value[0][j] for j in range(3)])
+            q.append(
+                r if kind == "rest" else value[0] if kind == "absolute" else [r[j] + value[0][j] for j in range(3)]
+            )
         for i, s in enumerate(segments):
             kind, value = (spec and spec["segments"][i]) or s["target"]
             a, b = s["a"], s["b"]
@@ -696,12 +739,15 @@ def _resolve(root, V, dtype, path):
             def image(x):
                 d = [x[0] - c[0], x[1] - c[1], x[2] - c[2]]
                 return [((R[i][0] * d[0] + R[i][1] * d[1]) + R[i][2] * d[2] + c[i]) + t[i] for i in range(3)]
+
             for i in group["points"]:
                 q[i] = image(points[i]["rest"])
             for i in group["segments"]:
                 qa[i], qb[i] = image(segments[i]["a"]), image(segments[i]["b"])
-        return (fit(q, "/points").reshape(-1, 3),
-                (fit(qa, "/segments").reshape(-1, 3), fit(qb, "/segments").reshape(-1, 3)))
+        return (
+            fit(q, "/points").reshape(-1, 3),
+            (fit(qa, "/segments").reshape(-1, 3), fit(qb, "/segments").reshape(-1, 3)),
+        )
 
     targets = [moved(None)] if frames is None else [moved(f) for f in frames]
     return Animation(rest_points, (rest_a, rest_b), targets, region, frames is not None)

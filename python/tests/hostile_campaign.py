@@ -41,7 +41,14 @@ import traceback
 import numpy as np
 
 CORRECT, CLEAR, SILENT_WRONG, BAD_ERROR, CRASH, HANG, SKIPPED = (
-    "correct", "clear error", "SILENT WRONG", "BAD ERROR", "CRASH", "HANG", "skipped")
+    "correct",
+    "clear error",
+    "SILENT WRONG",
+    "BAD ERROR",
+    "CRASH",
+    "HANG",
+    "skipped",
+)
 FAILURES = (SILENT_WRONG, BAD_ERROR, CRASH, HANG)
 EPS = {np.float32: float(np.finfo(np.float32).eps), np.float64: float(np.finfo(np.float64).eps)}
 EPS64 = EPS[np.float64]
@@ -83,6 +90,7 @@ def add(tag, name, fn, accept=None, timeout=60, quick=None):
 
 
 # ---- checks -----------------------------------------------------------------------------------------------
+
 
 def words_in(message, words):
     m = message.lower()
@@ -140,21 +148,28 @@ def within(X, ref, tol, what):
         err = np.abs(X - ref)
     tol = np.broadcast_to(tol, err.shape)
     with np.errstate(divide="ignore", invalid="ignore"):
-        ratio = np.where(err == 0, 0.0, err / tol)   # a zero bound: bitwise equality
+        ratio = np.where(err == 0, 0.0, err / tol)  # a zero bound: bitwise equality
     if not np.all(ratio <= 1):
         i = int(np.argmax(ratio))
-        raise Wrong(f"{what}: {int(np.sum(ratio > 1))} of {ratio.size} beyond the bound, worst "
-                    f"{float(np.max(err)):.3g} (x{float(ratio.flat[i]):.3g} of its bound at {i})")
+        raise Wrong(
+            f"{what}: {int(np.sum(ratio > 1))} of {ratio.size} beyond the bound, worst "
+            f"{float(np.max(err)):.3g} (x{float(ratio.flat[i]):.3g} of its bound at {i})"
+        )
 
 
 # ---- references --------------------------------------------------------------------------------------------
 
+
 def random_rotation(g):
     q = g.normal(size=4)
     w, x, y, z = q / np.linalg.norm(q)
-    return np.array([[1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)],
-                     [2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)],
-                     [2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)]])
+    return np.array(
+        [
+            [1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)],
+            [2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)],
+            [2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)],
+        ]
+    )
 
 
 def kabsch(H):
@@ -279,8 +294,9 @@ def mls_tol(J, kappa, eps, scale, rbf_extra=0.0):
     return 16 * (J + 16) * eps * (1 + kappa) * scale + 4 * eps * np.asarray(rbf_extra) * scale
 
 
-def check_mls(X, V, P, Q, dtype, A=None, B=None, C=None, D=None, transform="rigid", u=2.0, centroids="mls",
-              what="deform"):
+def check_mls(
+    X, V, P, Q, dtype, A=None, B=None, C=None, D=None, transform="rigid", u=2.0, centroids="mls", what="deform"
+):
     ref, kappa, extra = mls_reference(V, P, Q, A, B, C, D, transform, u, centroids)
     J = len(P) + (2 * len(A) if A is not None else 0)
     scale = max(np.abs(x).max() for x in (V, P, Q, A, B, C, D) if x is not None and len(x))
@@ -289,6 +305,7 @@ def check_mls(X, V, P, Q, dtype, A=None, B=None, C=None, D=None, transform="rigi
 
 
 # ---- scenes -----------------------------------------------------------------------------------------------
+
 
 def cloud(g, n=300, k=6, s=0, dtype=np.float64):
     """Vertices and handles in [-1, 1]^3; moved handles by a random rotation plus noise. Returned in dtype
@@ -348,8 +365,7 @@ def exact_scaling(e, dt, *arrays):
     """The arrays rounded so that they and their multiples by 2^e are all exact in dt: values that 2^e
     would push into the subnormal range keep only the digits they keep there (so the scaled scene is the
     same problem, not a rounded one)."""
-    return tuple(np.ldexp(np.ldexp(np.asarray(x, np.float64), e).astype(dt).astype(np.float64), -e)
-                 for x in arrays)
+    return tuple(np.ldexp(np.ldexp(np.asarray(x, np.float64), e).astype(dt).astype(np.float64), -e) for x in arrays)
 
 
 def misaligned(X):
@@ -370,15 +386,28 @@ def region_ring(F, region, n):
 
 # ---- the cases ---------------------------------------------------------------------------------------------
 
+
 def build_cases(args):
     import mlsdeform
+
     D_ = mlsdeform.Deformer
     DTYPES = (np.float32, np.float64)
     METHODS = ("axis_angle", "horn_quaternion", "horn_matrix", "kanatani", "svd")
     VALUE, TYPE, INDEX, RUNTIME = ValueError, TypeError, IndexError, RuntimeError
     # A refusal of a valid input at the edge of the precision's range names its reason.
-    SCALE_WORDS = ["scale", "range", "represent", "overflow", "underflow", "too large", "too small", "beyond",
-                   "extent", "magnitude", "max(T)"]
+    SCALE_WORDS = [
+        "scale",
+        "range",
+        "represent",
+        "overflow",
+        "underflow",
+        "too large",
+        "too small",
+        "beyond",
+        "extent",
+        "magnitude",
+        "max(T)",
+    ]
     SCALE_ACCEPT = (ValueError, SCALE_WORDS)
 
     # ---- fit_rotations: sizes around the lane widths, dtypes, methods, threads ----
@@ -386,46 +415,68 @@ def build_cases(args):
     for dt in DTYPES:
         for m in sizes:
             for method in METHODS:
+
                 def f(g, dt=dt, m=m, method=method):
                     H = (g.standard_normal((m, 3, 3)) * g.uniform(0.1, 10, (m, 1, 1))).astype(dt)
                     R = mlsdeform.fit_rotations(H, method=method, threads=int(g.integers(0, 3)))
                     if R.dtype != dt or R.shape != (m, 3, 3):
                         raise Wrong(f"got {R.dtype} {R.shape}")
                     check_rotations(R, H, EPS[dt])
+
                 add("fit_rotations", f"random m={m} {np.dtype(dt).name} {method}", f)
 
     def degenerate(g, dt):
         p, q = g.normal(size=3), g.normal(size=3)
         p, q = p / np.linalg.norm(p), q / np.linalg.norm(q)
         Rr = random_rotation(g)
-        Hs = [np.zeros((3, 3)), np.outer(q, p), np.eye(3), -np.eye(3), -Rr, np.diag([1.0, 1.0, -1.0]),
-              np.diag([3.0, 2.0, 0.0]), Rr @ np.diag([5.0, 5.0, 5.0]), Rr @ np.diag([1.0, 1e-9, 1e-9]),
-              np.outer(q, p) + 1e-12 * Rr, Rr @ np.diag([1.0, 1.0, 0.0])]
+        Hs = [
+            np.zeros((3, 3)),
+            np.outer(q, p),
+            np.eye(3),
+            -np.eye(3),
+            -Rr,
+            np.diag([1.0, 1.0, -1.0]),
+            np.diag([3.0, 2.0, 0.0]),
+            Rr @ np.diag([5.0, 5.0, 5.0]),
+            Rr @ np.diag([1.0, 1e-9, 1e-9]),
+            np.outer(q, p) + 1e-12 * Rr,
+            Rr @ np.diag([1.0, 1.0, 0.0]),
+        ]
         return np.array(Hs).astype(dt)
 
     for dt in DTYPES:
         for method in METHODS:
+
             def f(g, dt=dt, method=method):
                 H = degenerate(g, dt)
                 R = mlsdeform.fit_rotations(H, method=method)
                 check_rotations(R, H, EPS[dt], "degenerate batch")
                 if not np.array_equal(R[0], np.eye(3, dtype=dt)):
                     raise Wrong("H = 0 did not give the identity")
+
             add("fit_rotations", f"degenerate batch {np.dtype(dt).name} {method}", f)
+
             def f1(g, dt=dt, method=method):
                 for H in degenerate(g, dt):
                     R = mlsdeform.fit_rotation(H, method=method)
                     check_rotations(R[None], H[None], EPS[dt], "fit_rotation")
+
             add("fit_rotation", f"degenerate one by one {np.dtype(dt).name} {method}", f1)
 
     # Scale: the optimal rotation of s H is that of H; powers of two keep H's digits, so the fit is the same
     # problem, and the result must pass the same bound (or be bitwise the same).
-    for dt, exps in ((np.float32, (-140, -135, -126, -120, -100, -60, 60, 100, 119)),
-                     (np.float64, (-1070, -1060, -1022, -1000, -600, 600, 1000, 1015))):
+    for dt, exps in (
+        (np.float32, (-140, -135, -126, -120, -100, -60, 60, 100, 119)),
+        (np.float64, (-1070, -1060, -1022, -1000, -600, 600, 1000, 1015)),
+    ):
         for e in exps:
             for method in ("axis_angle", "horn_quaternion", "svd"):
-                tag = "subnormal" if (dt == np.float32 and e <= -126) or (dt == np.float64 and e <= -1022) \
+                tag = (
+                    "subnormal"
+                    if (dt == np.float32 and e <= -126) or (dt == np.float64 and e <= -1022)
                     else "fit_rotations-scale"
+                )
+
                 def f(g, dt=dt, e=e, method=method):
                     # Integer matrices (|entries| <= 255) scaled by 2^e are exact even as subnormals (8 bits).
                     Hi = g.integers(-255, 256, (64, 3, 3)).astype(np.float64)
@@ -434,20 +485,25 @@ def build_cases(args):
                         raise RuntimeError("test set-up: the scaled matrices are not exact")
                     R = mlsdeform.fit_rotations(H, method=method)
                     check_rotations(R, Hi, EPS[dt], f"2^{e} H")
+
                 add(tag, f"fit_rotations 2^{e} x integer H {np.dtype(dt).name} {method}", f, accept=SCALE_ACCEPT)
 
     for isa in ("scalar", "sse4_2", "avx2", "avx512"):
-        for dt, values in ((np.float32, (1e-44, 1e-42, 1e-40, 2.0 ** -149, 1e-38)),
-                           (np.float64, (5e-324, 1e-310, 2.0 ** -1022))):
+        for dt, values in (
+            (np.float32, (1e-44, 1e-42, 1e-40, 2.0**-149, 1e-38)),
+            (np.float64, (5e-324, 1e-310, 2.0**-1022)),
+        ):
             for c in values:
+
                 def f(g, isa=isa, dt=dt, c=c):
                     if isa not in mlsdeform.supported_isas():
                         raise Skip(f"this CPU has no {isa}")
                     best = mlsdeform.active_isa()
                     mlsdeform.set_isa(isa)
                     try:
-                        H = np.array([np.eye(3) * c, g.standard_normal((3, 3)) * c,
-                                      random_rotation(g) * c] * 8).astype(dt)
+                        H = np.array([np.eye(3) * c, g.standard_normal((3, 3)) * c, random_rotation(g) * c] * 8).astype(
+                            dt
+                        )
                         R = mlsdeform.fit_rotations(H)
                     finally:
                         mlsdeform.set_isa(best)
@@ -456,25 +512,33 @@ def build_cases(args):
                     check_rotations(R, up, EPS[dt], f"{c:g} H on {isa}")
                     if not np.allclose(R[0], np.eye(3), rtol=0, atol=16 * EPS[dt]):
                         raise Wrong(f"{c:g} I did not give the identity")
+
                 add("subnormal", f"fit_rotations {c:g} x H {np.dtype(dt).name} on {isa}", f)
 
     # NaN and infinities: ValueError naming H[i, r, c], nothing written to out.
     for dt in DTYPES:
         for bad in (np.nan, np.inf, -np.inf):
             for m in (1, 17, 5000):
+
                 def f(g, dt=dt, bad=bad, m=m):
                     H = g.standard_normal((m, 3, 3)).astype(dt)
                     i, r, c = int(g.integers(m)), int(g.integers(3)), int(g.integers(3))
                     H[i, r, c] = bad
                     out = np.full_like(H, 5)
-                    return refused(lambda: mlsdeform.fit_rotations(H, out=out, threads=int(g.integers(0, 3))),
-                                   VALUE, [f"H[{i}, {r}, {c}]"], untouched=[out])
+                    return refused(
+                        lambda: mlsdeform.fit_rotations(H, out=out, threads=int(g.integers(0, 3))),
+                        VALUE,
+                        [f"H[{i}, {r}, {c}]"],
+                        untouched=[out],
+                    )
+
                 add("fit_rotations-nonfinite", f"{bad} at a random entry m={m} {np.dtype(dt).name}", f)
 
     # out= overlapping H, and out= errors.
     for dt in DTYPES:
         for shift in (-32769, -2049, -2048, -1, 1, 2, 2047, 2048, 32768):
             for threads in (1, 0):
+
                 def f(g, dt=dt, shift=shift, threads=threads):
                     m = 40000
                     Bf = g.standard_normal((m + abs(shift), 3, 3)).astype(dt)
@@ -484,8 +548,10 @@ def build_cases(args):
                     if r is not out:
                         raise Wrong("out= not returned")
                     same(out, expected, f"out shifted by {shift} rows")
+
                 add("overlap", f"fit_rotations out=H shifted {shift} {np.dtype(dt).name} threads={threads}", f)
         for kind in ("in place", "reversed H", "strided H", "transposed H", "misaligned out", "misaligned H"):
+
             def f(g, dt=dt, kind=kind):
                 m = 6000
                 Bf = g.standard_normal((2 * m, 3, 3)).astype(dt)
@@ -494,33 +560,40 @@ def build_cases(args):
                 elif kind == "reversed H":
                     H, out = Bf[::-1][:m], Bf[m:]
                 elif kind == "strided H":
-                    H, out = Bf[::2], Bf[m // 2:m // 2 + m]
+                    H, out = Bf[::2], Bf[m // 2 : m // 2 + m]
                 elif kind == "transposed H":
                     H, out = np.swapaxes(Bf[:m], 1, 2), Bf[:m]
                 else:
                     raw = np.zeros(2 * m * 9 * np.dtype(dt).itemsize + 1, np.uint8)
                     mis = raw[1:].view(dt).reshape(2 * m, 3, 3)
                     mis[...] = Bf
-                    H, out = (Bf[:m], mis[:m]) if kind == "misaligned out" else (mis[:m], mis[1:m + 1])
+                    H, out = (Bf[:m], mis[:m]) if kind == "misaligned out" else (mis[:m], mis[1 : m + 1])
                 expected = mlsdeform.fit_rotations(np.array(H, copy=True))
                 mlsdeform.fit_rotations(H, out=out)
                 same(out, expected, kind)
+
             add("overlap", f"fit_rotations {kind} {np.dtype(dt).name}", f)
         bad_outs = [
             ("wrong dtype", lambda H: np.empty(H.shape, np.float16), TYPE, ["out", "dtype"]),
             ("wrong shape", lambda H: np.empty((len(H) + 1, 3, 3), H.dtype), VALUE, ["out", "shape"]),
             ("F-order", lambda H: np.asfortranarray(np.empty(H.shape, H.dtype)), VALUE, ["out", "contiguous"]),
-            ("read-only", lambda H: np.broadcast_to(np.zeros((1, 3, 3), H.dtype), H.shape), VALUE,
-             ["out", "read-only", "contiguous"]),
+            (
+                "read-only",
+                lambda H: np.broadcast_to(np.zeros((1, 3, 3), H.dtype), H.shape),
+                VALUE,
+                ["out", "read-only", "contiguous"],
+            ),
             ("list", lambda H: H.tolist(), TYPE, ["out"]),
             ("strided", lambda H: np.empty((2 * len(H), 3, 3), H.dtype)[::2], VALUE, ["out", "contiguous"]),
         ]
         for name, make, exc, words in bad_outs:
+
             def f(g, dt=dt, make=make, exc=exc, words=words):
                 H = g.standard_normal((50, 3, 3)).astype(dt)
                 out = make(H)
                 keep = [out] if isinstance(out, np.ndarray) else []
                 return refused(lambda: mlsdeform.fit_rotations(H, out=out), exc, words, untouched=keep)
+
             add("fit_rotations-out", f"out {name} {np.dtype(dt).name}", f)
 
     # Layouts and dtypes of H: the same result as the C-contiguous float64/float32 array, bitwise.
@@ -536,32 +609,37 @@ def build_cases(args):
     }
     for dt in DTYPES:
         for name, make in layouts.items():
+
             def f(g, dt=dt, name=name, make=make):
                 H = g.standard_normal((33, 3, 3)).astype(dt)
                 if name == "broadcast":
                     H = np.broadcast_to(H[:1], H.shape).copy()
                 R = mlsdeform.fit_rotations(make(H))
-                want = mlsdeform.fit_rotations(H if name not in ("list", "tuple of arrays", "object array")
-                                               else H.astype(np.float64))
+                want = mlsdeform.fit_rotations(
+                    H if name not in ("list", "tuple of arrays", "object array") else H.astype(np.float64)
+                )
                 same(R, want, name)
+
             add("fit_rotations-layout", f"H {name} {np.dtype(dt).name}", f)
     for name, make, exc, words in [
-            ("int", lambda g: g.integers(-9, 9, (20, 3, 3)), None, None),
-            ("uint8", lambda g: g.integers(0, 9, (20, 3, 3)).astype(np.uint8), None, None),
-            ("bool", lambda g: g.integers(0, 2, (20, 3, 3)).astype(bool), None, None),
-            ("float16", lambda g: g.standard_normal((20, 3, 3)).astype(np.float16), None, None),
-            ("longdouble", lambda g: g.standard_normal((20, 3, 3)).astype(np.longdouble), None, None),
-            ("complex", lambda g: g.standard_normal((20, 3, 3)) + 1j, TYPE, ["H", "real", "complex"]),
-            ("complex zero imaginary", lambda g: g.standard_normal((20, 3, 3)) + 0j, TYPE, ["H", "complex"]),
-            ("datetime", lambda g: np.zeros((20, 3, 3), "M8[s]"), TYPE, ["H", "datetime"]),
-            ("strings", lambda g: np.full((2, 3, 3), "x"), TYPE, ["H"]),
-            ("ragged", lambda g: [[[1, 2, 3]] * 3, [[1, 2]] * 3], TYPE, ["H"]),
-            ("None", lambda g: None, (TYPE, VALUE), ["H"]),
-            ("shape (3, 3)", lambda g: np.eye(3), VALUE, ["H", "shape"]),
-            ("shape (m, 3, 4)", lambda g: np.zeros((4, 3, 4)), VALUE, ["H", "shape"]),
-            ("shape (m, 9)", lambda g: np.zeros((4, 9)), VALUE, ["H", "shape"]),
-            ("shape (2, m, 3, 3)", lambda g: np.zeros((2, 4, 3, 3)), VALUE, ["H", "shape"]),
-            ("scalar", lambda g: 3.0, VALUE, ["H", "shape"])]:
+        ("int", lambda g: g.integers(-9, 9, (20, 3, 3)), None, None),
+        ("uint8", lambda g: g.integers(0, 9, (20, 3, 3)).astype(np.uint8), None, None),
+        ("bool", lambda g: g.integers(0, 2, (20, 3, 3)).astype(bool), None, None),
+        ("float16", lambda g: g.standard_normal((20, 3, 3)).astype(np.float16), None, None),
+        ("longdouble", lambda g: g.standard_normal((20, 3, 3)).astype(np.longdouble), None, None),
+        ("complex", lambda g: g.standard_normal((20, 3, 3)) + 1j, TYPE, ["H", "real", "complex"]),
+        ("complex zero imaginary", lambda g: g.standard_normal((20, 3, 3)) + 0j, TYPE, ["H", "complex"]),
+        ("datetime", lambda g: np.zeros((20, 3, 3), "M8[s]"), TYPE, ["H", "datetime"]),
+        ("strings", lambda g: np.full((2, 3, 3), "x"), TYPE, ["H"]),
+        ("ragged", lambda g: [[[1, 2, 3]] * 3, [[1, 2]] * 3], TYPE, ["H"]),
+        ("None", lambda g: None, (TYPE, VALUE), ["H"]),
+        ("shape (3, 3)", lambda g: np.eye(3), VALUE, ["H", "shape"]),
+        ("shape (m, 3, 4)", lambda g: np.zeros((4, 3, 4)), VALUE, ["H", "shape"]),
+        ("shape (m, 9)", lambda g: np.zeros((4, 9)), VALUE, ["H", "shape"]),
+        ("shape (2, m, 3, 3)", lambda g: np.zeros((2, 4, 3, 3)), VALUE, ["H", "shape"]),
+        ("scalar", lambda g: 3.0, VALUE, ["H", "shape"]),
+    ]:
+
         def f(g, make=make, exc=exc, words=words):
             H = make(g)
             if exc is not None:
@@ -571,45 +649,73 @@ def build_cases(args):
             if R.dtype != want_dt:
                 raise Wrong(f"dtype {R.dtype}, expected float64")
             check_rotations(R, np.asarray(H, np.float64), EPS64)
+
         add("fit_rotations-dtype", f"H {name}", f)
     for method in ("qr", "", "AXIS_ANGLE", None):
-        add("fit_rotations-args", f"method={method!r}",
-            lambda g, method=method: refused(lambda: mlsdeform.fit_rotations(np.zeros((2, 3, 3)), method=method),
-                                             (VALUE, TYPE), ["method", "incompatible"]))
+        add(
+            "fit_rotations-args",
+            f"method={method!r}",
+            lambda g, method=method: refused(
+                lambda: mlsdeform.fit_rotations(np.zeros((2, 3, 3)), method=method),
+                (VALUE, TYPE),
+                ["method", "incompatible"],
+            ),
+        )
 
     # threads: bitwise the same for every valid count; one check and message for fit_rotations and Deformer.
-    for threads in (0, 1, 2, 3, 7, 64, 2 ** 31 - 1):
+    for threads in (0, 1, 2, 3, 7, 64, 2**31 - 1):
+
         def f(g, threads=threads):
             H = g.standard_normal((70000, 3, 3)).astype(np.float32)
-            same(mlsdeform.fit_rotations(H, threads=threads), mlsdeform.fit_rotations(H, threads=1),
-                 f"threads={threads}")
+            same(
+                mlsdeform.fit_rotations(H, threads=threads), mlsdeform.fit_rotations(H, threads=1), f"threads={threads}"
+            )
+
         add("threads", f"fit_rotations threads={threads}", f)
+
         def f2(g, threads=threads):
             V, P, Q, *_ = cloud(g, n=3000, k=9)
             X = D_(V, points=P, threads=threads).deform(points=Q)
             same(X, D_(V, points=P, threads=1).deform(points=Q), f"threads={threads}")
+
         add("threads", f"Deformer threads={threads}", f2)
-    for threads, exc in ((-1, VALUE), (-(2 ** 31), VALUE), (2 ** 31, TYPE), (1.5, TYPE), (1.0, TYPE), ("2", TYPE),
-                         (None, TYPE)):
-        add("threads", f"fit_rotations threads={threads!r}",
+    for threads, exc in (
+        (-1, VALUE),
+        (-(2**31), VALUE),
+        (2**31, TYPE),
+        (1.5, TYPE),
+        (1.0, TYPE),
+        ("2", TYPE),
+        (None, TYPE),
+    ):
+        add(
+            "threads",
+            f"fit_rotations threads={threads!r}",
             lambda g, threads=threads, exc=exc: refused(
-                lambda: mlsdeform.fit_rotations(np.zeros((2, 3, 3)), threads=threads), exc,
-                ["threads", "incompatible"]))
+                lambda: mlsdeform.fit_rotations(np.zeros((2, 3, 3)), threads=threads), exc, ["threads", "incompatible"]
+            ),
+        )
+
         def f(g, threads=threads, exc=exc):
             V, P, *_ = cloud(g, n=20, k=4)
             return refused(lambda: D_(V, points=P, threads=threads), exc, ["threads", "incompatible"])
+
         add("threads", f"Deformer threads={threads!r}", f)
+
     def f(g):
         V, P, *_ = cloud(g, n=20, k=4)
         msgs = []
-        for call in (lambda: D_(V, points=P, threads=-3), lambda: mlsdeform.fit_rotations(np.zeros((1, 3, 3)),
-                                                                                        threads=-3)):
+        for call in (
+            lambda: D_(V, points=P, threads=-3),
+            lambda: mlsdeform.fit_rotations(np.zeros((1, 3, 3)), threads=-3),
+        ):
             try:
                 call()
             except ValueError as e:
                 msgs.append(str(e))
         if len(msgs) != 2 or msgs[0] != msgs[1]:
             raise Wrong(f"threads=-3 refused differently: {msgs}")
+
     add("threads", "one message for threads=-3 in Deformer and fit_rotations", f)
 
     # ---- fit_points against numpy (weighted Kabsch / Umeyama) ----
@@ -625,20 +731,21 @@ def build_cases(args):
         for transform in ("rigid", "similarity"):
             for method in METHODS:
                 for weights in ("none", "random", "some zero"):
+
                     def f(g, dt=dt, transform=transform, method=method, weights=weights):
                         n = int(g.integers(3, 40))
                         P = g.normal(size=(n, 3))
                         R0, t0, move = rigid(g)
-                        Q = move(P) * (g.uniform(0.5, 2) if transform == "similarity" else 1) \
-                            + g.normal(scale=0.01, size=P.shape)
+                        Q = move(P) * (g.uniform(0.5, 2) if transform == "similarity" else 1) + g.normal(
+                            scale=0.01, size=P.shape
+                        )
                         w = None if weights == "none" else g.uniform(0.1, 2, n)
                         if weights == "some zero":
                             w[: n // 3] = 0
                         P, Q = P.astype(dt), Q.astype(dt)
                         w = None if w is None else w.astype(dt)
                         r = mlsdeform.fit_points(P, Q, w, transform=transform, method=method)
-                        R, t, s, kappa = fit_points_reference(P.astype(np.float64), Q.astype(np.float64), w,
-                                                              transform)
+                        R, t, s, kappa = fit_points_reference(P.astype(np.float64), Q.astype(np.float64), w, transform)
                         eps = EPS[dt]
                         tol = rotation_tol(kappa, eps)
                         if np.linalg.norm(r[0] - R) > tol:
@@ -649,9 +756,11 @@ def build_cases(args):
                             raise Wrong(f"t off by {np.linalg.norm(r[1] - t):.3g}")
                         if transform == "similarity" and abs(r[2] - s) > (tol + (n + 16) * eps) * 4 * s:
                             raise Wrong(f"s = {r[2]!r}, expected {s!r}")
+
                     add("fit_points", f"{transform} {method} w={weights} {np.dtype(dt).name}", f)
     for dt, exps in ((np.float32, (-120, -60, 60, 120)), (np.float64, (-1000, -500, 200, 500, 1000))):
         for e in exps:
+
             def f(g, dt=dt, e=e):
                 P = g.normal(size=(10, 3))
                 _, _, move = rigid(g)
@@ -660,7 +769,9 @@ def build_cases(args):
                 R1, t1 = mlsdeform.fit_points(np.ldexp(P, e).astype(dt), np.ldexp(Q, e).astype(dt))
                 within(R1, R0, 64 * EPS[dt] * 8, f"R at 2^{e}")
                 within(np.ldexp(t1.astype(np.float64), -e), t0, 64 * EPS[dt] * 8 * 4, f"t / 2^{e}")
+
             add("scale-fit_points", f"fit_points scene x 2^{e} {np.dtype(dt).name}", f, accept=SCALE_ACCEPT)
+
     def f(g):
         P = g.normal(size=(10, 3))
         try:
@@ -671,13 +782,18 @@ def build_cases(args):
             if not words_in(str(e), SCALE_WORDS):
                 raise BadError(str(e))
             return CLEAR
+
     add("fit_points-huge", "fit_points at 1e200 names no NaN for finite input", f)
     fp_errors = [
         ("negative weight", lambda P: mlsdeform.fit_points(P, P, -np.ones(len(P))), VALUE, ["weight"]),
         ("4 weights for 5 points", lambda P: mlsdeform.fit_points(P, P, np.ones(4)), VALUE, ["weight"]),
         ("2-D weights", lambda P: mlsdeform.fit_points(P, P, np.ones((5, 1))), VALUE, ["w"]),
-        ("NaN weight", lambda P: mlsdeform.fit_points(P, P, np.array([1, 1, np.nan, 1, 1.0])), VALUE,
-         ["weight", "nan", "finite"]),
+        (
+            "NaN weight",
+            lambda P: mlsdeform.fit_points(P, P, np.array([1, 1, np.nan, 1, 1.0])),
+            VALUE,
+            ["weight", "nan", "finite"],
+        ),
         ("all weights zero", lambda P: mlsdeform.fit_points(P, P, np.zeros(5)), VALUE, ["weight"]),
         ("P and Q lengths", lambda P: mlsdeform.fit_points(P, P[:4]), VALUE, ["points", "p has"]),
         ("NaN in P", lambda P: mlsdeform.fit_points(np.where(P > 0.5, np.nan, P), P), VALUE, ["nan", "finite"]),
@@ -685,15 +801,21 @@ def build_cases(args):
         ("affine", lambda P: mlsdeform.fit_points(P, P, transform="affine"), VALUE, ["transform"]),
         ("shape (n, 2)", lambda P: mlsdeform.fit_points(P[:, :2], P[:, :2]), VALUE, ["P", "shape"]),
         ("complex", lambda P: mlsdeform.fit_points(P + 1j, P), TYPE, ["P", "real"]),
-        ("no points", lambda P: mlsdeform.fit_points(np.zeros((0, 3)), np.zeros((0, 3))), VALUE,
-         ["point", "empty", "no "]),
+        (
+            "no points",
+            lambda P: mlsdeform.fit_points(np.zeros((0, 3)), np.zeros((0, 3))),
+            VALUE,
+            ["point", "empty", "no "],
+        ),
         ("fit_rotation shape", lambda P: mlsdeform.fit_rotation(np.zeros((1, 3, 3))), VALUE, ["H", "shape"]),
         ("fit_rotation NaN", lambda P: mlsdeform.fit_rotation(np.full((3, 3), np.nan)), VALUE, ["nan", "finite"]),
     ]
     for name, call, exc, words in fp_errors:
+
         def f(g, call=call, exc=exc, words=words):
             P = g.normal(size=(5, 3))
             return refused(lambda: call(P), exc, words)
+
         add("fit_points-errors", name, f)
 
     # ---- the deformer against the direct numpy MLS ----
@@ -706,23 +828,34 @@ def build_cases(args):
                     combos.append((dt, transform, s, u))
     for i, (dt, transform, s, u) in enumerate(combos):
         for backend in ("simd", "scalar"):
+
             def f(g, dt=dt, transform=transform, s=s, u=u, backend=backend, i=i):
                 V, P, Q, A, B, C, D = cloud(g, n=400, k=6, s=s, dtype=dt)
                 storage = storages[i % 3] if (s == 0 and transform != "affine") else storages[i % 2]
                 method = METHODS[i % 5]
                 seg = (A, B) if s else None
-                d = D_(V, points=P, segments=seg, transform=transform, exponent=u, backend=backend,
-                       weight_storage=storage, method=method)
+                d = D_(
+                    V,
+                    points=P,
+                    segments=seg,
+                    transform=transform,
+                    exponent=u,
+                    backend=backend,
+                    weight_storage=storage,
+                    method=method,
+                )
                 X = d.deform(points=Q, segments=(C, D) if s else None)
                 if X.dtype != dt:
                     raise Wrong(f"dtype {X.dtype}")
                 check_mls(X, V, P, Q, dt, *((A, B, C, D) if s else ()), transform=transform, u=u)
+
             add("deform", f"{transform} u={u} segments={s} {np.dtype(dt).name} {backend}", f)
 
     # Invariants: rest pose, rigid motion of every handle (MLS reproduces it), stateful targets.
     for dt in DTYPES:
         for transform in ("rigid", "similarity", "affine"):
             for sw in ("paper_constant", "exact_integral"):
+
                 def f(g, dt=dt, transform=transform, sw=sw):
                     V, P, Q, A, B, C, D = cloud(g, n=300, k=5, s=2, dtype=dt)
                     d = D_(V, points=P, segments=(A, B), transform=transform, segment_weight=sw)
@@ -736,7 +869,9 @@ def build_cases(args):
                     tol = mls_tol(len(P) + 4, kappa * (10 if sw == "exact_integral" else 1), EPS[dt], 4)
                     within(X0, V.astype(np.float64), tol, "rest pose")
                     within(X1, move(V), tol, "rigid motion of every handle")
+
                 add("deform-invariants", f"rest and rigid motion {transform} {sw} {np.dtype(dt).name}", f)
+
         def f(g, dt=dt):
             V, P, Q, A, B, C, D = cloud(g, n=200, k=5, s=2, dtype=dt)
             d = D_(V, points=P, segments=(A, B))
@@ -747,20 +882,26 @@ def build_cases(args):
             same(d.deform(), d.deform(points=Q, segments=(C, D)), "set targets vs deform(points=...)")
             same(d.targets["points"], Q, "targets")
             check_mls(d.deform(), V, P, Q, dt, A, B, C, D)
+
         add("deform-invariants", f"stateful targets {np.dtype(dt).name}", f)
 
     # Few, duplicate and coincident handles.
     for dt in DTYPES:
+
         def f(g, dt=dt):
             V, P, Q, *_ = cloud(g, n=100, k=1, dtype=dt)
             X = D_(V, points=P).deform(points=Q)
             within(X, V.astype(np.float64) + (Q[0] - P[0]), 16 * EPS[dt] * 4, "one handle: a translation")
+
         add("deform-handles", f"one handle {np.dtype(dt).name}", f)
+
         def f(g, dt=dt):
             V, P, Q, *_ = cloud(g, n=200, k=4, dtype=dt)
             P2, Q2 = np.vstack([P, P[:2]]), np.vstack([Q, Q[:2]])
             check_mls(D_(V, points=P2).deform(points=Q2), V, P2, Q2, dt, what="duplicate handles")
+
         add("deform-handles", f"duplicate handles {np.dtype(dt).name}", f)
+
         def f(g, dt=dt):
             V, P, Q, *_ = cloud(g, n=200, k=6, dtype=dt)
             idx = g.choice(len(V), 6, replace=False)
@@ -769,15 +910,20 @@ def build_cases(args):
             same(X[idx], Q, "vertices at handles land on their targets")
             rest = np.setdiff1d(np.arange(len(V)), idx)
             check_mls(X[rest], V[rest], P, Q, dt, what="other vertices")
+
         add("deform-handles", f"handles at vertices {np.dtype(dt).name}", f)
+
         def f(g, dt=dt):
             V, P, Q, *_ = cloud(g, n=100, k=4, dtype=dt)
             P[:, 2] = 0
             return refused(lambda: D_(V, points=P, transform="affine"), VALUE, ["coplanar", "collinear", "span"])
+
         add("deform-handles", f"coplanar handles affine {np.dtype(dt).name}", f)
+
         def f(g, dt=dt):
             V, P, Q, A, B, C, D = cloud(g, n=50, k=3, s=1, dtype=dt)
             return refused(lambda: D_(V, points=P, segments=(A, A.copy())), VALUE, ["zero-length", "segment"])
+
         add("deform-handles", f"zero-length segment {np.dtype(dt).name}", f)
 
     # Layouts and dtypes of the inputs: the same as the C-contiguous array, bitwise.
@@ -793,13 +939,20 @@ def build_cases(args):
     for dt in DTYPES:
         for name, make in in_layouts.items():
             for which in ("vertices", "points", "moved points", "segments", "out"):
-                if which == "out" and name in ("F-order", "reversed view", "strided view", "column-strided",
-                                               "list", "read-only"):
+                if which == "out" and name in (
+                    "F-order",
+                    "reversed view",
+                    "strided view",
+                    "column-strided",
+                    "list",
+                    "read-only",
+                ):
                     continue
+
                 def f(g, dt=dt, make=make, which=which, name=name):
                     V, P, Q, A, B, C, D = cloud(g, n=150, k=5, s=1, dtype=dt)
                     want = D_(V, points=P, segments=(A, B)).deform(points=Q, segments=(C, D))
-                    conv = (lambda X: make(X) if name != "list" else np.asarray(make(X), dt).tolist())
+                    conv = lambda X: make(X) if name != "list" else np.asarray(make(X), dt).tolist()
                     args = dict(V=V, P=P, Q=Q, A=A)
                     if which == "vertices":
                         args["V"] = conv(V)
@@ -816,46 +969,63 @@ def build_cases(args):
                         same(np.ascontiguousarray(out), want, f"out {name}")
                     else:
                         same(d.deform(points=args["Q"], segments=(C, D)), want, f"{which} {name}")
+
                 add("deform-layout", f"{which} {name} {np.dtype(dt).name}", f)
 
-    in_dtypes = [("int64", lambda X: np.round(X * 10).astype(np.int64), None),
-                 ("int8", lambda X: np.round(X * 10).astype(np.int8), None),
-                 ("float16", lambda X: X.astype(np.float16), None),
-                 ("bool", lambda X: X > 0, None),
-                 ("object", lambda X: X.astype(object), None),
-                 ("numeric strings", lambda X: X.astype(str), None),
-                 ("complex", lambda X: X + 1j, (TYPE, ["real"])),
-                 ("complex, zero imaginary", lambda X: X + 0j, (TYPE, ["real", "complex"])),
-                 ("timedelta", lambda X: X.astype("m8[s]"), (TYPE, ["real"])),
-                 ("words", lambda X: np.full(X.shape, "abc"), (TYPE, ["expected"])),
-                 ("None inside", lambda X: [[None, 0, 0]] * len(X), ((TYPE, VALUE), ["finite", "expected"]))]
+    in_dtypes = [
+        ("int64", lambda X: np.round(X * 10).astype(np.int64), None),
+        ("int8", lambda X: np.round(X * 10).astype(np.int8), None),
+        ("float16", lambda X: X.astype(np.float16), None),
+        ("bool", lambda X: X > 0, None),
+        ("object", lambda X: X.astype(object), None),
+        ("numeric strings", lambda X: X.astype(str), None),
+        ("complex", lambda X: X + 1j, (TYPE, ["real"])),
+        ("complex, zero imaginary", lambda X: X + 0j, (TYPE, ["real", "complex"])),
+        ("timedelta", lambda X: X.astype("m8[s]"), (TYPE, ["real"])),
+        ("words", lambda X: np.full(X.shape, "abc"), (TYPE, ["expected"])),
+        ("None inside", lambda X: [[None, 0, 0]] * len(X), ((TYPE, VALUE), ["finite", "expected"])),
+    ]
     for name, make, err in in_dtypes:
         for which in ("vertices", "points", "moved points"):
+
             def f(g, make=make, err=err, which=which):
                 V, P, Q, *_ = cloud(g, n=60, k=5)
                 V, P, Q = V * 3, P * 3, Q * 3
                 conv = {"vertices": V, "points": P, "moved points": Q}[which]
                 given = make(conv)
                 exact = np.asarray(given, np.float64) if err is None else None
+
                 def run():
                     if which == "vertices":
                         return D_(given, points=P).deform(points=Q)
                     if which == "points":
                         return D_(V, points=given).deform(points=Q)
                     return D_(V, points=P).deform(points=given)
+
                 if err is not None:
-                    return refused(run, err[0], err[1] + [{"vertices": "vertices", "points": "points",
-                                                           "moved points": "points"}[which]])
+                    return refused(
+                        run,
+                        err[0],
+                        err[1] + [{"vertices": "vertices", "points": "points", "moved points": "points"}[which]],
+                    )
                 X = run()
-                Vr, Pr, Qr = (exact if which == "vertices" else V, exact if which == "points" else P,
-                              exact if which == "moved points" else Q)
+                Vr, Pr, Qr = (
+                    exact if which == "vertices" else V,
+                    exact if which == "points" else P,
+                    exact if which == "moved points" else Q,
+                )
                 if len(np.unique(Pr, axis=0)) < 4 or np.linalg.matrix_rank(Pr - Pr.mean(0)) < 3:
                     raise Skip("the converted handles are degenerate")
                 check_mls(X, Vr, Pr, Qr, np.float64, what=f"{which} as {name}")
+
             # Booleans as handle positions put several handles on one corner with different targets:
             # a refusal that says so is the right answer.
-            add("deform-dtype", f"{which} as {name}", f,
-                accept=(VALUE, ["share their rest position"]) if (name, which) == ("bool", "points") else None)
+            add(
+                "deform-dtype",
+                f"{which} as {name}",
+                f,
+                accept=(VALUE, ["share their rest position"]) if (name, which) == ("bool", "points") else None,
+            )
 
     # NaN, infinities and coordinates too large: ValueError, out untouched.
     for dt in DTYPES:
@@ -863,10 +1033,18 @@ def build_cases(args):
         # limited, so "too large" is tried on targets only.
         huge = 1e38 if dt == np.float32 else 1e307
         for bad in (np.nan, np.inf, -np.inf, huge):
-            for which in ("vertices", "points", "moved points", "segment targets", "set_point_target",
-                          "set_segment_target", "translation"):
+            for which in (
+                "vertices",
+                "points",
+                "moved points",
+                "segment targets",
+                "set_point_target",
+                "set_segment_target",
+                "translation",
+            ):
                 if bad == huge and which in ("vertices", "points"):
                     continue
+
                 def f(g, dt=dt, bad=bad, which=which):
                     V, P, Q, A, B, C, D = cloud(g, n=80, k=4, s=1, dtype=dt)
                     i = int(g.integers(3))
@@ -882,22 +1060,24 @@ def build_cases(args):
                         return refused(lambda: D_(V, points=P, segments=(A, B)), VALUE, words)
                     if which == "moved points":
                         Q[i, 2] = badv
-                        return refused(lambda: d.deform(points=Q, segments=(C, D), out=out), VALUE, words,
-                                       untouched=[out])
+                        return refused(
+                            lambda: d.deform(points=Q, segments=(C, D), out=out), VALUE, words, untouched=[out]
+                        )
                     if which == "segment targets":
                         C[0, 0] = badv
-                        return refused(lambda: d.deform(points=Q, segments=(C, D), out=out), VALUE, words,
-                                       untouched=[out])
+                        return refused(
+                            lambda: d.deform(points=Q, segments=(C, D), out=out), VALUE, words, untouched=[out]
+                        )
                     before = d.targets
                     if which == "set_point_target":
                         r = refused(lambda: d.set_point_target(i, [0, badv, 0]), VALUE, words)
                     elif which == "set_segment_target":
                         r = refused(lambda: d.set_segment_target(0, [0, 0, 0], [badv, 0, 0]), VALUE, words)
                     else:
-                        r = refused(lambda: d.transform_handles(points=[i], translation=[badv, 0, 0]), VALUE,
-                                    words)
+                        r = refused(lambda: d.transform_handles(points=[i], translation=[badv, 0, 0]), VALUE, words)
                     same(d.targets["points"], before["points"], "targets after a refused change")
                     return r
+
                 add("deform-nonfinite", f"{bad} in {which} {np.dtype(dt).name}", f)
 
     # Empty arrays and wrong counts.
@@ -905,14 +1085,23 @@ def build_cases(args):
         ("no vertices", lambda V, P, Q: D_(np.zeros((0, 3)), points=P).deform(points=Q).shape == (0, 3), None),
         ("no handles", lambda V, P, Q: D_(V), (VALUE, ["handles"])),
         ("empty points, no segments", lambda V, P, Q: D_(V, points=np.zeros((0, 3))), (VALUE, ["handles"])),
-        ("empty segments only", lambda V, P, Q: D_(V, segments=(np.zeros((0, 3)), np.zeros((0, 3)))),
-         (VALUE, ["handles"])),
+        (
+            "empty segments only",
+            lambda V, P, Q: D_(V, segments=(np.zeros((0, 3)), np.zeros((0, 3)))),
+            (VALUE, ["handles"]),
+        ),
         ("one point fewer", lambda V, P, Q: D_(V, points=P).deform(points=Q[:-1]), (VALUE, ["point handles"])),
-        ("one point more", lambda V, P, Q: D_(V, points=P).deform(points=np.vstack([Q, Q[:1]])),
-         (VALUE, ["point handles"])),
+        (
+            "one point more",
+            lambda V, P, Q: D_(V, points=P).deform(points=np.vstack([Q, Q[:1]])),
+            (VALUE, ["point handles"]),
+        ),
         ("moved (k, 2)", lambda V, P, Q: D_(V, points=P).deform(points=Q[:, :2]), (VALUE, ["points", "shape"])),
-        ("moved (k, 4)", lambda V, P, Q: D_(V, points=P).deform(points=np.hstack([Q, Q[:, :1]])),
-         (VALUE, ["points", "shape"])),
+        (
+            "moved (k, 4)",
+            lambda V, P, Q: D_(V, points=P).deform(points=np.hstack([Q, Q[:, :1]])),
+            (VALUE, ["points", "shape"]),
+        ),
         ("moved (3k,)", lambda V, P, Q: D_(V, points=P).deform(points=Q.ravel()), (VALUE, ["points", "shape"])),
         ("vertices (n, 2)", lambda V, P, Q: D_(V[:, :2], points=P), (VALUE, ["vertices", "shape"])),
         ("vertices 3-D", lambda V, P, Q: D_(V[None], points=P), (VALUE, ["vertices", "shape"])),
@@ -920,18 +1109,36 @@ def build_cases(args):
         ("segments of 3", lambda V, P, Q: D_(V, segments=(P, P, P)), (VALUE, ["segments"])),
         ("segments an array", lambda V, P, Q: D_(V, segments=P), ((VALUE, TYPE), ["segments"])),
         ("segments A, B lengths", lambda V, P, Q: D_(V, segments=(P, P[:-1] + 1)), (VALUE, ["segments", "rows"])),
-        ("moved segments count", lambda V, P, Q: D_(V, points=P, segments=(P[:2], P[:2] + 1)).deform(
-            segments=(P[:1], P[:1] + 1)), (VALUE, ["segment"])),
-        ("segments given, none at rest", lambda V, P, Q: D_(V, points=P).deform(segments=(P[:1], P[:1] + 1)),
-         (VALUE, ["segment"])),
-        ("out (n - 1, 3)", lambda V, P, Q: D_(V, points=P).deform(out=np.empty((len(V) - 1, 3))),
-         (VALUE, ["out", "shape"])),
-        ("out float32 for float64", lambda V, P, Q: D_(V, points=P).deform(out=np.empty(V.shape, np.float32)),
-         (TYPE, ["out", "dtype"])),
-        ("out F-order", lambda V, P, Q: D_(V, points=P).deform(out=np.asfortranarray(np.empty(V.shape))),
-         (VALUE, ["out", "contiguous"])),
-        ("out read-only", lambda V, P, Q: D_(V, points=P).deform(out=np.broadcast_to(np.zeros(3), V.shape)),
-         (VALUE, ["out"])),
+        (
+            "moved segments count",
+            lambda V, P, Q: D_(V, points=P, segments=(P[:2], P[:2] + 1)).deform(segments=(P[:1], P[:1] + 1)),
+            (VALUE, ["segment"]),
+        ),
+        (
+            "segments given, none at rest",
+            lambda V, P, Q: D_(V, points=P).deform(segments=(P[:1], P[:1] + 1)),
+            (VALUE, ["segment"]),
+        ),
+        (
+            "out (n - 1, 3)",
+            lambda V, P, Q: D_(V, points=P).deform(out=np.empty((len(V) - 1, 3))),
+            (VALUE, ["out", "shape"]),
+        ),
+        (
+            "out float32 for float64",
+            lambda V, P, Q: D_(V, points=P).deform(out=np.empty(V.shape, np.float32)),
+            (TYPE, ["out", "dtype"]),
+        ),
+        (
+            "out F-order",
+            lambda V, P, Q: D_(V, points=P).deform(out=np.asfortranarray(np.empty(V.shape))),
+            (VALUE, ["out", "contiguous"]),
+        ),
+        (
+            "out read-only",
+            lambda V, P, Q: D_(V, points=P).deform(out=np.broadcast_to(np.zeros(3), V.shape)),
+            (VALUE, ["out"]),
+        ),
         ("out a list", lambda V, P, Q: D_(V, points=P).deform(out=V.tolist()), (TYPE, ["out"])),
         ("unknown transform", lambda V, P, Q: D_(V, points=P, transform="rigidd"), (VALUE, ["transform"])),
         ("unknown method", lambda V, P, Q: D_(V, points=P, method="qr"), (VALUE, ["method"])),
@@ -949,18 +1156,34 @@ def build_cases(args):
         ("arap -1", lambda V, P, Q: D_(V, points=P, arap_iterations=-1), (VALUE, ["arap_iterations"])),
         ("positional points", lambda V, P, Q: D_(V, P), (TYPE, ["incompatible"])),
         ("unknown keyword", lambda V, P, Q: D_(V, points=P, handles=P), (TYPE, ["incompatible"])),
-        ("on_the_fly with RBF", lambda V, P, Q: D_(V, points=P, centroids="rbf", weight_storage="on_the_fly"),
-         (VALUE, ["on_the_fly", "rbf"])),
-        ("set_point_target index k", lambda V, P, Q: D_(V, points=P).set_point_target(len(P), [0, 0, 0]),
-         (INDEX, ["index"])),
-        ("set_point_target index -1", lambda V, P, Q: D_(V, points=P).set_point_target(-1, [0, 0, 0]),
-         (INDEX, ["index"])),
-        ("set_point_target 2 numbers", lambda V, P, Q: D_(V, points=P).set_point_target(0, [0, 0]),
-         (VALUE, ["target"])),
-        ("set_segment_target no segments", lambda V, P, Q: D_(V, points=P).set_segment_target(0, [0] * 3, [1] * 3),
-         (INDEX, ["index"])),
+        (
+            "on_the_fly with RBF",
+            lambda V, P, Q: D_(V, points=P, centroids="rbf", weight_storage="on_the_fly"),
+            (VALUE, ["on_the_fly", "rbf"]),
+        ),
+        (
+            "set_point_target index k",
+            lambda V, P, Q: D_(V, points=P).set_point_target(len(P), [0, 0, 0]),
+            (INDEX, ["index"]),
+        ),
+        (
+            "set_point_target index -1",
+            lambda V, P, Q: D_(V, points=P).set_point_target(-1, [0, 0, 0]),
+            (INDEX, ["index"]),
+        ),
+        (
+            "set_point_target 2 numbers",
+            lambda V, P, Q: D_(V, points=P).set_point_target(0, [0, 0]),
+            (VALUE, ["target"]),
+        ),
+        (
+            "set_segment_target no segments",
+            lambda V, P, Q: D_(V, points=P).set_segment_target(0, [0] * 3, [1] * 3),
+            (INDEX, ["index"]),
+        ),
     ]
     for name, call, err in shape_cases:
+
         def f(g, call=call, err=err):
             V, P, Q, *_ = cloud(g, n=40, k=4)
             if err is None:
@@ -968,10 +1191,12 @@ def build_cases(args):
                     raise Wrong("unexpected result")
                 return CORRECT
             return refused(lambda: call(V, P, Q), err[0], err[1])
+
         add("deform-errors", name, f)
 
     # out= holding the handles (deform copies them before it writes).
     for dt in DTYPES:
+
         def f(g, dt=dt):
             V, P, Q, A, B, C, D = cloud(g, n=100, k=5, s=2, dtype=dt)
             d = D_(V, points=P, segments=(A, B))
@@ -980,6 +1205,7 @@ def build_cases(args):
             X[:5], X[5:7], X[7:9] = Q, C, D
             d.deform(points=X[:5], segments=(X[5:7], X[7:9]), out=X)
             same(X, want, "handles inside out=")
+
         add("overlap", f"deform with handles inside out= {np.dtype(dt).name}", f)
 
     # ---- scale: the whole scene by 2^e, divided back (MLS, RBF, regions, groups) ----
@@ -987,11 +1213,19 @@ def build_cases(args):
     dexps = (-1000, -700, -300, 300, 700, 1000)
     for dt, exps in ((np.float32, fexps), (np.float64, dexps)):
         for e in exps:
-            for variant in ("mls rigid", "mls similarity", "mls affine", "segments", "rbf", "region", "groups",
-                            "on_the_fly"):
+            for variant in (
+                "mls rigid",
+                "mls similarity",
+                "mls affine",
+                "segments",
+                "rbf",
+                "region",
+                "groups",
+                "on_the_fly",
+            ):
+
                 def f(g, dt=dt, e=e, variant=variant):
-                    V, P, Q, A, B, C, D = cloud(g, n=200, k=6, s=2 if variant == "segments" else 0,
-                                                dtype=np.float64)
+                    V, P, Q, A, B, C, D = cloud(g, n=200, k=6, s=2 if variant == "segments" else 0, dtype=np.float64)
                     transform = variant.split()[1] if variant.startswith("mls") else "rigid"
                     kw = dict(transform=transform)
                     if variant == "rbf":
@@ -1008,15 +1242,21 @@ def build_cases(args):
                         kw["weight_storage"] = "on_the_fly"
                     R, t, move = rigid(g)
                     V, P, Q, A, B, C, D, t = exact_scaling(e, dt, V, P, Q, A, B, C, D, t)
+
                     def run(s):
                         sc = lambda X: np.ldexp(X, s).astype(dt)
                         seg = (sc(A), sc(B)) if variant == "segments" else None
                         d = D_(sc(V), points=sc(P), segments=seg, **kw)
                         if variant == "groups":
-                            d.transform_handles(points=range(len(P)), rotation=R.astype(dt),
-                                                translation=sc(t[None])[0], pivot=sc(P[:1])[0])
+                            d.transform_handles(
+                                points=range(len(P)),
+                                rotation=R.astype(dt),
+                                translation=sc(t[None])[0],
+                                pivot=sc(P[:1])[0],
+                            )
                             return d.deform()
                         return d.deform(points=sc(Q), segments=(sc(C), sc(D)) if seg else None)
+
                     X0 = run(0).astype(np.float64)
                     Xs = run(e)
                     finite(Xs, f"scene x 2^{e}")
@@ -1028,19 +1268,22 @@ def build_cases(args):
                         Qr = (Pr - Pr[0]) @ R.astype(dt).T + Pr[0] + t.astype(dt)
                     J = len(P) + len(ring) + (4 if variant == "segments" else 0)
                     args = (A, B, C, D) if variant == "segments" else ()
-                    Pr, Qr = np.vstack([Pr, Vr[ring]]), np.vstack([Qr, Vr[ring]])   # the region's ring
+                    Pr, Qr = np.vstack([Pr, Vr[ring]]), np.vstack([Qr, Vr[ring]])  # the region's ring
                     rows = kw.get("region", np.arange(len(V)))
-                    ref, kappa, extra = mls_reference(Vr[rows], Pr, Qr, *args, transform=transform,
-                                                      centroids=kw.get("centroids", "mls"))
-                    tol = np.zeros(len(V))   # outside a region: bitwise at rest, scaled exactly
+                    ref, kappa, extra = mls_reference(
+                        Vr[rows], Pr, Qr, *args, transform=transform, centroids=kw.get("centroids", "mls")
+                    )
+                    tol = np.zeros(len(V))  # outside a region: bitwise at rest, scaled exactly
                     tol[rows] = 2 * mls_tol(J, kappa, EPS[dt], 4, extra)
                     within(np.ldexp(Xs.astype(np.float64), -e), X0, tol, f"scene x 2^{e}, divided back")
+
                 add("scale", f"{variant} x 2^{e} {np.dtype(dt).name}", f, accept=SCALE_ACCEPT)
 
     # ---- ARAP ----
     for dt in DTYPES:
         for iterations in (1, 2, 5):
             for pose in ("rest", "rigid"):
+
                 def f(g, dt=dt, iterations=iterations, pose=pose):
                     V, F = grid_mesh(8, 8, dt)
                     held = np.array([0, 7, 56, 63, 27])
@@ -1049,9 +1292,12 @@ def build_cases(args):
                     Q = P if pose == "rest" else move(P).astype(dt)
                     X = D_(V, points=P, faces=F, arap_iterations=iterations).deform(points=Q)
                     want = V.astype(np.float64) if pose == "rest" else move(V)
-                    within(X, want, arap_tol(V.astype(np.float64), F, held, iterations, EPS[dt], 2),
-                           f"ARAP {pose} pose")
+                    within(
+                        X, want, arap_tol(V.astype(np.float64), F, held, iterations, EPS[dt], 2), f"ARAP {pose} pose"
+                    )
+
                 add("arap", f"{pose} pose, {iterations} iterations {np.dtype(dt).name}", f)
+
             def f(g, dt=dt, iterations=iterations):
                 V, F = grid_mesh(8, 8, dt)
                 held = np.array([0, 7, 56, 63])
@@ -1060,65 +1306,121 @@ def build_cases(args):
                 X = D_(V, points=V[held], faces=F, arap_iterations=iterations).deform(points=Q)
                 finite(X)
                 same(X[held], Q, "handles on vertices are held at their targets")
+
             add("arap", f"handles on vertices exact, {iterations} iterations {np.dtype(dt).name}", f)
-        for e in ((-120, -70, -20, 20, 70, 120) if dt == np.float32 else (-1000, -500, -200, 200, 500, 1000)):
+        for e in (-120, -70, -20, 20, 70, 120) if dt == np.float32 else (-1000, -500, -200, 200, 500, 1000):
+
             def f(g, dt=dt, e=e):
                 V, F = grid_mesh(10, 10, np.float64)
                 held = np.array([0, 9, 90, 99, 45])
                 Q = V[held] + g.normal(scale=0.1, size=(5, 3))
                 V, Q = exact_scaling(e, dt, V, Q)
+
                 def run(s):
                     sc = lambda X: np.ldexp(X, s).astype(dt)
                     return D_(sc(V), points=sc(V[held]), faces=F, arap_iterations=2).deform(points=sc(Q))
+
                 X0 = run(0).astype(np.float64)
                 Xs = run(e)
                 finite(Xs, f"ARAP x 2^{e}")
                 # Scale-free algebra on power-of-two-scaled input: twice the bound of one ARAP result.
                 tol = 2 * arap_tol(V, F, held, 2, EPS[dt], 2)
                 within(np.ldexp(Xs.astype(np.float64), -e), X0, tol, f"ARAP x 2^{e}, divided back")
+
             add("scale-arap", f"ARAP scene x 2^{e} {np.dtype(dt).name}", f, accept=SCALE_ACCEPT)
     arap_errors = [
         ("faces (m, 2)", lambda V, F: D_(V, points=V[:3], faces=F[:, :2], arap_iterations=1), VALUE, ["faces"]),
-        ("faces out of range", lambda V, F: D_(V, points=V[:3], faces=F + len(V), arap_iterations=1), VALUE,
-         ["outside", "range", "vertex"]),
-        ("negative face index", lambda V, F: D_(V, points=V[:3], faces=F - 1, arap_iterations=1), VALUE,
-         ["faces", "range"]),
-        ("faces 2.5", lambda V, F: D_(V, points=V[:3], faces=np.where(F == 5, 2.5, F), arap_iterations=1),
-         VALUE, ["faces", "2.5"]),
-        ("faces NaN", lambda V, F: D_(V, points=V[:3], faces=np.where(F == 5, np.nan, F), arap_iterations=1),
-         VALUE, ["faces", "nan"]),
+        (
+            "faces out of range",
+            lambda V, F: D_(V, points=V[:3], faces=F + len(V), arap_iterations=1),
+            VALUE,
+            ["outside", "range", "vertex"],
+        ),
+        (
+            "negative face index",
+            lambda V, F: D_(V, points=V[:3], faces=F - 1, arap_iterations=1),
+            VALUE,
+            ["faces", "range"],
+        ),
+        (
+            "faces 2.5",
+            lambda V, F: D_(V, points=V[:3], faces=np.where(F == 5, 2.5, F), arap_iterations=1),
+            VALUE,
+            ["faces", "2.5"],
+        ),
+        (
+            "faces NaN",
+            lambda V, F: D_(V, points=V[:3], faces=np.where(F == 5, np.nan, F), arap_iterations=1),
+            VALUE,
+            ["faces", "nan"],
+        ),
         ("faces bool", lambda V, F: D_(V, points=V[:3], faces=F > 3, arap_iterations=1), TYPE, ["faces"]),
-        ("faces strings", lambda V, F: D_(V, points=V[:3], faces=F.astype(str), arap_iterations=1), TYPE,
-         ["faces"]),
+        ("faces strings", lambda V, F: D_(V, points=V[:3], faces=F.astype(str), arap_iterations=1), TYPE, ["faces"]),
         ("faces complex", lambda V, F: D_(V, points=V[:3], faces=F + 0j, arap_iterations=1), TYPE, ["faces"]),
-        ("faces uint64 max", lambda V, F: D_(V, points=V[:3], faces=np.full(F.shape, 2 ** 64 - 1, np.uint64),
-                                             arap_iterations=1), VALUE, ["faces"]),
-        ("faces 1e300", lambda V, F: D_(V, points=V[:3], faces=np.full(F.shape, 1e300), arap_iterations=1),
-         VALUE, ["faces"]),
-        ("arap with region", lambda V, F: D_(V, points=V[:3], faces=F, arap_iterations=1, region=[0, 1, 2]),
-         VALUE, ["region", "arap"]),
-        ("arap_iterations 2.0", lambda V, F: D_(V, points=V[:3], faces=F, arap_iterations=2.0), TYPE,
-         ["incompatible", "arap"]),
-        ("no faces, empty array", lambda V, F: D_(V, points=V[:3], faces=np.zeros((0, 3), int),
-                                                  arap_iterations=1), VALUE, ["triangles", "faces"]),
+        (
+            "faces uint64 max",
+            lambda V, F: D_(V, points=V[:3], faces=np.full(F.shape, 2**64 - 1, np.uint64), arap_iterations=1),
+            VALUE,
+            ["faces"],
+        ),
+        (
+            "faces 1e300",
+            lambda V, F: D_(V, points=V[:3], faces=np.full(F.shape, 1e300), arap_iterations=1),
+            VALUE,
+            ["faces"],
+        ),
+        (
+            "arap with region",
+            lambda V, F: D_(V, points=V[:3], faces=F, arap_iterations=1, region=[0, 1, 2]),
+            VALUE,
+            ["region", "arap"],
+        ),
+        (
+            "arap_iterations 2.0",
+            lambda V, F: D_(V, points=V[:3], faces=F, arap_iterations=2.0),
+            TYPE,
+            ["incompatible", "arap"],
+        ),
+        (
+            "no faces, empty array",
+            lambda V, F: D_(V, points=V[:3], faces=np.zeros((0, 3), int), arap_iterations=1),
+            VALUE,
+            ["triangles", "faces"],
+        ),
     ]
     for name, call, exc, words in arap_errors:
+
         def f(g, call=call, exc=exc, words=words):
             V, F = grid_mesh(5, 5)
             return refused(lambda: call(V, F), exc, words)
+
         add("arap-errors", name, f)
     for kind in ("float64", "float32", "list", "uint16", "int32", "F-order"):
+
         def f(g, kind=kind):
             V, F = grid_mesh(6, 6)
             held = np.array([0, 5, 30, 35])
             Q = V[held] + [[0, 0, 0], [0, 0, 0.3], [0, 0.2, 0], [0.1, 0, 0]]
             want = D_(V, points=V[held], faces=F, arap_iterations=2).deform(points=Q)
-            Fk = {"float64": F.astype(np.float64), "float32": F.astype(np.float32), "list": F.tolist(),
-                  "uint16": F.astype(np.uint16), "int32": F.astype(np.int32), "F-order": np.asfortranarray(F)}[kind]
+            Fk = {
+                "float64": F.astype(np.float64),
+                "float32": F.astype(np.float32),
+                "list": F.tolist(),
+                "uint16": F.astype(np.uint16),
+                "int32": F.astype(np.int32),
+                "F-order": np.asfortranarray(F),
+            }[kind]
             same(D_(V, points=V[held], faces=Fk, arap_iterations=2).deform(points=Q), want, f"faces as {kind}")
+
         add("integers", f"faces as {kind} (integral values)", f)
-    for kind in ("degenerate triangle", "repeated vertex in a face", "isolated vertex", "duplicate face",
-                 "non-manifold edge"):
+    for kind in (
+        "degenerate triangle",
+        "repeated vertex in a face",
+        "isolated vertex",
+        "duplicate face",
+        "non-manifold edge",
+    ):
+
         def f(g, kind=kind):
             V, F = grid_mesh(6, 6)
             if kind == "degenerate triangle":
@@ -1144,21 +1446,35 @@ def build_cases(args):
             # of the same size; a defect that the refiner mishandles shows as NaN or a visible displacement).
             Vc, Fc = grid_mesh(6, 6)
             within(X, V, arap_tol(Vc, Fc, held, 2, EPS64, 2) * 10, f"{kind}: rest pose")
+
         add("arap", f"{kind}: rest pose", f)
 
     # ---- RBF centroids against numpy's RBF solve ----
     for dt in DTYPES:
         for transform in ("rigid", "similarity", "affine"):
             for s in (0, 1):
+
                 def f(g, dt=dt, transform=transform, s=s):
                     V, P, Q, A, B, C, D = cloud(g, n=300, k=7, s=s, dtype=dt)
                     seg = (A, B) if s else None
                     X = D_(V, points=P, segments=seg, transform=transform, centroids="rbf").deform(
-                        points=Q, segments=(C, D) if s else None)
-                    check_mls(X, V, P, Q, dt, *((A, B, C, D) if s else ()), transform=transform,
-                              centroids="rbf", what="RBF centroids")
+                        points=Q, segments=(C, D) if s else None
+                    )
+                    check_mls(
+                        X,
+                        V,
+                        P,
+                        Q,
+                        dt,
+                        *((A, B, C, D) if s else ()),
+                        transform=transform,
+                        centroids="rbf",
+                        what="RBF centroids",
+                    )
+
                 add("rbf", f"{transform} segments={s} {np.dtype(dt).name}", f)
         for pose in ("rest", "rigid", "affine handles, affine transform"):
+
             def f(g, dt=dt, pose=pose):
                 V, P, Q, *_ = cloud(g, n=300, k=8, dtype=dt)
                 if pose == "rest":
@@ -1173,7 +1489,9 @@ def build_cases(args):
                 X = D_(V, points=P, centroids="rbf", transform=transform).deform(points=Q)
                 ref, kappa, extra = mls_reference(V, P, Q, transform=transform, centroids="rbf")
                 within(X, want, mls_tol(len(P), kappa, EPS[dt], 4, extra), f"RBF {pose} reproduced")
+
             add("rbf", f"{pose} reproduced {np.dtype(dt).name}", f)
+
         def f(g, dt=dt):
             V, P, Q, *_ = cloud(g, n=50, k=5, dtype=dt)
             P = np.vstack([P, P[:1] + dt(1e-9)])
@@ -1185,17 +1503,22 @@ def build_cases(args):
                     return CLEAR
                 raise BadError(str(e))
             check_mls(X, V, P, Q, dt, centroids="rbf", what="nearly coincident RBF centres")
+
         add("rbf", f"two handles 1e-9 apart {np.dtype(dt).name}", f)
 
     # ---- regions against the MLS with the ring as fixed handles (docs/api.md, Region of interest) ----
     for dt in DTYPES:
         for kind in ("half", "random third", "one vertex", "all"):
+
             def f(g, dt=dt, kind=kind):
                 V, F = grid_mesh(12, 12, dt)
                 n = len(V)
-                region = {"half": np.flatnonzero(V[:, 0] < 0.5), "random third": np.sort(g.choice(n, n // 3,
-                                                                                                  replace=False)),
-                          "one vertex": np.array([50]), "all": np.arange(n)}[kind]
+                region = {
+                    "half": np.flatnonzero(V[:, 0] < 0.5),
+                    "random third": np.sort(g.choice(n, n // 3, replace=False)),
+                    "one vertex": np.array([50]),
+                    "all": np.arange(n),
+                }[kind]
                 handles = np.array([0, 11, 132, 143, 66])
                 P = V[handles] + dt(0.01)
                 Q = P + g.normal(scale=0.1, size=P.shape).astype(dt)
@@ -1206,6 +1529,7 @@ def build_cases(args):
                 P2 = np.vstack([P, V[ring]])
                 Q2 = np.vstack([Q, V[ring]])
                 check_mls(X[region], V[region], P2, Q2, dt, what="region vs MLS with its ring held")
+
             add("region", f"{kind} {np.dtype(dt).name}", f)
     region_errors = [
         ("region 1.5", lambda V, P: D_(V, points=P, region=[0, 1.5]), VALUE, ["region", "1.5"]),
@@ -1219,24 +1543,36 @@ def build_cases(args):
         ("region strings", lambda V, P: D_(V, points=P, region=["0"]), TYPE, ["region"]),
     ]
     for name, call, exc, words in region_errors:
+
         def f(g, call=call, exc=exc, words=words):
             V, P, *_ = cloud(g, n=50, k=4)
             return refused(lambda: call(V, P), exc, words)
+
         add("region-errors", name, f)
     for kind in ("float64", "float32", "uint8", "list of floats", "numpy int32 scalars"):
+
         def f(g, kind=kind):
             V, P, Q, *_ = cloud(g, n=60, k=4)
             region = np.arange(0, 60, 3)
-            conv = {"float64": region.astype(np.float64), "float32": region.astype(np.float32),
-                    "uint8": region.astype(np.uint8), "list of floats": [float(i) for i in region],
-                    "numpy int32 scalars": [np.int32(i) for i in region]}[kind]
-            same(D_(V, points=P, region=conv).deform(points=Q), D_(V, points=P, region=region).deform(points=Q),
-                 f"region as {kind}")
+            conv = {
+                "float64": region.astype(np.float64),
+                "float32": region.astype(np.float32),
+                "uint8": region.astype(np.uint8),
+                "list of floats": [float(i) for i in region],
+                "numpy int32 scalars": [np.int32(i) for i in region],
+            }[kind]
+            same(
+                D_(V, points=P, region=conv).deform(points=Q),
+                D_(V, points=P, region=region).deform(points=Q),
+                f"region as {kind}",
+            )
+
         add("integers", f"region as {kind} (integral values)", f)
 
     # ---- groups (transform_handles) ----
     for dt in DTYPES:
         for members in ("all", "some", "segments only", "one point"):
+
             def f(g, dt=dt, members=members):
                 V, P, Q, A, B, C, D = cloud(g, n=200, k=5, s=2, dtype=dt)
                 d = D_(V, points=P, segments=(A, B))
@@ -1247,8 +1583,11 @@ def build_cases(args):
                 before = d.targets
                 d.transform_handles(points=pts, segments=sgs, rotation=R, translation=t, pivot=c)
                 after = d.targets
-                move = lambda X: (np.asarray(X, np.float64) - c.astype(dt)) @ R.astype(dt).T.astype(np.float64) \
-                    + c.astype(dt) + t.astype(dt)
+                move = (
+                    lambda X: (np.asarray(X, np.float64) - c.astype(dt)) @ R.astype(dt).T.astype(np.float64)
+                    + c.astype(dt)
+                    + t.astype(dt)
+                )
                 # Each image coordinate: 3 products and 5 sums of terms below 4 in magnitude: 8 x 4 eps of
                 # the exact value, for the library (in T) and for this float64 evaluation of the same rounded
                 # R, t, c: 2 x 32 eps.
@@ -1259,21 +1598,30 @@ def build_cases(args):
                 same(after["points"][others], before["points"][others], "points not in the group")
                 for k in range(2):
                     within(after["segments"][k][sgs], move([A, B][k][sgs]), tol, "moved segments")
-                same(d.deform(), d.deform(points=after["points"], segments=after["segments"]),
-                     "deform() after the group")
+                same(
+                    d.deform(), d.deform(points=after["points"], segments=after["segments"]), "deform() after the group"
+                )
                 if members == "all":
                     ref = mls_reference(V, P, move(P), A, B, move(A), move(B))
                     within(d.deform(), move(V), mls_tol(9, ref[1], EPS[dt], 4) + 2 * tol, "all handles rigidly")
+
             add("groups", f"{members} {np.dtype(dt).name}", f)
     group_errors = [
         ("reflection", lambda d: d.transform_handles(points=[0], rotation=-np.eye(3)), VALUE, ["reflection"]),
-        ("not orthonormal", lambda d: d.transform_handles(points=[0], rotation=np.eye(3) * (1 + 1e-9)), VALUE,
-         ["orthonormal", "not a rotation"]),
-        ("NaN rotation", lambda d: d.transform_handles(points=[0], rotation=np.full((3, 3), np.nan)), VALUE,
-         ["finite", "nan"]),
+        (
+            "not orthonormal",
+            lambda d: d.transform_handles(points=[0], rotation=np.eye(3) * (1 + 1e-9)),
+            VALUE,
+            ["orthonormal", "not a rotation"],
+        ),
+        (
+            "NaN rotation",
+            lambda d: d.transform_handles(points=[0], rotation=np.full((3, 3), np.nan)),
+            VALUE,
+            ["finite", "nan"],
+        ),
         ("rotation (2, 2)", lambda d: d.transform_handles(points=[0], rotation=np.eye(2)), VALUE, ["rotation"]),
-        ("rotation complex", lambda d: d.transform_handles(points=[0], rotation=np.eye(3) + 0j), TYPE,
-         ["rotation"]),
+        ("rotation complex", lambda d: d.transform_handles(points=[0], rotation=np.eye(3) + 0j), TYPE, ["rotation"]),
         ("point index out of range", lambda d: d.transform_handles(points=[0, 9]), INDEX, ["index 9"]),
         ("segment index out of range", lambda d: d.transform_handles(segments=[2]), INDEX, ["index 2"]),
         ("negative index", lambda d: d.transform_handles(points=[-1]), INDEX, ["index -1"]),
@@ -1282,12 +1630,21 @@ def build_cases(args):
         ("bool mask", lambda d: d.transform_handles(points=[True, False]), TYPE, ["points"]),
         ("2-D indices", lambda d: d.transform_handles(points=[[0]]), VALUE, ["points", "1-D"]),
         ("pivot 2 numbers", lambda d: d.transform_handles(points=[0], pivot=[0, 0]), VALUE, ["pivot"]),
-        ("translation inf", lambda d: d.transform_handles(points=[0], translation=[np.inf, 0, 0]), VALUE,
-         ["finite", "translation"]),
-        ("image too large", lambda d: d.transform_handles(points=[0], translation=[1e308, 0, 0]), VALUE,
-         ["finite", "large", "beyond", "max"]),
+        (
+            "translation inf",
+            lambda d: d.transform_handles(points=[0], translation=[np.inf, 0, 0]),
+            VALUE,
+            ["finite", "translation"],
+        ),
+        (
+            "image too large",
+            lambda d: d.transform_handles(points=[0], translation=[1e308, 0, 0]),
+            VALUE,
+            ["finite", "large", "beyond", "max"],
+        ),
     ]
     for name, call, exc, words in group_errors:
+
         def f(g, call=call, exc=exc, words=words):
             V, P, Q, A, B, *_ = cloud(g, n=50, k=4, s=2)
             d = D_(V, points=P, segments=(A, B))
@@ -1296,15 +1653,17 @@ def build_cases(args):
             same(d.targets["points"], before["points"], "targets after a refused group")
             same(d.targets["segments"][0], before["segments"][0], "segment targets after a refused group")
             return r
+
         add("groups-errors", name, f)
-    for name, call in [("set_point_target 1.0", lambda d: d.set_point_target(1.0, [0, 0, 0])),
-                       ("set_point_target np.float64(1)", lambda d: d.set_point_target(np.float64(1), [0, 0, 0])),
-                       ("set_point_target '1'", lambda d: d.set_point_target("1", [0, 0, 0])),
-                       ("set_segment_target 0.0", lambda d: d.set_segment_target(0.0, [0] * 3, [1] * 3)),
-                       ("precompute_budget_bytes 1e6", lambda d: D_(np.eye(3), points=np.eye(3),
-                                                                     precompute_budget_bytes=1e6)),
-                       ("precompute_budget_bytes -1", lambda d: D_(np.eye(3), points=np.eye(3),
-                                                                    precompute_budget_bytes=-1))]:
+    for name, call in [
+        ("set_point_target 1.0", lambda d: d.set_point_target(1.0, [0, 0, 0])),
+        ("set_point_target np.float64(1)", lambda d: d.set_point_target(np.float64(1), [0, 0, 0])),
+        ("set_point_target '1'", lambda d: d.set_point_target("1", [0, 0, 0])),
+        ("set_segment_target 0.0", lambda d: d.set_segment_target(0.0, [0] * 3, [1] * 3)),
+        ("precompute_budget_bytes 1e6", lambda d: D_(np.eye(3), points=np.eye(3), precompute_budget_bytes=1e6)),
+        ("precompute_budget_bytes -1", lambda d: D_(np.eye(3), points=np.eye(3), precompute_budget_bytes=-1)),
+    ]:
+
         def f(g, call=call):
             V, P, Q, A, B, *_ = cloud(g, n=50, k=4, s=1)
             d = D_(V, points=P, segments=(A, B))
@@ -1312,7 +1671,9 @@ def build_cases(args):
             r = refused(lambda: call(d), TYPE, ["incompatible"])
             same(d.targets["points"], before["points"], "targets after a refused call")
             return r
+
         add("integers", name, f)
+
     def f(g):
         V, P, Q, *_ = cloud(g, n=50, k=4)
         d = D_(V, points=P)
@@ -1321,12 +1682,14 @@ def build_cases(args):
         want = P.copy()
         want[[1, 2]] = Q[[1, 2]]
         same(d.targets["points"], want, "integer-like indices")
+
     add("integers", "set_point_target with numpy integers and True", f)
 
     # ---- segments against numpy ----
     for dt in DTYPES:
         for s in (1, 3, 8):
             for k in (0, 3):
+
                 def f(g, dt=dt, s=s, k=k):
                     V, P, Q, A, B, C, D = cloud(g, n=250, k=max(k, 1), s=s, dtype=dt)
                     P, Q = P[:k], Q[:k]
@@ -1335,38 +1698,52 @@ def build_cases(args):
                     check_mls(X, V, P, Q, dt, A, B, C, D, what="segment handles")
                     for i in range(s):
                         d.set_segment_target(i, A[i], B[i])
-                    same(d.deform(points=Q if k else None), d.deform(points=Q if k else None, segments=(A, B)),
-                         "set_segment_target")
+                    same(
+                        d.deform(points=Q if k else None),
+                        d.deform(points=Q if k else None, segments=(A, B)),
+                        "set_segment_target",
+                    )
+
                 add("segments", f"{s} segments, {k} points {np.dtype(dt).name}", f)
 
     # ---- uninitialised objects, a second __init__, pickling ----
     uninit_calls = {
-        "deform()": lambda u: u.deform(), "deform(out=)": lambda u: u.deform(out=np.zeros((3, 3))),
+        "deform()": lambda u: u.deform(),
+        "deform(out=)": lambda u: u.deform(out=np.zeros((3, 3))),
         "set_point_target": lambda u: u.set_point_target(0, [0, 0, 0]),
         "set_segment_target": lambda u: u.set_segment_target(0, [0] * 3, [1] * 3),
         "transform_handles": lambda u: u.transform_handles(points=[0]),
-        "targets": lambda u: u.targets, "vertex_count": lambda u: u.vertex_count,
-        "point_count": lambda u: u.point_count, "segment_count": lambda u: u.segment_count,
-        "dtype": lambda u: u.dtype, "memory_bytes": lambda u: u.memory_bytes,
+        "targets": lambda u: u.targets,
+        "vertex_count": lambda u: u.vertex_count,
+        "point_count": lambda u: u.point_count,
+        "segment_count": lambda u: u.segment_count,
+        "dtype": lambda u: u.dtype,
+        "memory_bytes": lambda u: u.memory_bytes,
         "uses_precomputed_weights": lambda u: u.uses_precomputed_weights,
         "_time_cpp_deform": lambda u: u._time_cpp_deform(reps=1),
     }
     for name, call in uninit_calls.items():
+
         def f(g, call=call):
             u = D_.__new__(D_)
             return refused(lambda: call(u), TYPE, ["initialised", "initialized"])
+
         add("objects", f"uninitialised {name}", f)
+
     def f(g):
         class Sub(D_):
             pass
+
         u = Sub.__new__(Sub)
         r = refused(lambda: u.deform(), TYPE, ["initialised"])
         V, P, Q, *_ = cloud(g, n=30, k=4)
         u.__init__(V, points=P)
         check_mls(u.deform(points=Q), V, P, Q, np.float64, what="a subclass initialised after __new__")
         return r
+
     add("objects", "uninitialised subclass, then __init__", f)
     for how in ("d.__init__", "Deformer.__init__(d)", "subclass calling super().__init__ twice"):
+
         def f(g, how=how):
             V, P, Q, *_ = cloud(g, n=30, k=4)
             W, R_, *_ = cloud(g, n=12, k=3)
@@ -1377,52 +1754,69 @@ def build_cases(args):
             elif how == "Deformer.__init__(d)":
                 r = refused(lambda: D_.__init__(d, W, points=R_), RUNTIME, ["initialised"])
             else:
+
                 class Twice(D_):
                     def __init__(self, *a, **k):
                         super().__init__(*a, **k)
                         super().__init__(*a, **k)
+
                 return refused(lambda: Twice(V, points=P), RUNTIME, ["initialised"])
             if d.vertex_count != 30:
                 raise Wrong("the refused __init__ changed the session")
             same(d.deform(points=Q), want, "the session after a refused __init__")
             return r
+
         add("objects", f"second __init__ via {how}", f)
+
     def f(g):
         class Never(D_):
             def __init__(self):
                 pass
+
         return refused(lambda: Never(), TYPE, ["__init__"])
+
     add("objects", "subclass that never calls __init__", f)
-    add("objects", "__init__ with a foreign self",
-        lambda g: refused(lambda: D_.__init__(5, np.eye(3), points=np.eye(3)), TYPE, ["incompatible"]))
-    add("objects", "deform with a foreign self",
-        lambda g: refused(lambda: D_.deform(object()), TYPE, ["incompatible"]))
+    add(
+        "objects",
+        "__init__ with a foreign self",
+        lambda g: refused(lambda: D_.__init__(5, np.eye(3), points=np.eye(3)), TYPE, ["incompatible"]),
+    )
+    add("objects", "deform with a foreign self", lambda g: refused(lambda: D_.deform(object()), TYPE, ["incompatible"]))
     for name, fn in (("pickle", pickle.dumps), ("copy.copy", copy.copy), ("copy.deepcopy", copy.deepcopy)):
         for init in (True, False):
+
             def f(g, fn=fn, init=init):
                 V, P, *_ = cloud(g, n=20, k=4)
                 d = D_(V, points=P) if init else D_.__new__(D_)
                 return refused(lambda: fn(d), TYPE, ["pickle"])
+
             add("objects", f"{name} of {'a live' if init else 'an uninitialised'} session", f)
+
     def f(g):
         V, P, Q, *_ = cloud(g, n=20, k=4)
         X = D_(V, points=P).deform(points=Q)
         same(pickle.loads(pickle.dumps(X)), X, "a result pickles as a plain array")
+
     add("objects", "results pickle", f)
+
     def f(g):
         import gc
+
         V, P, *_ = cloud(g, n=20, k=4)
         d = D_(V, points=P)
         del V, P
         gc.collect()
         if d.vertex_count != 20 or not np.all(np.isfinite(d.deform())):
             raise Wrong("the session depends on the caller's arrays")
+
     add("objects", "the session owns its data", f)
+
     def f(g):
         u = D_.__new__(D_)
         if "Deformer" not in repr(u):
             raise Wrong(f"repr {repr(u)!r}")
         del u
+
     add("objects", "repr and deletion of an uninitialised session", f)
 
     # ---- F1: one stray vertex far away must not tear the model (local snapping) ----
@@ -1439,8 +1833,10 @@ def build_cases(args):
             raise Wrong(f"{what}: {int(bad.any(axis=1).sum())} vertices put on a handle's target from afar")
         ref, kappa, _ = mls_reference(V, P, Q)
         within(X, ref, mls_tol(len(P), kappa, EPS[dt], np.abs(stray).max() + 2), what)
+
     for dt in DTYPES:
         for far in (1e3, 1e4, 1e5):
+
             def f(g, dt=dt, far=far):
                 V = g.uniform(-1, 1, (2000, 3))
                 P = g.uniform(-1, 1, (4, 3))
@@ -1449,7 +1845,9 @@ def build_cases(args):
                 stray = np.array([[far, 0, 0]], dt)
                 X = D_(np.vstack([V, stray]), points=P).deform(points=Q)[:-1]
                 torn(X, V, P, Q, dt, stray, f"with a stray vertex at x = {far:g}")
+
             add("snap-far-vertex", f"cloud of 2000 plus a stray vertex at {far:g} {np.dtype(dt).name}", f)
+
     def f(g):
         V = []
         with open(os.path.join(DATA, "human_man.obj")) as fh:
@@ -1466,6 +1864,7 @@ def build_cases(args):
         rest = np.setdiff1d(np.arange(len(V)), idx)
         same(Xs[idx], Q, "vertices at the handles")
         torn(Xs[rest], V[rest], P, Q, np.float32, stray, "human + v 10000 0 0")
+
     add("snap-far-vertex", "human with v 10000 0 0, 8 handles, float32", f)
 
     # ---- F5: long calls are bounded or interruptible (KeyboardInterrupt, out untouched) ----
@@ -1507,29 +1906,32 @@ def call(): mlsdeform.fit_rotations(H, out=out, threads=1, method="svd")
 """,
     }
     for name, code in long_calls.items():
+
         def f(g, code=code):
             return interruptible(code)
+
         add("interrupt", name, f, timeout=240, quick=(name == "arap_iterations=10**6"))
 
     # ---- F6 and F8: the program (only with --cli) ----
     cli_cases = {
-        "survey-grade OBJ in double": ("double", lambda g: 5e6 + g.uniform(0, 10, (40, 3)) * [1, 1, 0.1]
-                                       + [0, -1e6, -5e6 + 100], "", "cli-double"),
-        "coordinates at 1e39 in double": ("double", lambda g: 1e39 * g.uniform(-1, 1, (40, 3)), "",
-                                          "cli-double"),
-        "coordinates at 1e-46 in double": ("double", lambda g: 1e-46 * g.uniform(-1, 1, (40, 3)), "",
-                                           "cli-double"),
-        "coordinates at 1e300 in double": ("double", lambda g: 1e300 * g.uniform(-1, 1, (40, 3)), "",
-                                           "cli-double"),
-        "coordinates at 1e39 in float": ("float", lambda g: 1e39 * g.uniform(-1, 1, (40, 3)), "",
-                                         "cli-double"),
-        "OBJ with a UTF-8 byte-order mark": ("float", lambda g: g.uniform(-1, 1, (40, 3)), "\ufeff",
-                                             "cli-bom"),
+        "survey-grade OBJ in double": (
+            "double",
+            lambda g: 5e6 + g.uniform(0, 10, (40, 3)) * [1, 1, 0.1] + [0, -1e6, -5e6 + 100],
+            "",
+            "cli-double",
+        ),
+        "coordinates at 1e39 in double": ("double", lambda g: 1e39 * g.uniform(-1, 1, (40, 3)), "", "cli-double"),
+        "coordinates at 1e-46 in double": ("double", lambda g: 1e-46 * g.uniform(-1, 1, (40, 3)), "", "cli-double"),
+        "coordinates at 1e300 in double": ("double", lambda g: 1e300 * g.uniform(-1, 1, (40, 3)), "", "cli-double"),
+        "coordinates at 1e39 in float": ("float", lambda g: 1e39 * g.uniform(-1, 1, (40, 3)), "", "cli-double"),
+        "OBJ with a UTF-8 byte-order mark": ("float", lambda g: g.uniform(-1, 1, (40, 3)), "\ufeff", "cli-bom"),
         "plain OBJ in float": ("float", lambda g: g.uniform(-1, 1, (40, 3)), "", "cli"),
     }
     for name, (precision, make, prefix, tag) in cli_cases.items():
+
         def f(g, precision=precision, make=make, prefix=prefix):
             return cli_identity(args.cli, precision, make(g), prefix)
+
         add(tag, name, f, timeout=60)
     return CASES
 
@@ -1537,23 +1939,28 @@ def call(): mlsdeform.fit_rotations(H, out=out, threads=1, method="svd")
 def interruptible(code):
     """Runs code's call() in a child; SIGINT after 1 s: it must end within 5 s with KeyboardInterrupt and out
     untouched, or have ended before with a result or a clear refusal."""
-    prelude = ("import sys, numpy as np, mlsdeform\n"
-               "def grid(m):\n"
-               "    x, y = np.meshgrid(np.linspace(0, 1, m), np.linspace(0, 1, m), indexing='ij')\n"
-               "    V = np.stack([x.ravel(), y.ravel(), 0 * x.ravel()], 1)\n"
-               "    F = [[i*m+j, (i+1)*m+j, (i+1)*m+j+1] for i in range(m-1) for j in range(m-1)]\n"
-               "    F += [[i*m+j, (i+1)*m+j+1, i*m+j+1] for i in range(m-1) for j in range(m-1)]\n"
-               "    return V, np.array(F)\n")
-    epilogue = ("\nprint('ready', flush=True)\n"
-                "try:\n"
-                "    call()\n"
-                "    print('finished', flush=True)\n"
-                "except KeyboardInterrupt:\n"
-                "    print('interrupted', 'untouched' if np.all(out == 7.0) else 'written', flush=True)\n"
-                "except (ValueError, MemoryError) as e:\n"
-                "    print('refused', type(e).__name__, e, flush=True)\n")
-    child = subprocess.Popen([sys.executable, "-c", prelude + code + epilogue], stdout=subprocess.PIPE,
-                             stderr=subprocess.PIPE, text=True)
+    prelude = (
+        "import sys, numpy as np, mlsdeform\n"
+        "def grid(m):\n"
+        "    x, y = np.meshgrid(np.linspace(0, 1, m), np.linspace(0, 1, m), indexing='ij')\n"
+        "    V = np.stack([x.ravel(), y.ravel(), 0 * x.ravel()], 1)\n"
+        "    F = [[i*m+j, (i+1)*m+j, (i+1)*m+j+1] for i in range(m-1) for j in range(m-1)]\n"
+        "    F += [[i*m+j, (i+1)*m+j+1, i*m+j+1] for i in range(m-1) for j in range(m-1)]\n"
+        "    return V, np.array(F)\n"
+    )
+    epilogue = (
+        "\nprint('ready', flush=True)\n"
+        "try:\n"
+        "    call()\n"
+        "    print('finished', flush=True)\n"
+        "except KeyboardInterrupt:\n"
+        "    print('interrupted', 'untouched' if np.all(out == 7.0) else 'written', flush=True)\n"
+        "except (ValueError, MemoryError) as e:\n"
+        "    print('refused', type(e).__name__, e, flush=True)\n"
+    )
+    child = subprocess.Popen(
+        [sys.executable, "-c", prelude + code + epilogue], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True
+    )
     try:
         line = child.stdout.readline()
         if not line.startswith("ready"):
@@ -1602,8 +2009,12 @@ def cli_identity(program, precision, V, prefix):
             fh.write("f 1 2 3\n")
         with open(handles, "w") as fh:
             json.dump({"points": [{"vertex": i} for i in (0, n // 3, 2 * n // 3, n - 1)]}, fh)
-        r = subprocess.run([program, "deform", "-m", mesh, "-H", handles, "-o", out, "--precision", precision,
-                            "--quiet"], capture_output=True, text=True, timeout=50)
+        r = subprocess.run(
+            [program, "deform", "-m", mesh, "-H", handles, "-o", out, "--precision", precision, "--quiet"],
+            capture_output=True,
+            text=True,
+            timeout=50,
+        )
         if r.returncode == 2:
             line = r.stderr.strip().splitlines()[-1] if r.stderr.strip() else ""
             fits = precision == "double" or np.abs(V).max() < np.finfo(np.float32).max / 64
@@ -1629,6 +2040,7 @@ def cli_identity(program, precision, V, prefix):
 
 # ---- driver ------------------------------------------------------------------------------------------------
 
+
 def worker(args):
     cases = build_cases(args)
     for line in sys.stdin:
@@ -1652,10 +2064,16 @@ def worker(args):
             if c.accept and isinstance(e, c.accept[0]) and words_in(str(e), c.accept[1]):
                 outcome, detail = CLEAR, f"{type(e).__name__}: {e}"
             else:
-                outcome, detail = BAD_ERROR, f"unexpected {type(e).__name__}: {e} | " + \
-                    traceback.format_exc(limit=3).strip().splitlines()[-3]
-        print(json.dumps({"id": ident, "outcome": outcome, "detail": detail[:400],
-                          "seconds": round(time.monotonic() - t0, 3)}), flush=True)
+                outcome, detail = (
+                    BAD_ERROR,
+                    f"unexpected {type(e).__name__}: {e} | " + traceback.format_exc(limit=3).strip().splitlines()[-3],
+                )
+        print(
+            json.dumps(
+                {"id": ident, "outcome": outcome, "detail": detail[:400], "seconds": round(time.monotonic() - t0, 3)}
+            ),
+            flush=True,
+        )
 
 
 def run_all(args, ids, cases):
@@ -1667,11 +2085,13 @@ def run_all(args, ids, cases):
         if args.cli:
             cmd += ["--cli", args.cli]
         with tempfile.TemporaryFile("w+") as err:
-            proc = subprocess.Popen(cmd, stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=err, text=True,
-                                    start_new_session=True)
+            proc = subprocess.Popen(
+                cmd, stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=err, text=True, start_new_session=True
+            )
             lines = queue.Queue()
-            threading.Thread(target=lambda: [lines.put(x) for x in proc.stdout] + [lines.put(None)],
-                             daemon=True).start()
+            threading.Thread(
+                target=lambda: [lines.put(x) for x in proc.stdout] + [lines.put(None)], daemon=True
+            ).start()
             proc.stdin.write("".join(f"{i}\n" for i in pending))
             proc.stdin.close()
             running, started = None, time.monotonic()
@@ -1702,8 +2122,11 @@ def run_all(args, ids, cases):
                 running = None
                 if args.verbose:
                     c = cases[msg["id"]]
-                    print(f"{msg['outcome']:>12}  {msg['seconds']:7.2f}s  [{c.tag}] {c.name}"
-                          + (f": {msg['detail']}" if msg["detail"] else ""), flush=True)
+                    print(
+                        f"{msg['outcome']:>12}  {msg['seconds']:7.2f}s  [{c.tag}] {c.name}"
+                        + (f": {msg['detail']}" if msg["detail"] else ""),
+                        flush=True,
+                    )
             if proc.poll() is None:
                 proc.wait(timeout=30)
     return results
@@ -1723,18 +2146,23 @@ def main():
     if args.worker:
         return worker(args)
     cases = build_cases(args)
-    chosen = [c for c in cases
-              if (not args.only or any(c.tag.startswith(t) for t in args.only.split(",")))
-              and (not args.quick or c.quick)]
+    chosen = [
+        c
+        for c in cases
+        if (not args.only or any(c.tag.startswith(t) for t in args.only.split(","))) and (not args.quick or c.quick)
+    ]
     if args.list:
         for c in chosen:
             print(f"{c.id:4d} [{c.tag}] {c.name}")
         return 0
     import mlsdeform
+
     t0 = time.monotonic()
     results = run_all(args, [c.id for c in chosen], cases)
-    print(f"mlsdeform {mlsdeform.__version__} from {os.path.dirname(mlsdeform.__file__)}, ISA "
-          f"{mlsdeform.active_isa()}, seed {args.seed}, {len(chosen)} cases in {time.monotonic() - t0:.0f} s")
+    print(
+        f"mlsdeform {mlsdeform.__version__} from {os.path.dirname(mlsdeform.__file__)}, ISA "
+        f"{mlsdeform.active_isa()}, seed {args.seed}, {len(chosen)} cases in {time.monotonic() - t0:.0f} s"
+    )
     order = (CORRECT, CLEAR, SKIPPED) + FAILURES
     print("outcomes: " + ", ".join(f"{o} {sum(r[0] == o for r in results.values())}" for o in order))
     tags = sorted({c.tag for c in chosen})
@@ -1749,8 +2177,14 @@ def main():
             print(f"  {results[c.id][0]:>12}  #{c.id} [{c.tag}] {c.name}: {results[c.id][1]}")
     if args.json:
         with open(args.json, "w") as fh:
-            json.dump([{"id": c.id, "tag": c.tag, "name": c.name, "outcome": results[c.id][0],
-                        "detail": results[c.id][1]} for c in chosen], fh, indent=1)
+            json.dump(
+                [
+                    {"id": c.id, "tag": c.tag, "name": c.name, "outcome": results[c.id][0], "detail": results[c.id][1]}
+                    for c in chosen
+                ],
+                fh,
+                indent=1,
+            )
     return 1 if failed else 0
 
 

@@ -34,9 +34,13 @@ def scene(g, n=400, k=6, s=0):
 def random_rotation(g):
     q = g.normal(size=4)
     w, x, y, z = q / np.linalg.norm(q)
-    return np.array([[1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)],
-                     [2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)],
-                     [2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)]])
+    return np.array(
+        [
+            [1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)],
+            [2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)],
+            [2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)],
+        ]
+    )
 
 
 # ---- the C++ library's own results, bitwise ----------------------------------------------------------------
@@ -55,22 +59,37 @@ def test_bitwise_equal_to_cpp(dtype, transform, segment_weight):
     R = random_rotation(g)
     Q, C, D = ((x @ R.T + 0.1).astype(dtype) for x in (P, A, B))
     Q[0] += dtype(0.2)
-    d = mlsdeform.Deformer(V, points=P, segments=(A, B), transform=transform, exponent=2.5,
-                           segment_weight=segment_weight)
+    d = mlsdeform.Deformer(
+        V, points=P, segments=(A, B), transform=transform, exponent=2.5, segment_weight=segment_weight
+    )
     X = d.deform(points=Q, segments=(C, D))
     with tempfile.TemporaryDirectory() as tmp:
         inp, out = os.path.join(tmp, "in.bin"), os.path.join(tmp, "out.bin")
         with open(inp, "wb") as f:
             for x in (V, P, A, B, Q, C, D):
                 f.write(np.ascontiguousarray(x, dtype=dtype).tobytes())
-        subprocess.run([REFERENCE, "f" if dtype == np.float32 else "d", transform, "2.5", segment_weight,
-                        str(len(V)), str(len(P)), str(len(A)), inp, out], check=True)
+        subprocess.run(
+            [
+                REFERENCE,
+                "f" if dtype == np.float32 else "d",
+                transform,
+                "2.5",
+                segment_weight,
+                str(len(V)),
+                str(len(P)),
+                str(len(A)),
+                inp,
+                out,
+            ],
+            check=True,
+        )
         expected = np.fromfile(out, dtype=dtype).reshape(-1, 3)
     assert X.dtype == dtype
     assert np.array_equal(X, expected)  # the same library call: bitwise
 
 
 # ---- a direct numpy MLS (paper eqs. 1-6, Sec. 6.1, 6.2 with paper_constant segment weights) -----------------
+
 
 def direct_mls(V, P, Q, A=None, B=None, C=None, D=None, transform="rigid", u=2.0):
     """Straight from the paper, one vertex at a time, in float64. Returns the result and, per vertex, the
@@ -136,6 +155,7 @@ def test_against_direct_numpy_mls(transform, with_segments):
 
 # ---- batched rotation fits against numpy's SVD (Kabsch) -----------------------------------------------------
 
+
 def kabsch(H):
     U, s, Vt = np.linalg.svd(H)
     d = np.sign(np.linalg.det(U @ Vt))
@@ -168,13 +188,21 @@ def test_fit_rotations_degenerate_batches():
     g = rng()
     p, q = g.normal(size=3), g.normal(size=3)
     p, q = p / np.linalg.norm(p), q / np.linalg.norm(q)
-    H = np.stack([np.zeros((3, 3)), np.outer(q, p), np.eye(3), -np.eye(3) @ random_rotation(g),
-                  np.diag([1.0, 1.0, -1.0]), np.diag([3.0, 2.0, 0.0])])
+    H = np.stack(
+        [
+            np.zeros((3, 3)),
+            np.outer(q, p),
+            np.eye(3),
+            -np.eye(3) @ random_rotation(g),
+            np.diag([1.0, 1.0, -1.0]),
+            np.diag([3.0, 2.0, 0.0]),
+        ]
+    )
     R = mlsdeform.fit_rotations(H)
     eps = np.finfo(np.float64).eps
-    assert np.array_equal(R[0], np.eye(3))                   # H = 0: the identity
-    assert np.linalg.norm(R[1] @ p - q) <= 16 * eps           # rank 1: p goes to q
-    assert np.abs(R[2] - np.eye(3)).max() <= 16 * eps         # H = I
+    assert np.array_equal(R[0], np.eye(3))  # H = 0: the identity
+    assert np.linalg.norm(R[1] @ p - q) <= 16 * eps  # rank 1: p goes to q
+    assert np.abs(R[2] - np.eye(3)).max() <= 16 * eps  # H = I
     for r in R:
         assert np.abs(r @ r.T - np.eye(3)).max() <= 64 * eps and abs(np.linalg.det(r) - 1) <= 96 * eps
     # det H < 0 (diag(1, 1, -1): every rotation about z by 0 is optimal, trace 1) and rank 2: the optimal
@@ -202,6 +230,7 @@ def test_fit_rotation_and_fit_points():
 
 # ---- zero copy, dtypes, the stateful session -----------------------------------------------------------------
 
+
 def test_out_is_written_in_place_without_copy():
     g = rng()
     V, P, _, _ = scene(g)
@@ -219,11 +248,11 @@ def test_dtype_rules():
     V, P, _, _ = scene(g)
     assert mlsdeform.Deformer(V.astype(np.float32), points=P).dtype == np.float32
     assert mlsdeform.Deformer(V, points=P).dtype == np.float64
-    assert mlsdeform.Deformer(V.tolist(), points=P.tolist()).dtype == np.float64      # any array-like
+    assert mlsdeform.Deformer(V.tolist(), points=P.tolist()).dtype == np.float64  # any array-like
     assert mlsdeform.Deformer(np.round(V * 10).astype(int), points=P * 10).dtype == np.float64
     assert mlsdeform.Deformer(V, points=P, dtype=np.float32).dtype == np.float32
     d = mlsdeform.Deformer(V.astype(np.float32), points=P)
-    X = d.deform(points=P + 0.1)                        # float64 handles are converted to the session's dtype
+    X = d.deform(points=P + 0.1)  # float64 handles are converted to the session's dtype
     assert X.dtype == np.float32
     assert mlsdeform.fit_rotations(np.zeros((4, 3, 3), np.float32)).dtype == np.float32
     assert mlsdeform.fit_rotations(np.zeros((4, 3, 3), int)).dtype == np.float64
@@ -246,6 +275,7 @@ def test_stateful_session():
 
 
 # ---- errors: the right exception, the library's message, nothing written ------------------------------------
+
 
 def test_errors():
     g = rng()
@@ -290,12 +320,13 @@ def test_readonly_input_and_views_are_accepted():
     V, P, _, _ = scene(g, n=60)
     V.setflags(write=False)
     big = np.zeros((len(P), 6))
-    big[:, ::2] = P                          # a strided view: converted, not rejected
+    big[:, ::2] = P  # a strided view: converted, not rejected
     d = mlsdeform.Deformer(V, points=big[:, ::2])
     assert np.abs(d.deform(points=P) - V).max() <= 1e-12
 
 
 # ---- threads and reference counts ----------------------------------------------------------------------------
+
 
 def test_two_sessions_in_two_threads():
     g = rng()
@@ -419,7 +450,6 @@ def test_rbf_centroids():
         mlsdeform.Deformer(V, points=P, centroids="spline")
 
 
-
 def test_transform_handles():
     g = rng()
     V, P, A, B = scene(g, k=5, s=1)
@@ -456,7 +486,7 @@ def test_region():
     d = mlsdeform.Deformer(V, points=P, region=region)
     X = d.deform(points=P + [0, 0.2, 0])
     outside = np.setdiff1d(np.arange(len(V)), region)
-    assert np.array_equal(X[outside], V[outside])          # bitwise at rest
+    assert np.array_equal(X[outside], V[outside])  # bitwise at rest
     assert not np.array_equal(X[region], V[region])
     with pytest.raises(ValueError, match="no vertices"):
         mlsdeform.Deformer(V, points=P, region=[])
@@ -465,6 +495,7 @@ def test_region():
 
 
 # ---- out= overlapping the input -------------------------------------------------------------------------------
+
 
 @pytest.mark.parametrize("dtype", [np.float32, np.float64])
 @pytest.mark.parametrize("threads", [1, 0])
@@ -491,7 +522,7 @@ def test_fit_rotations_out_overlapping_h(dtype, threads):
     B = g.standard_normal((2 * m, 3, 3)).astype(dtype)
     for H in (B[::-1][:m], B[::2], B[m:][::-1], B[:, ::-1, :][:m]):
         expected = mlsdeform.fit_rotations(H.copy(), threads=threads)
-        out = B[:m] if H.base is not None and np.shares_memory(H, B[:m]) else B[m // 2:m // 2 + m]
+        out = B[:m] if H.base is not None and np.shares_memory(H, B[:m]) else B[m // 2 : m // 2 + m]
         mlsdeform.fit_rotations(H, out=out, threads=threads)
         assert np.array_equal(out, expected)
 
@@ -527,15 +558,26 @@ def test_deform_out_overlapping_handles(dtype):
 
 # ---- uninitialised and re-initialised sessions, pickling ------------------------------------------------------
 
+
 def test_uninitialised_session_refused():
     g = rng()
     V, P, _, _ = scene(g, n=30, k=4)
     u = mlsdeform.Deformer.__new__(mlsdeform.Deformer)
-    calls = [lambda: u.deform(), lambda: u.deform(points=P, out=np.empty_like(V)),
-             lambda: u.set_point_target(0, [0, 0, 0]), lambda: u.set_segment_target(0, [0, 0, 0], [1, 0, 0]),
-             lambda: u.transform_handles(points=[0]), lambda: u.targets, lambda: u.vertex_count,
-             lambda: u.point_count, lambda: u.segment_count, lambda: u.dtype, lambda: u.memory_bytes,
-             lambda: u.uses_precomputed_weights, lambda: u._time_cpp_deform(reps=1)]
+    calls = [
+        lambda: u.deform(),
+        lambda: u.deform(points=P, out=np.empty_like(V)),
+        lambda: u.set_point_target(0, [0, 0, 0]),
+        lambda: u.set_segment_target(0, [0, 0, 0], [1, 0, 0]),
+        lambda: u.transform_handles(points=[0]),
+        lambda: u.targets,
+        lambda: u.vertex_count,
+        lambda: u.point_count,
+        lambda: u.segment_count,
+        lambda: u.dtype,
+        lambda: u.memory_bytes,
+        lambda: u.uses_precomputed_weights,
+        lambda: u._time_cpp_deform(reps=1),
+    ]
     for call in calls:
         with pytest.raises(TypeError, match="never initialised"):
             call()
@@ -554,7 +596,7 @@ def test_second_init_refused():
         d.__init__(W, points=R)
     with pytest.raises(RuntimeError, match="initialised session"):
         mlsdeform.Deformer.__init__(d, W, points=R)
-    assert d.vertex_count == 30 and np.array_equal(d.deform(points=P + 0.1), X)   # unchanged
+    assert d.vertex_count == 30 and np.array_equal(d.deform(points=P + 0.1), X)  # unchanged
 
     class Twice(mlsdeform.Deformer):
         def __init__(self, *args, **kwargs):
@@ -575,6 +617,7 @@ def test_second_init_refused():
 def test_session_cannot_be_pickled_or_copied():
     import copy
     import pickle
+
     g = rng()
     V, P, _, _ = scene(g, n=30, k=4)
     for d in (mlsdeform.Deformer(V, points=P), mlsdeform.Deformer.__new__(mlsdeform.Deformer)):
@@ -585,13 +628,16 @@ def test_session_cannot_be_pickled_or_copied():
 
 # ---- threads and integer arguments ----------------------------------------------------------------------------
 
+
 def test_threads_checked_alike():
     g = rng()
     V, P, _, _ = scene(g, n=30, k=4)
     messages = []
-    for call in (lambda: mlsdeform.Deformer(V, points=P, threads=-1),
-                 lambda: mlsdeform.fit_rotations(np.zeros((4, 3, 3)), threads=-1),
-                 lambda: mlsdeform.fit_rotations(np.zeros((4, 3, 3), np.float32), threads=-1)):
+    for call in (
+        lambda: mlsdeform.Deformer(V, points=P, threads=-1),
+        lambda: mlsdeform.fit_rotations(np.zeros((4, 3, 3)), threads=-1),
+        lambda: mlsdeform.fit_rotations(np.zeros((4, 3, 3), np.float32), threads=-1),
+    ):
         with pytest.raises(ValueError, match="threads") as info:
             call()
         messages.append(str(info.value))
@@ -606,8 +652,10 @@ def test_threads_checked_alike():
 def test_integer_arguments_never_truncated():
     nx, ny = 6, 4
     V = np.array([[i / 5, j / 5, 0.0] for i in range(nx) for j in range(ny)])
-    F = np.array([[i * ny + j, (i + 1) * ny + j, (i + 1) * ny + j + 1] for i in range(nx - 1) for j in range(ny - 1)]
-                 + [[i * ny + j, (i + 1) * ny + j + 1, i * ny + j + 1] for i in range(nx - 1) for j in range(ny - 1)])
+    F = np.array(
+        [[i * ny + j, (i + 1) * ny + j, (i + 1) * ny + j + 1] for i in range(nx - 1) for j in range(ny - 1)]
+        + [[i * ny + j, (i + 1) * ny + j + 1, i * ny + j + 1] for i in range(nx - 1) for j in range(ny - 1)]
+    )
     P = V[[0, ny - 1, len(V) - 1]]
     Q = P + [[0, 0, 0], [0, 0, 0.3], [0, 0.2, 0]]
     exact = mlsdeform.Deformer(V, points=P, faces=F, arap_iterations=2).deform(points=Q)
@@ -629,8 +677,10 @@ def test_integer_arguments_never_truncated():
         mlsdeform.Deformer(V, points=P, faces=[["a", "b", "c"]], arap_iterations=2)
     # region and handle groups: the same rules.
     region = np.arange(10)
-    assert np.array_equal(mlsdeform.Deformer(V, points=P, region=region.astype(float)).deform(points=Q),
-                          mlsdeform.Deformer(V, points=P, region=region).deform(points=Q))
+    assert np.array_equal(
+        mlsdeform.Deformer(V, points=P, region=region.astype(float)).deform(points=Q),
+        mlsdeform.Deformer(V, points=P, region=region).deform(points=Q),
+    )
     with pytest.raises(ValueError, match=r"region: .*found 1\.5"):
         mlsdeform.Deformer(V, points=P, region=[0, 1.5])
     with pytest.raises(TypeError, match="flatnonzero"):

@@ -48,10 +48,12 @@ def seed_mesh():
         for side in (0.0, 1.0):
             for i in range(n):
                 for j in range(n):
+
                     def point(a, b):
                         p = [0.0, 0.0, 0.0]
                         p[axis], p[(axis + 1) % 3], p[(axis + 2) % 3] = side, a / n, b / n
                         return tuple(p)
+
                     q = [vid(point(i, j)), vid(point(i + 1, j)), vid(point(i + 1, j + 1)), vid(point(i, j + 1))]
                     faces.append(q if (i + j) % 3 else q[:3])
                     if not (i + j) % 3:
@@ -61,27 +63,64 @@ def seed_mesh():
 
 def encode(verts, faces, kind, ply_type="float"):
     if kind == "obj":
-        return ("# seed\n" + "".join("v %r %r %r\n" % v for v in verts) +
-                "".join("f " + " ".join(str(i + 1) for i in f) + "\n" for f in faces)).encode()
+        return (
+            "# seed\n"
+            + "".join("v %r %r %r\n" % v for v in verts)
+            + "".join("f " + " ".join(str(i + 1) for i in f) + "\n" for f in faces)
+        ).encode()
     if kind == "off":
-        return ("OFF\n%d %d 0\n" % (len(verts), len(faces)) + "".join("%r %r %r\n" % v for v in verts) +
-                "".join("%d %s\n" % (len(f), " ".join(map(str, f))) for f in faces)).encode()
+        return (
+            "OFF\n%d %d 0\n" % (len(verts), len(faces))
+            + "".join("%r %r %r\n" % v for v in verts)
+            + "".join("%d %s\n" % (len(f), " ".join(map(str, f))) for f in faces)
+        ).encode()
     fmt = {"ply": "ascii", "le.ply": "binary_little_endian", "be.ply": "binary_big_endian"}[kind]
-    head = ("ply\nformat %s 1.0\nelement vertex %d\nproperty %s x\nproperty %s y\nproperty %s z\n"
-            "element face %d\nproperty list uchar int vertex_indices\nend_header\n" %
-            (fmt, len(verts), ply_type, ply_type, ply_type, len(faces)))
+    head = (
+        "ply\nformat %s 1.0\nelement vertex %d\nproperty %s x\nproperty %s y\nproperty %s z\n"
+        "element face %d\nproperty list uchar int vertex_indices\nend_header\n"
+        % (fmt, len(verts), ply_type, ply_type, ply_type, len(faces))
+    )
     if fmt == "ascii":
-        return (head + "".join("%r %r %r\n" % v for v in verts) +
-                "".join("%d %s\n" % (len(f), " ".join(map(str, f))) for f in faces)).encode()
+        return (
+            head
+            + "".join("%r %r %r\n" % v for v in verts)
+            + "".join("%d %s\n" % (len(f), " ".join(map(str, f))) for f in faces)
+        ).encode()
     e = "<" if fmt == "binary_little_endian" else ">"
     body = b"".join(struct.pack(e + ("3f" if ply_type == "float" else "3d"), *v) for v in verts)
     body += b"".join(struct.pack(e + "B", len(f)) + struct.pack(e + "%di" % len(f), *f) for f in faces)
     return head.encode() + body
 
 
-WEIRD = [b"-1", b"0", b"4294967295", b"4294967296", b"-2147483649", b"1e39", b"-1e39", b"nan", b"inf", b"0x1p3",
-         b"1.5.5", b"", b"+", b"1e", b"=", b"3.4028236e38", b"1e-50", b"255", b"256", b"99999999999999999999",
-         b"1e-46", b"1e309", b"1e-330", b"4.9e-324", b"1.7976931348623157e308", b"5000000.123", b"\xef\xbb\xbf"]
+WEIRD = [
+    b"-1",
+    b"0",
+    b"4294967295",
+    b"4294967296",
+    b"-2147483649",
+    b"1e39",
+    b"-1e39",
+    b"nan",
+    b"inf",
+    b"0x1p3",
+    b"1.5.5",
+    b"",
+    b"+",
+    b"1e",
+    b"=",
+    b"3.4028236e38",
+    b"1e-50",
+    b"255",
+    b"256",
+    b"99999999999999999999",
+    b"1e-46",
+    b"1e309",
+    b"1e-330",
+    b"4.9e-324",
+    b"1.7976931348623157e308",
+    b"5000000.123",
+    b"\xef\xbb\xbf",
+]
 
 
 def mutate_bytes(data, rng):
@@ -96,11 +135,11 @@ def mutate_bytes(data, rng):
         elif op == 2:  # insert random bytes
             data[at:at] = bytes(rng.randrange(256) for _ in range(rng.randint(1, 8)))
         elif op == 3:  # delete a range
-            del data[at:at + rng.randint(1, 64)]
+            del data[at : at + rng.randint(1, 64)]
         elif op == 4:  # truncate
             del data[at:]
         else:  # duplicate a range
-            data[at:at] = data[at:at + rng.randint(1, 256)]
+            data[at:at] = data[at : at + rng.randint(1, 256)]
     return bytes(data)
 
 
@@ -136,10 +175,15 @@ def mutate_header(data, rng):
     head_end = data.find(b"end_header\n")
     cut = head_end if head_end >= 0 else min(len(data), 40)
     head, body = data[:cut], data[cut:]
-    swaps = [(b"float", rng.choice([b"double", b"uchar", b"int", b"float64", b"list"])),
-             (b"uchar int", rng.choice([b"int int", b"uchar float", b"char uint", b"uint uchar"])),
-             (b"binary_little_endian", b"binary_big_endian"), (b"binary_big_endian", b"ascii"),
-             (b"ascii", b"binary_little_endian"), (b"1.0", b"2.0"), (b"vertex_indices", b"vertex_index")]
+    swaps = [
+        (b"float", rng.choice([b"double", b"uchar", b"int", b"float64", b"list"])),
+        (b"uchar int", rng.choice([b"int int", b"uchar float", b"char uint", b"uint uchar"])),
+        (b"binary_little_endian", b"binary_big_endian"),
+        (b"binary_big_endian", b"ascii"),
+        (b"ascii", b"binary_little_endian"),
+        (b"1.0", b"2.0"),
+        (b"vertex_indices", b"vertex_index"),
+    ]
     old, new = rng.choice(swaps)
     head = head.replace(old, new, 1)
     return mutate_tokens(head, rng) + body if rng.random() < 0.5 else head + body
@@ -165,7 +209,7 @@ def mutate_binary(data, rng):
             data[at] = rng.choice([0, 1, 2, 5, 255, data[at] - 1, data[at] + 1])
         else:
             k = at + 1 + 4 * rng.randrange(max(1, data[at]))
-            data[k:k + 4] = struct.pack(e + "I", rng.choice(AWKWARD_INDEX) & 0xFFFFFFFF)
+            data[k : k + 4] = struct.pack(e + "I", rng.choice(AWKWARD_INDEX) & 0xFFFFFFFF)
     return bytes(data)
 
 
@@ -235,6 +279,7 @@ def run_one(program, path, out_dir, timeout, extra):
                 os.killpg(proc.pid, 9)
             except ProcessLookupError:
                 pass
+
         timer = threading.Timer(timeout, kill)
         timer.start()
         _, status, usage = os.wait4(proc.pid, 0)  # Popen.wait would not give the child's rusage
@@ -279,8 +324,12 @@ def main():
     ap.add_argument("--seed", type=int, default=1)
     ap.add_argument("--timeout", type=float, default=20)
     ap.add_argument("--jobs", type=int, default=2)
-    ap.add_argument("--precision", choices=["float", "double"], default="float",
-                    help="passed to the program; with double, the PLY seeds have double properties")
+    ap.add_argument(
+        "--precision",
+        choices=["float", "double"],
+        default="float",
+        help="passed to the program; with double, the PLY seeds have double properties",
+    )
     args = ap.parse_args()
     print("command:", " ".join([sys.executable] + sys.argv), flush=True)
     shutil.rmtree(args.out_dir, ignore_errors=True)
@@ -331,13 +380,18 @@ def main():
                 print("BUG %s: %s: %s" % (os.path.basename(path), bug, stderr.strip()[:300]), flush=True)
             os.remove(path)
             os.remove(path + ".stderr")
-    print("%-9s %8s %8s %8s %6s %14s %12s" % ("format", "mutants", "exit 0", "exit 2", "bugs", "peak RSS MiB", "max time s"))
+    print(
+        "%-9s %8s %8s %8s %6s %14s %12s"
+        % ("format", "mutants", "exit 0", "exit 2", "bugs", "peak RSS MiB", "max time s")
+    )
     for kind in kinds:
         s = stats[kind]
         print("%-9s %8d %8d %8d %6d %14.1f %12.2f" % (kind, s["n"], s["0"], s["2"], s["bugs"], s["rss"], s["time"]))
     if not TIME:
-        print("(no /usr/bin/time: peak RSS includes this script's own %.1f MiB, shared until the child execs)" %
-              (resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0))
+        print(
+            "(no /usr/bin/time: peak RSS includes this script's own %.1f MiB, shared until the child execs)"
+            % (resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0)
+        )
     total_bugs = sum(s["bugs"] for s in stats.values())
     print("bugs: %d" % total_bugs)
     return 1 if total_bugs else 0

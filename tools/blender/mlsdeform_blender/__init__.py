@@ -40,11 +40,11 @@ else:
     import mlsdeform
 
 KEY_NAME = "MLS Deform"
-PROP_HANDLES = "mlsdeform_handles"      # names of the bound Empties, in handle order
-PROP_SEGMENTS = "mlsdeform_segments"    # pairs of indices into the handle list: segment ends
-PROP_REST = "mlsdeform_rest"            # rest positions of the handle Empties, local space, flat
+PROP_HANDLES = "mlsdeform_handles"  # names of the bound Empties, in handle order
+PROP_SEGMENTS = "mlsdeform_segments"  # pairs of indices into the handle list: segment ends
+PROP_REST = "mlsdeform_rest"  # rest positions of the handle Empties, local space, flat
 PROP_ERROR = "mlsdeform_error"
-PROP_MODE = "mlsdeform_mode"            # "vertices" (rest copy in REST_ATTRIBUTE) or "shape_key"
+PROP_MODE = "mlsdeform_mode"  # "vertices" (rest copy in REST_ATTRIBUTE) or "shape_key"
 REST_ATTRIBUTE = "mlsdeform_rest"
 
 # Sessions are rebuilt from what the object stores (after reopening a file, after undo): never saved.
@@ -66,8 +66,10 @@ def _rest_vertices(obj):
     if obj.get(PROP_MODE) == "vertices":
         attribute = mesh.attributes.get(REST_ATTRIBUTE)
         if attribute is None:
-            raise LookupError(f"the attribute '{REST_ATTRIBUTE}' with the rest positions was removed: the rest "
-                              "pose is lost; unbind keeps the current shape")
+            raise LookupError(
+                f"the attribute '{REST_ATTRIBUTE}' with the rest positions was removed: the rest "
+                "pose is lost; unbind keeps the current shape"
+            )
         attribute.data.foreach_get("vector", V)
     else:
         mesh.shape_keys.reference_key.data.foreach_get("co", V)
@@ -114,8 +116,16 @@ def _split(obj, positions):
 def _session(obj):
     """The cached session of obj, built from the stored rest data when missing or out of date."""
     s = _settings(obj)
-    key = (obj.name, obj.data.name, len(obj.data.vertices), s.transform, s.exponent, s.segment_weight,
-           s.precision, s.threads)
+    key = (
+        obj.name,
+        obj.data.name,
+        len(obj.data.vertices),
+        s.transform,
+        s.exponent,
+        s.segment_weight,
+        s.precision,
+        s.threads,
+    )
     cached = _sessions.get(obj.name)
     if cached is not None and cached["key"] == key:
         return cached
@@ -124,10 +134,16 @@ def _session(obj):
     dtype = np.float32 if s.precision == "float" else np.float64
     V = _rest_vertices(obj).astype(dtype)
     points, segments = _split(obj, rest)
-    deformer = mlsdeform.Deformer(V, points=points, segments=segments, transform=s.transform,
-                                  exponent=s.exponent, segment_weight=s.segment_weight, threads=s.threads)
-    cached = {"key": key, "deformer": deformer, "names": names, "out": np.empty((len(V), 3), dtype),
-              "last": None}
+    deformer = mlsdeform.Deformer(
+        V,
+        points=points,
+        segments=segments,
+        transform=s.transform,
+        exponent=s.exponent,
+        segment_weight=s.segment_weight,
+        threads=s.threads,
+    )
+    cached = {"key": key, "deformer": deformer, "names": names, "out": np.empty((len(V), 3), dtype), "last": None}
     _sessions[obj.name] = cached
     return cached
 
@@ -197,22 +213,41 @@ def _settings_changed(self, context):
 
 class MLSDeformSettings(bpy.types.PropertyGroup):
     transform: bpy.props.EnumProperty(
-        name="Transform", items=[("rigid", "Rigid", "As-rigid-as-possible (the paper's)"),
-                                 ("similarity", "Similarity", "Rigid with a uniform scale"),
-                                 ("affine", "Affine", "Any linear map (needs 4 handles spanning 3D)")],
-        default="rigid", update=_settings_changed)
-    exponent: bpy.props.FloatProperty(name="Exponent", description="u in the weights |p - v|^-u", default=2.0,
-                                      min=1.0, max=16.0, update=_settings_changed)
+        name="Transform",
+        items=[
+            ("rigid", "Rigid", "As-rigid-as-possible (the paper's)"),
+            ("similarity", "Similarity", "Rigid with a uniform scale"),
+            ("affine", "Affine", "Any linear map (needs 4 handles spanning 3D)"),
+        ],
+        default="rigid",
+        update=_settings_changed,
+    )
+    exponent: bpy.props.FloatProperty(
+        name="Exponent",
+        description="u in the weights |p - v|^-u",
+        default=2.0,
+        min=1.0,
+        max=16.0,
+        update=_settings_changed,
+    )
     segment_weight: bpy.props.EnumProperty(
-        name="Segment weight", items=[("paper_constant", "Paper (constant)", "The paper's simplification"),
-                                      ("exact_integral", "Exact integral", "The weight integrated along it")],
-        default="paper_constant", update=_settings_changed)
+        name="Segment weight",
+        items=[
+            ("paper_constant", "Paper (constant)", "The paper's simplification"),
+            ("exact_integral", "Exact integral", "The weight integrated along it"),
+        ],
+        default="paper_constant",
+        update=_settings_changed,
+    )
     precision: bpy.props.EnumProperty(
-        name="Precision", items=[("float", "Float", "32-bit, as Blender stores vertices"),
-                                 ("double", "Double", "64-bit arithmetic")],
-        default="float", update=_settings_changed)
-    threads: bpy.props.IntProperty(name="Threads", description="0: all cores", default=0, min=0, max=256,
-                                   update=_settings_changed)
+        name="Precision",
+        items=[("float", "Float", "32-bit, as Blender stores vertices"), ("double", "Double", "64-bit arithmetic")],
+        default="float",
+        update=_settings_changed,
+    )
+    threads: bpy.props.IntProperty(
+        name="Threads", description="0: all cores", default=0, min=0, max=256, update=_settings_changed
+    )
     last_ms: bpy.props.FloatProperty(name="Last deformation (ms)", default=0.0)
     last_write_ms: bpy.props.FloatProperty(name="Last write to the mesh (ms)", default=0.0)
 
@@ -229,6 +264,7 @@ def _selection(context):
 
 class MLSDEFORM_OT_bind(bpy.types.Operator):
     """Bind the active mesh to the selected Empties: their current positions are the rest pose"""
+
     bl_idname = "mlsdeform.bind"
     bl_label = "Bind"
     bl_options = {"REGISTER", "UNDO"}
@@ -297,6 +333,7 @@ def _unbind(obj):
 
 class MLSDEFORM_OT_unbind(bpy.types.Operator):
     """Remove the binding and its shape key: the mesh is exactly as before Bind"""
+
     bl_idname = "mlsdeform.unbind"
     bl_label = "Unbind"
     bl_options = {"REGISTER", "UNDO"}
@@ -325,6 +362,7 @@ def _to_shape_key_mode(obj):
 
 class MLSDEFORM_OT_bake(bpy.types.Operator):
     """Write the current pose, or each frame of a range, as shape keys ("MLS f0001", ...)"""
+
     bl_idname = "mlsdeform.bake"
     bl_label = "Bake"
     bl_options = {"REGISTER", "UNDO"}
@@ -410,9 +448,13 @@ def register():
 
 
 def unregister():
-    for lst, fn in ((bpy.app.handlers.depsgraph_update_post, _on_depsgraph),
-                    (bpy.app.handlers.frame_change_post, _on_frame), (bpy.app.handlers.load_post, _on_load),
-                    (bpy.app.handlers.undo_post, _on_undo_redo), (bpy.app.handlers.redo_post, _on_undo_redo)):
+    for lst, fn in (
+        (bpy.app.handlers.depsgraph_update_post, _on_depsgraph),
+        (bpy.app.handlers.frame_change_post, _on_frame),
+        (bpy.app.handlers.load_post, _on_load),
+        (bpy.app.handlers.undo_post, _on_undo_redo),
+        (bpy.app.handlers.redo_post, _on_undo_redo),
+    ):
         if fn in lst:
             lst.remove(fn)
     bpy.types.VIEW3D_MT_object.remove(_menu)
