@@ -11,7 +11,6 @@ Where a program ran with repetitions, the median is used.
 import argparse
 import csv
 import json
-import math
 import os
 import sys
 

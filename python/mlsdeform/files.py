@@ -208,7 +208,6 @@ def _read_ply(data, path):
 
 
 def _ply_ascii_element(tokens, pos, count, props, path, name):
-    out = {}
     if all(ctype is None for _, _, ctype in props):
         width = len(props)
         block = tokens[pos : pos + count * width]

@@ -6,7 +6,6 @@ Each long call runs in a child Python and is long by its size (from half a minut
 tuned to the machine: the child prints READY just before the call, the test sends the signal 0.3 s later, and
 a child not done LIMIT seconds after it is killed (a failure, never a hang).
 """
-import os
 import signal
 import subprocess
 import sys
