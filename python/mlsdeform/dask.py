@@ -54,9 +54,9 @@ class Summary:
     tasks (the share of the work spent writing files is seconds_write / (seconds_deform + seconds_write));
     `seconds_setup`: of `seconds`, the client's part before the first task (render_animation: reading the mesh,
     resolving the handles, sending the rest pose); `cpu_seconds`: the CPU time of the worker processes while they
-    ran the frames (render_animation; with the worker's other threads, if any); `sessions_built`: sessions built on the workers (one per worker for render_animation, one per mesh for
-    deform_meshes, more when a worker died and its replacement built its own); `temporaries_removed`: files of
-    attempts that died."""
+    ran the frames (render_animation; with the worker's other threads, if any); `sessions_built`: sessions built
+    on the workers (one per worker for render_animation, one per mesh for deform_meshes, more when a worker died
+    and its replacement built its own); `temporaries_removed`: files of attempts that died."""
 
     written: list = field(default_factory=list)
     failed: dict = field(default_factory=dict)
