@@ -262,9 +262,9 @@ def mls_reference(V, P, Q, A=None, B=None, C=None, D=None, transform="rigid", u=
         ends_p = [A[None] - p_star[:, None], B[None] - p_star[:, None]]
         ends_q = [C[None] - q_star[:, None], D[None] - q_star[:, None]]
         for k in range(2):
-            for l in range(2):
-                H += PAPER_W[k, l] * np.einsum("nj,nja,njb->nab", wS, ends_q[k], ends_p[l])
-                G += PAPER_W[k, l] * np.einsum("nj,nja,njb->nab", wS, ends_p[k], ends_p[l])
+            for j in range(2):
+                H += PAPER_W[k, j] * np.einsum("nj,nja,njb->nab", wS, ends_q[k], ends_p[j])
+                G += PAPER_W[k, j] * np.einsum("nj,nja,njb->nab", wS, ends_p[k], ends_p[j])
     rbf_extra = np.zeros(len(V))
     if centroids == "rbf":
         rest = np.vstack([P] + ([A, B] if segs else []))
@@ -952,7 +952,10 @@ def build_cases(args):
                 def f(g, dt=dt, make=make, which=which, name=name):
                     V, P, Q, A, B, C, D = cloud(g, n=150, k=5, s=1, dtype=dt)
                     want = D_(V, points=P, segments=(A, B)).deform(points=Q, segments=(C, D))
-                    conv = lambda X: make(X) if name != "list" else np.asarray(make(X), dt).tolist()
+
+                    def conv(X):
+                        return make(X) if name != "list" else np.asarray(make(X), dt).tolist()
+
                     args = dict(V=V, P=P, Q=Q, A=A)
                     if which == "vertices":
                         args["V"] = conv(V)
@@ -1244,7 +1247,9 @@ def build_cases(args):
                     V, P, Q, A, B, C, D, t = exact_scaling(e, dt, V, P, Q, A, B, C, D, t)
 
                     def run(s):
-                        sc = lambda X: np.ldexp(X, s).astype(dt)
+                        def sc(X):
+                            return np.ldexp(X, s).astype(dt)
+
                         seg = (sc(A), sc(B)) if variant == "segments" else None
                         d = D_(sc(V), points=sc(P), segments=seg, **kw)
                         if variant == "groups":
@@ -1317,7 +1322,9 @@ def build_cases(args):
                 V, Q = exact_scaling(e, dt, V, Q)
 
                 def run(s):
-                    sc = lambda X: np.ldexp(X, s).astype(dt)
+                    def sc(X):
+                        return np.ldexp(X, s).astype(dt)
+
                     return D_(sc(V), points=sc(V[held]), faces=F, arap_iterations=2).deform(points=sc(Q))
 
                 X0 = run(0).astype(np.float64)

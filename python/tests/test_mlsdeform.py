@@ -459,10 +459,14 @@ def test_transform_handles():
     # Every handle in one group: the targets are the rest handles under x -> R (x - c) + c + t, and so is
     # the whole mesh (MLS reproduces a rigid motion). Rounding: each coordinate is 3 products and 5 sums of
     # terms below 4 in magnitude, within 8 * 4 eps = 7.1e-15 of exact on either side (library and numpy),
-    # so they differ by at most 1.5e-14 < 2e-14. The deformed vertices add the MLS fit's own rounding, a few hundred eps for 6 spread
-    # handles (the rigid-reproduction tests in C++ measure below 100 eps), inside 1e-12 = 4500 eps.
+    # so they differ by at most 1.5e-14 < 2e-14. The deformed vertices add the MLS fit's own rounding, a few
+    # hundred eps for 6 spread handles (the rigid-reproduction tests in C++ measure below 100 eps), inside
+    # 1e-12 = 4500 eps.
     d.transform_handles(points=range(5), segments=[0], rotation=R, translation=t, pivot=c)
-    move = lambda X: (X - c) @ R.T + c + t
+
+    def move(X):
+        return (X - c) @ R.T + c + t
+
     assert np.allclose(d.targets["points"], move(P), rtol=0, atol=2e-14)
     assert np.allclose(d.targets["segments"][0], move(A), rtol=0, atol=2e-14)
     assert np.allclose(d.deform(), move(V), rtol=0, atol=1e-12)

@@ -39,7 +39,10 @@ def test_arap_grid_far_from_unit_size(dtype, s):
     X = mlsdeform.Deformer(Vs, points=Ps, faces=F, arap_iterations=2).deform(points=Qs)
     assert np.isfinite(X).all()
     j = round(math.log2(s))
-    down = lambda x: np.ldexp(x, -j).astype(dtype)  # exact: stays in the normal range
+
+    def down(x):  # exact: stays in the normal range
+        return np.ldexp(x, -j).astype(dtype)
+
     X1 = mlsdeform.Deformer(down(Vs), points=down(Ps), faces=F, arap_iterations=2).deform(points=down(Qs))
     assert np.array_equal(X, np.ldexp(X1, j).astype(dtype))
     # And the scene is deformed, not collapsed: the lifted handle's vertex sits on its target.
