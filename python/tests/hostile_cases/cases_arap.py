@@ -1,5 +1,4 @@
 """ARAP: against its bound, its refusals, the faces' dtypes."""
-
 import numpy as np
 
 import mlsdeform

@@ -1,5 +1,4 @@
 """fit_points against numpy (weighted Kabsch / Umeyama), its scale range and its refusals."""
-
 import numpy as np
 
 import mlsdeform

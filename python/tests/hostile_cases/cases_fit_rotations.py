@@ -1,12 +1,13 @@
 """fit_rotations: sizes around the lane widths, dtypes, methods, ISAs, scale, NaN, out=, layouts,
 threads."""
-
 import numpy as np
 
 import mlsdeform
 
+from support import random_rotation
+
 from .common import DTYPES, EPS, EPS64, METHODS, SCALE_ACCEPT, Skip, TYPE, VALUE, Wrong, add, refused, same
-from .references import check_rotations, random_rotation
+from .references import check_rotations
 from .scenes import cloud
 
 

@@ -1,5 +1,4 @@
 """Groups of handles (transform_handles), and numpy integers as indices."""
-
 import numpy as np
 
 import mlsdeform

@@ -1,6 +1,5 @@
 """The deformer's inputs: layouts and dtypes (bitwise the same as the C-contiguous array), NaN and
 infinities, empty arrays and wrong counts, out= holding the handles."""
-
 import numpy as np
 
 import mlsdeform

@@ -1,6 +1,5 @@
 """The deformer against the direct numpy MLS: transforms, storages, invariants, few and coincident handles;
 segments (build_segments)."""
-
 import numpy as np
 
 import mlsdeform

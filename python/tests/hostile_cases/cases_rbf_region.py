@@ -1,6 +1,5 @@
 """RBF centroids against numpy's RBF solve; regions against the MLS with the ring as fixed handles
 (docs/api.md, Region of interest)."""
-
 import numpy as np
 
 import mlsdeform

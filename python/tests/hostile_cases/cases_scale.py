@@ -1,5 +1,4 @@
 """Scale: the whole scene by 2^e, divided back (MLS, RBF, regions, groups)."""
-
 import numpy as np
 
 import mlsdeform

@@ -54,9 +54,6 @@ def add(tag, name, fn, accept=None, timeout=60, quick=None):
     CASES.append(Case(len(CASES), tag, name, fn, accept, timeout, True if quick is None else quick))
 
 
-# ---- checks -----------------------------------------------------------------------------------------------
-
-
 def words_in(message, words):
     m = message.lower()
     return any(w.lower() in m for w in words)

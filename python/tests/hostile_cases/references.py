@@ -1,25 +1,9 @@
 """Independent references in numpy float64 and their tolerances: rotation fits by SVD, the direct per-vertex
 MLS from the paper's equations, the RBF centroids."""
-
 import numpy as np
 
 
 from .common import EPS, EPS64, Wrong, finite, within
-
-
-# ---- references --------------------------------------------------------------------------------------------
-
-
-def random_rotation(g):
-    q = g.normal(size=4)
-    w, x, y, z = q / np.linalg.norm(q)
-    return np.array(
-        [
-            [1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)],
-            [2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)],
-            [2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)],
-        ]
-    )
 
 
 def kabsch(H):

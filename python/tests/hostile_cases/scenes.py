@@ -1,12 +1,7 @@
 """Scenes for the cases: random clouds, grid meshes, rigid motions, exact scalings, and the ARAP bound."""
-
 import numpy as np
 
-
-from .references import random_rotation
-
-
-# ---- scenes -----------------------------------------------------------------------------------------------
+from support import random_rotation
 
 
 def cloud(g, n=300, k=6, s=0, dtype=np.float64):
