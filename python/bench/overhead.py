@@ -8,37 +8,14 @@
 
     python3 python/bench/overhead.py    (after tools/dev.sh python, or with PYTHONPATH=build/python)
 """
-import os
-import platform
-import time
-
 import numpy as np
 
 import mlsdeform
-
-
-def best_of(f, repeat=7):
-    times = []
-    for _ in range(repeat):
-        t0 = time.perf_counter()
-        f()
-        times.append(time.perf_counter() - t0)
-    return min(times)
-
-
-def cpu_name():
-    try:
-        with open("/proc/cpuinfo") as f:
-            for line in f:
-                if line.startswith("model name"):
-                    return line.split(":", 1)[1].strip()
-    except OSError:
-        pass
-    return platform.processor() or "unknown CPU"
+from timing import banner, best_of, cpp_seconds_per_frame
 
 
 def main():
-    print(f"mlsdeform {mlsdeform.__version__}, {mlsdeform.active_isa()}, {cpu_name()}, {os.cpu_count()} cores")
+    print(banner())
     g = np.random.default_rng(1)
     V = g.uniform(-1, 1, (100_000, 3))
     P = V[g.choice(len(V), 10, replace=False)]
@@ -51,7 +28,7 @@ def main():
             X = np.empty((len(V), 3), dtype)
             Qt = Q.astype(dtype)
             reps = 20
-            cpp = min(d._time_cpp_deform(points=Qt, out=X, reps=reps) for _ in range(7))
+            cpp = cpp_seconds_per_frame(d, reps=reps, repeat=7, points=Qt, out=X)
 
             def frames():
                 for _ in range(reps):
