@@ -78,8 +78,10 @@ class Build:
             if cache.get("MLSDEFORM_SANITIZE", "OFF").upper() in ON:
                 problems.append("it is a sanitizer build")
             if wanted is not None and (wanted.upper() in ON) != self.cholmod:
-                problems.append(f"MLSDEFORM_CHOLMOD={wanted} asked for, but the build has "
-                                f"MLSDEFORM_CHOLMOD={cache.get('MLSDEFORM_CHOLMOD', 'OFF')}")
+                problems.append(
+                    f"MLSDEFORM_CHOLMOD={wanted} asked for, but the build has "
+                    f"MLSDEFORM_CHOLMOD={cache.get('MLSDEFORM_CHOLMOD', 'OFF')}"
+                )
             if problems:
                 sys.exit(f"setup.py: MLSDEFORM_BUILD_DIR={self.dir} cannot be packaged: " + "; ".join(problems))
         else:
@@ -95,12 +97,23 @@ class Build:
         return "License :: OSI Approved :: MIT License"
 
     def _configure(self):
-        args = ["cmake", "-S", str(ROOT), "-B", str(self.dir), "-DCMAKE_BUILD_TYPE=Release",
-                "-DMLSDEFORM_BUILD_PYTHON=ON", "-DMLSDEFORM_BUILD_TOOLS=ON", "-DMLSDEFORM_BUILD_TESTS=OFF",
-                "-DMLSDEFORM_BUILD_BENCH=OFF", f"-DMLSDEFORM_CHOLMOD={'ON' if self.cholmod else 'OFF'}",
-                f"-DPython3_EXECUTABLE={sys.executable}"]
+        args = [
+            "cmake",
+            "-S",
+            str(ROOT),
+            "-B",
+            str(self.dir),
+            "-DCMAKE_BUILD_TYPE=Release",
+            "-DMLSDEFORM_BUILD_PYTHON=ON",
+            "-DMLSDEFORM_BUILD_TOOLS=ON",
+            "-DMLSDEFORM_BUILD_TESTS=OFF",
+            "-DMLSDEFORM_BUILD_BENCH=OFF",
+            f"-DMLSDEFORM_CHOLMOD={'ON' if self.cholmod else 'OFF'}",
+            f"-DPython3_EXECUTABLE={sys.executable}",
+        ]
         try:  # pybind11 from the build environment (PyPI's in an isolated build); else CMake finds Debian's
             import pybind11
+
             args.append(f"-Dpybind11_DIR={pybind11.get_cmake_dir()}")
         except ImportError:
             pass
@@ -119,9 +132,11 @@ class Build:
         modules = sorted((self.dir / "python" / "mlsdeform").glob("_mlsdeform*.so"))
         module = next((m for m in modules if m.name == "_mlsdeform" + suffix), None)
         if module is None:
-            sys.exit(f"setup.py: no _mlsdeform{suffix} for this Python ({sys.executable}) in {self.dir}/python/"
-                     f"mlsdeform (found: {[m.name for m in modules]}): that build was configured for another "
-                     "Python; configure it with -DPython3_EXECUTABLE=<this python>")
+            sys.exit(
+                f"setup.py: no _mlsdeform{suffix} for this Python ({sys.executable}) in {self.dir}/python/"
+                f"mlsdeform (found: {[m.name for m in modules]}): that build was configured for another "
+                "Python; configure it with -DPython3_EXECUTABLE=<this python>"
+            )
         program = self.dir / "tools" / "mlsdeform" if self.program else None
         if program is not None and not program.exists():
             sys.exit(f"setup.py: the mlsdeform program was not built ({program})")
@@ -197,7 +212,8 @@ setup(
     ext_modules=[Extension("mlsdeform._mlsdeform", sources=[])],
     scripts=["mlsdeform"] if BUILD.program else [],  # built by BuildProgram
     data_files=[("share/mlsdeform/data", ["data/human_man.obj", "data/human_bend.json", "data/LICENSES.txt"])]
-    if BUILD.program else [],
+    if BUILD.program
+    else [],
     cmdclass={"build_ext": CMakeBuildExt, "build_scripts": BuildProgram},
     zip_safe=False,
     # setuptools' own build folders beside CMake's, not in the project's build/

@@ -9,7 +9,8 @@
 #   tools/dev.sh blender  install what is missing (Blender too), build build/mlsdeform_blender.zip (the add-on with
 #                       the compiled module inside, Blender 3.4 to 4.1) and build/mlsdeform_blender_extension.zip
 #                       (the Blender 4.2+ extension, the module as a bundled wheel), and run their headless tests
-#   tools/dev.sh format rewrite every C++ file as .clang-format says (Debian 12's clang-format 14; CI checks it)
+#   tools/dev.sh format rewrite every C++ file as .clang-format says (Debian 12's clang-format 14) and every Python
+#                       file as black says (Debian 12's black 23.1, pyproject.toml); CI checks both
 # Extra arguments after `demo` go to the demo.
 set -euo pipefail
 root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
@@ -53,6 +54,7 @@ case "${1:-}" in
   format)
     find core kernels tests bench tools python \( -name '*.cpp' -o -name '*.hpp' -o -name '*.inc' -o -name '*.h' \) \
       -print0 | xargs -0 clang-format-14 -i
+    black --quiet .  # pyproject.toml's settings; the files git would take (.gitignore)
     ;;
   test)
     build build -DMLSDEFORM_WERROR=ON

@@ -22,15 +22,18 @@ import sys
 
 def check():
     import matplotlib  # noqa: F401
+
     matplotlib.use("Agg")
     import matplotlib.pyplot  # noqa: F401
     from mpl_toolkits.mplot3d import Axes3D  # noqa: F401
+
     return 0
 
 
 def to_plot(a):
     """Model coordinates (y up) -> matplotlib's (z up): a proper rotation, so handedness is kept."""
     import numpy as np
+
     a = np.asarray(a, dtype=float).reshape(-1, 3)
     return np.stack([a[:, 0], -a[:, 2], a[:, 1]], axis=1)
 
@@ -38,6 +41,7 @@ def to_plot(a):
 def light_direction(elev, azim):
     """A key light from the camera's upper left, in plot coordinates."""
     import numpy as np
+
     e, z = np.radians(elev + 25.0), np.radians(azim - 35.0)
     return np.array([np.cos(e) * np.cos(z), np.cos(e) * np.sin(z), np.sin(e)])
 
@@ -45,23 +49,28 @@ def light_direction(elev, azim):
 def draw(spec):
     import numpy as np
     import matplotlib
+
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
     from mpl_toolkits.mplot3d.art3d import Poly3DCollection, Line3DCollection
 
     import textwrap
+
     rows, cols = spec["rows"], spec["cols"]
     pw, ph = spec["panel_size"]
     title = textwrap.wrap(spec.get("title", ""), width=int(pw * cols * 9))  # ~9 characters per inch at 12 pt
     title_height = 0.15 + 0.25 * len(title) if title else 0.0  # inches
-    fig = plt.figure(figsize=(pw * cols, ph * rows + title_height + (0.35 if spec.get("caption") else 0)),
-                     dpi=spec.get("dpi", 110))
+    fig = plt.figure(
+        figsize=(pw * cols, ph * rows + title_height + (0.35 if spec.get("caption") else 0)), dpi=spec.get("dpi", 110)
+    )
 
     # The union of all panels' extents, so that before and after share one scale.
     def extent(panel):
         pts = [to_plot(m["vertices"]) for m in panel["meshes"] if m["vertices"]]
         pts += [to_plot(p["xyz"]) for p in panel["points"] if p["xyz"]]
-        pts += [to_plot(s["a"]) for s in panel["segments"] if s["a"]] + [to_plot(s["b"]) for s in panel["segments"] if s["b"]]
+        pts += [to_plot(s["a"]) for s in panel["segments"] if s["a"]] + [
+            to_plot(s["b"]) for s in panel["segments"] if s["b"]
+        ]
         if not pts:
             return None
         p = np.concatenate(pts)
@@ -81,7 +90,7 @@ def draw(spec):
         r, c = next((r, c) for r in range(rows) for c in range(cols) if (r, c) not in taken)
         span = max(1, min(panel.get("row_span", 1), rows - r))
         taken.update((r + k, c) for k in range(span))
-        cells.append(grid[r:r + span, c])
+        cells.append(grid[r : r + span, c])
 
     legend = {}
     charts = []
@@ -135,23 +144,44 @@ def draw(spec):
             c = s.get("color", [0.1, 0.3, 0.9])
             if s.get("arrow"):
                 d = b - a
-                h = ax.quiver(a[:, 0], a[:, 1], a[:, 2], d[:, 0], d[:, 1], d[:, 2], color=c, linewidths=s.get("width", 1.0),
-                              arrow_length_ratio=0.15, zorder=3, normalize=False)
+                h = ax.quiver(
+                    a[:, 0],
+                    a[:, 1],
+                    a[:, 2],
+                    d[:, 0],
+                    d[:, 1],
+                    d[:, 2],
+                    color=c,
+                    linewidths=s.get("width", 1.0),
+                    arrow_length_ratio=0.15,
+                    zorder=3,
+                    normalize=False,
+                )
             else:
                 h = Line3DCollection(np.stack([a, b], axis=1), colors=[c], linewidths=s.get("width", 2.5), zorder=4)
                 ax.add_collection3d(h)
             if s.get("label") and s["label"] not in legend:
-                legend[s["label"]] = plt.Line2D([], [], color=c, lw=max(1.5, s.get("width", 2.5)),
-                                                marker=">" if s.get("arrow") else None)
+                legend[s["label"]] = plt.Line2D(
+                    [], [], color=c, lw=max(1.5, s.get("width", 2.5)), marker=">" if s.get("arrow") else None
+                )
 
         for p in panel["points"]:
             x = to_plot(p["xyz"])
             if len(x) == 0:
                 continue
             c = p.get("color", [0.1, 0.3, 0.9])
-            ax.scatter(x[:, 0], x[:, 1], x[:, 2], s=p.get("size", 18), c=[c], marker=p.get("marker", "o"),
-                       depthshade=False, edgecolors="white" if p.get("size", 18) >= 12 else "none",
-                       linewidths=0.4, zorder=5)
+            ax.scatter(
+                x[:, 0],
+                x[:, 1],
+                x[:, 2],
+                s=p.get("size", 18),
+                c=[c],
+                marker=p.get("marker", "o"),
+                depthshade=False,
+                edgecolors="white" if p.get("size", 18) >= 12 else "none",
+                linewidths=0.4,
+                zorder=5,
+            )
             if p.get("label") and p["label"] not in legend:
                 legend[p["label"]] = plt.Line2D([], [], color=c, lw=0, marker=p.get("marker", "o"), markersize=6)
 
@@ -170,8 +200,15 @@ def draw(spec):
         top = 1.0 - title_height / fig.get_figheight()
     bottom = 0.0
     if legend:
-        fig.legend(legend.values(), legend.keys(), loc="lower center", ncol=min(len(legend), 5), fontsize=8, frameon=False,
-                   bbox_to_anchor=(0.5, 0.35 / fig.get_figheight() if spec.get("caption") else 0.0))
+        fig.legend(
+            legend.values(),
+            legend.keys(),
+            loc="lower center",
+            ncol=min(len(legend), 5),
+            fontsize=8,
+            frameon=False,
+            bbox_to_anchor=(0.5, 0.35 / fig.get_figheight() if spec.get("caption") else 0.0),
+        )
         bottom = 0.3 / fig.get_figheight()
     if spec.get("caption"):
         fig.text(0.5, 0.01, spec["caption"], ha="center", va="bottom", fontsize=8, wrap=True, color="0.25")

@@ -11,7 +11,8 @@ packages=(cmake g++ make pkg-config
   python3-pip python3-venv python3-setuptools python3-wheel python3-build  # ... as a wheel (pyproject.toml)
   python3-dask python3-distributed                                        # mlsdeform.dask and its tests
   clang libclang-rt-14-dev                                                # the libFuzzer targets
-  clang-format)                                                           # the format check (tests/format.cmake)
+  clang-format                                                            # the format check (tests/format.cmake)
+  black flake8)                                                           # the Python checks (tests/python_style.cmake)
 # `install_deps.sh blender` adds Debian's Blender 3.4 for the add-on's headless test (tools/blender/).
 [ "${1:-}" = blender ] && packages+=(blender)
 missing=()

@@ -27,9 +27,20 @@ MESHES = os.environ.get("MLSDEFORM_MESHES") or os.path.join(HERE, "..", "..", ".
 
 
 def handles_file(path, frames):
-    spec = {"points": [{"vertex": 380598}, {"vertex": 722737}, {"vertex": 704787}, {"vertex": 219348}],
-            "frames": [{"points": [None, None, {"offset": [0, 0.05 * (i + 1) / frames * 8, 0]},
-                                   {"offset": [0.04 * (i + 1) / frames * 8, 0, 0]}]} for i in range(frames)]}
+    spec = {
+        "points": [{"vertex": 380598}, {"vertex": 722737}, {"vertex": 704787}, {"vertex": 219348}],
+        "frames": [
+            {
+                "points": [
+                    None,
+                    None,
+                    {"offset": [0, 0.05 * (i + 1) / frames * 8, 0]},
+                    {"offset": [0.04 * (i + 1) / frames * 8, 0, 0]},
+                ]
+            }
+            for i in range(frames)
+        ],
+    }
     with open(path, "w") as f:
         json.dump(spec, f)
 
@@ -39,8 +50,13 @@ def run(mesh, handles, out, workers, threads, ext):
     for _ in range(2):
         shutil.rmtree(out, ignore_errors=True)
         os.makedirs(out)
-        with LocalCluster(n_workers=workers, threads_per_worker=threads, processes=True, dashboard_address=None,
-                          silence_logs=logging.ERROR) as cluster, Client(cluster) as client:
+        with LocalCluster(
+            n_workers=workers,
+            threads_per_worker=threads,
+            processes=True,
+            dashboard_address=None,
+            silence_logs=logging.ERROR,
+        ) as cluster, Client(cluster) as client:
             client.run(lambda: __import__("mlsdeform"))  # workers started and the module loaded: not timed
             s = mlsdeform.dask.render_animation(client, mesh, handles, os.path.join(out, "spot" + ext))
         if best is None or s.seconds < best.seconds:
@@ -58,25 +74,31 @@ def main(argv):
         return 2
     handles = os.path.join(out_root, "spot.json")
     handles_file(handles, frames)
-    cpu = next((line.split(":", 1)[1].strip() for line in open("/proc/cpuinfo") if line.startswith("model name")),
-               "?")
-    print(f"spot_loop3, {frames} frames, {os.cpu_count()} cores ({cpu}), ISA {mlsdeform.active_isa()}; "
-          "seconds include reading the mesh and resolving the handles on the client (once)")
-    print("| output | workers x threads | frames/s | speed-up | frames/s after set-up | speed-up | CPU ms per frame | "
-          "cores used | writing share of task time | run |")
+    cpu = next((line.split(":", 1)[1].strip() for line in open("/proc/cpuinfo") if line.startswith("model name")), "?")
+    print(
+        f"spot_loop3, {frames} frames, {os.cpu_count()} cores ({cpu}), ISA {mlsdeform.active_isa()}; "
+        "seconds include reading the mesh and resolving the handles on the client (once)"
+    )
+    print(
+        "| output | workers x threads | frames/s | speed-up | frames/s after set-up | speed-up | CPU ms per frame | "
+        "cores used | writing share of task time | run |"
+    )
     print("|---|---|---|---|---|---|---|---|---|---|")
-    for ext in (argv[3].split(",") if len(argv) > 3 else (".npy", ".ply")):
+    for ext in argv[3].split(",") if len(argv) > 3 else (".npy", ".ply"):
         base = None
         for workers, threads in ((1, 1), (2, 1), (1, 2)):
             t = time.perf_counter()
             s = run(mesh, handles, os.path.join(out_root, "out"), workers, threads, ext)
             base = base or (s.frames_per_second, s.frames_per_second_after_setup)
-            print(f"| {ext} | {workers} x {threads} | {s.frames_per_second:.2f} | "
-                  f"{s.frames_per_second / base[0]:.2f}x | {s.frames_per_second_after_setup:.2f} | "
-                  f"{s.frames_per_second_after_setup / base[1]:.2f}x | {1000 * s.cpu_seconds / s.frames:.1f} | "
-                  f"{s.cpu_seconds / (s.seconds - s.seconds_setup):.2f} | {100 * s.write_share:.0f}% | "
-                  f"{s.seconds:.1f} s (set-up {s.seconds_setup:.1f} s; tasks: deform {s.seconds_deform:.1f} s, "
-                  f"write {s.seconds_write:.1f} s; {time.perf_counter() - t:.0f} s with the clusters) |", flush=True)
+            print(
+                f"| {ext} | {workers} x {threads} | {s.frames_per_second:.2f} | "
+                f"{s.frames_per_second / base[0]:.2f}x | {s.frames_per_second_after_setup:.2f} | "
+                f"{s.frames_per_second_after_setup / base[1]:.2f}x | {1000 * s.cpu_seconds / s.frames:.1f} | "
+                f"{s.cpu_seconds / (s.seconds - s.seconds_setup):.2f} | {100 * s.write_share:.0f}% | "
+                f"{s.seconds:.1f} s (set-up {s.seconds_setup:.1f} s; tasks: deform {s.seconds_deform:.1f} s, "
+                f"write {s.seconds_write:.1f} s; {time.perf_counter() - t:.0f} s with the clusters) |",
+                flush=True,
+            )
     shutil.rmtree(os.path.join(out_root, "out"), ignore_errors=True)
     return 0
 

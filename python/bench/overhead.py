@@ -8,37 +8,14 @@
 
     python3 python/bench/overhead.py    (after tools/dev.sh python, or with PYTHONPATH=build/python)
 """
-import os
-import platform
-import time
-
 import numpy as np
 
 import mlsdeform
-
-
-def best_of(f, repeat=7):
-    times = []
-    for _ in range(repeat):
-        t0 = time.perf_counter()
-        f()
-        times.append(time.perf_counter() - t0)
-    return min(times)
-
-
-def cpu_name():
-    try:
-        with open("/proc/cpuinfo") as f:
-            for line in f:
-                if line.startswith("model name"):
-                    return line.split(":", 1)[1].strip()
-    except OSError:
-        pass
-    return platform.processor() or "unknown CPU"
+from timing import banner, best_of, cpp_seconds_per_frame
 
 
 def main():
-    print(f"mlsdeform {mlsdeform.__version__}, {mlsdeform.active_isa()}, {cpu_name()}, {os.cpu_count()} cores")
+    print(banner())
     g = np.random.default_rng(1)
     V = g.uniform(-1, 1, (100_000, 3))
     P = V[g.choice(len(V), 10, replace=False)]
@@ -51,14 +28,17 @@ def main():
             X = np.empty((len(V), 3), dtype)
             Qt = Q.astype(dtype)
             reps = 20
-            cpp = min(d._time_cpp_deform(points=Qt, out=X, reps=reps) for _ in range(7))
+            cpp = cpp_seconds_per_frame(d, reps=reps, repeat=7, points=Qt, out=X)
 
             def frames():
                 for _ in range(reps):
                     d.deform(points=Qt, out=X)
+
             py = best_of(frames) / reps
-            print(f"{np.dtype(dtype).name:8} {threads or 'all':>7} {1e3 * cpp:9.3f} {1e3 * py:9.3f} "
-                  f"{100 * (py / cpp - 1):8.1f}%")
+            print(
+                f"{np.dtype(dtype).name:8} {threads or 'all':>7} {1e3 * cpp:9.3f} {1e3 * py:9.3f} "
+                f"{100 * (py / cpp - 1):8.1f}%"
+            )
     print("\nfit_rotations, 10^6 matrices, one thread (ms, best of 7); Python with out= (no new array)")
     print(f"{'dtype':8} {'C++ batch':>10} {'Python':>9} {'overhead':>9}")
     for dtype in (np.float32, np.float64):
@@ -67,8 +47,10 @@ def main():
         R = np.empty_like(H)
         py_out = best_of(lambda: mlsdeform.fit_rotations(H, out=R))
         py_new = best_of(lambda: mlsdeform.fit_rotations(H))
-        print(f"{np.dtype(dtype).name:8} {1e3 * cpp:10.2f} {1e3 * py_out:9.2f} {100 * (py_out / cpp - 1):8.1f}%"
-              f"   (returning a new array: {1e3 * py_new:.2f} ms, {100 * (py_new / cpp - 1):.1f}%)")
+        print(
+            f"{np.dtype(dtype).name:8} {1e3 * cpp:10.2f} {1e3 * py_out:9.2f} {100 * (py_out / cpp - 1):8.1f}%"
+            f"   (returning a new array: {1e3 * py_new:.2f} ms, {100 * (py_new / cpp - 1):.1f}%)"
+        )
 
 
 if __name__ == "__main__":

@@ -7,24 +7,13 @@ by index (scattered over the body: a ring of hundreds to thousands of vertices),
     python3 python/bench/region.py    (after tools/dev.sh python, or with PYTHONPATH=build/python)
 """
 import os
-import platform
 
 import numpy as np
 
 import mlsdeform
+from timing import banner, cpp_seconds_per_frame
 
 HERE = os.path.dirname(os.path.abspath(__file__))
-
-
-def cpu_name():
-    try:
-        with open("/proc/cpuinfo") as f:
-            for line in f:
-                if line.startswith("model name"):
-                    return line.split(":", 1)[1].strip()
-    except OSError:
-        pass
-    return platform.processor() or "unknown CPU"
 
 
 def human():
@@ -40,15 +29,19 @@ def human():
 
 
 def main():
-    print(f"mlsdeform {mlsdeform.__version__}, {mlsdeform.active_isa()}, {cpu_name()}, {os.cpu_count()} cores")
+    print(banner())
     V, F = human()
     P = V[[1337, 3215, 3386, 411, 5906, 2445]]
     Q = P.copy()
     Q[4] += [0.1, 0.3, 0.2]
     Q[5] += [-0.1, 0.3, 0.2]
     forearm = np.flatnonzero(np.linalg.norm(V - V[2445], axis=1) < 0.3)
-    regions = [("whole model", None), (f"right forearm ({len(forearm)})", forearm),
-               ("range(3000)", np.arange(3000)), ("range(6000)", np.arange(6000))]
+    regions = [
+        ("whole model", None),
+        (f"right forearm ({len(forearm)})", forearm),
+        ("range(3000)", np.arange(3000)),
+        ("range(6000)", np.arange(6000)),
+    ]
     print("\nms per frame (best of 5 runs of 50 frames), weight storage, memory_bytes")
     print(f"{'region':22} {'faces':>5} {'ms':>8} {'storage':>12} {'MiB':>6}")
     for name, region in regions:
@@ -56,11 +49,12 @@ def main():
             if region is None and faces is not None:
                 continue
             d = mlsdeform.Deformer(V, points=P, faces=faces, region=region, threads=1)
-            d._time_cpp_deform(points=Q, reps=10)
-            ms = 1e3 * min(d._time_cpp_deform(points=Q, reps=50) for _ in range(5))
+            ms = 1e3 * cpp_seconds_per_frame(d, reps=50, repeat=5, warmup=10, points=Q)
             storage = "precomputed" if d.uses_precomputed_weights else "on the fly"
-            print(f"{name:22} {'yes' if faces is not None else 'no':>5} {ms:8.3f} {storage:>12} "
-                  f"{d.memory_bytes / 2**20:6.1f}")
+            print(
+                f"{name:22} {'yes' if faces is not None else 'no':>5} {ms:8.3f} {storage:>12} "
+                f"{d.memory_bytes / 2**20:6.1f}"
+            )
 
 
 if __name__ == "__main__":

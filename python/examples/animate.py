@@ -13,8 +13,9 @@ import mlsdeform
 
 
 def bar(n_side=20, n_len=50, length=4.0):
-    x, y, z = np.meshgrid(np.linspace(-0.5, 0.5, n_side), np.linspace(0, length, n_len),
-                          np.linspace(-0.5, 0.5, n_side), indexing="ij")
+    x, y, z = np.meshgrid(
+        np.linspace(-0.5, 0.5, n_side), np.linspace(0, length, n_len), np.linspace(-0.5, 0.5, n_side), indexing="ij"
+    )
     return np.stack([x.ravel(), y.ravel(), z.ravel()], axis=1)
 
 
@@ -33,11 +34,11 @@ def main(argv):
     Q = P.copy()
     start = time.perf_counter()
     for f in range(frames):
-        a = 0.5 * np.pi * f / max(frames - 1, 1)   # the top end turns up to 90 degrees about z, around (1, 4, 0)
+        a = 0.5 * np.pi * f / max(frames - 1, 1)  # the top end turns up to 90 degrees about z, around (1, 4, 0)
         c, s = np.cos(a), np.sin(a)
         R = np.array([[c, -s, 0], [s, c, 0], [0, 0, 1]])
         pivot = np.array([1.0, 4.0, 0.0])
-        Q[len(bottom):] = (top - pivot) @ R.T + pivot
+        Q[len(bottom) :] = (top - pivot) @ R.T + pivot
         d.deform(points=Q, out=X)
         np.save(os.path.join(out_dir, f"frame_{f:04d}.npy"), X)
     ms = 1000 * (time.perf_counter() - start) / frames

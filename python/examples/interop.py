@@ -14,16 +14,15 @@ def main(argv):
     png = argv[1] if len(argv) > 1 else "mlsdeform-interop.png"
     try:
         import open3d as o3d
+
         mesh = o3d.geometry.TriangleMesh.create_cylinder(radius=0.3, height=2.0, resolution=40, split=40)
         V = np.asarray(mesh.vertices)
-        F = np.asarray(mesh.triangles)
         print(f"open3d {o3d.__version__}: cylinder with {len(V)} vertices")
     except ImportError:
         print("open3d is not installed (Debian: python3-open3d): using a numpy cylinder instead")
         o3d = None
         t, h = np.meshgrid(np.linspace(0, 2 * np.pi, 40, endpoint=False), np.linspace(-1, 1, 41))
         V = np.stack([0.3 * np.cos(t).ravel(), 0.3 * np.sin(t).ravel(), h.ravel()], axis=1)
-        F = None
     ends = [int(np.argmin(V[:, 2])), int(np.argmax(V[:, 2]))]
     P = V[ends]
     Q = P + np.array([[0, 0, 0], [0.8, 0, -0.3]])
@@ -35,6 +34,7 @@ def main(argv):
         print(f"deformed mesh: {len(mesh.vertices)} vertices, watertight {mesh.is_watertight()}")
     try:
         import matplotlib
+
         matplotlib.use("Agg")
         import matplotlib.pyplot as plt
     except ImportError:

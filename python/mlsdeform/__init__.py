@@ -9,8 +9,24 @@ fit at its heart. numpy in, numpy out; the C++ library does the work with the GI
 
 See docs/python.md for the whole API.
 """
-from ._mlsdeform import (Deformer, __version__, active_isa, fit_points, fit_rotation, fit_rotations, set_isa,
-                         supported_isas)
+from ._mlsdeform import (
+    Deformer,
+    __version__,
+    active_isa,
+    fit_points,
+    fit_rotation,
+    fit_rotations,
+    set_isa,
+    supported_isas,
+)
 
-__all__ = ["Deformer", "__version__", "active_isa", "fit_points", "fit_rotation", "fit_rotations", "set_isa",
-           "supported_isas"]
+__all__ = [
+    "Deformer",
+    "__version__",
+    "active_isa",
+    "fit_points",
+    "fit_rotation",
+    "fit_rotations",
+    "set_isa",
+    "supported_isas",
+]

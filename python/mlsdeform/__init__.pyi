@@ -14,22 +14,44 @@ class _Targets(TypedDict):
     segments: Tuple[np.ndarray, np.ndarray]
 
 class Deformer:
-    def __init__(self, vertices: _Array, *, points: Optional[_Array] = ...,
-                 segments: Optional[Tuple[_Array, _Array]] = ..., transform: _Transform = ...,
-                 exponent: float = ..., method: _Method = ...,
-                 segment_weight: Literal["paper_constant", "exact_integral"] = ..., threads: int = ...,
-                 weight_storage: Literal["automatic", "precomputed", "on_the_fly"] = ...,
-                 backend: Literal["simd", "scalar"] = ..., precompute_budget_bytes: int = ...,
-                 dtype: Optional[npt.DTypeLike] = ..., faces: Optional[_Array] = ...,
-                 arap_iterations: int = ..., centroids: Literal["mls", "rbf"] = ...,
-                 region: Optional[_Array] = ...) -> None: ...
-    def deform(self, *, points: Optional[_Array] = ..., segments: Optional[Tuple[_Array, _Array]] = ...,
-               out: Optional[np.ndarray] = ...) -> np.ndarray: ...
+    def __init__(
+        self,
+        vertices: _Array,
+        *,
+        points: Optional[_Array] = ...,
+        segments: Optional[Tuple[_Array, _Array]] = ...,
+        transform: _Transform = ...,
+        exponent: float = ...,
+        method: _Method = ...,
+        segment_weight: Literal["paper_constant", "exact_integral"] = ...,
+        threads: int = ...,
+        weight_storage: Literal["automatic", "precomputed", "on_the_fly"] = ...,
+        backend: Literal["simd", "scalar"] = ...,
+        precompute_budget_bytes: int = ...,
+        dtype: Optional[npt.DTypeLike] = ...,
+        faces: Optional[_Array] = ...,
+        arap_iterations: int = ...,
+        centroids: Literal["mls", "rbf"] = ...,
+        region: Optional[_Array] = ...,
+    ) -> None: ...
+    def deform(
+        self,
+        *,
+        points: Optional[_Array] = ...,
+        segments: Optional[Tuple[_Array, _Array]] = ...,
+        out: Optional[np.ndarray] = ...,
+    ) -> np.ndarray: ...
     def set_point_target(self, i: int, target: _Array) -> None: ...
     def set_segment_target(self, i: int, a: _Array, b: _Array) -> None: ...
-    def transform_handles(self, *, points: Optional[_Array] = ..., segments: Optional[_Array] = ...,
-                          rotation: Optional[_Array] = ..., translation: Optional[_Array] = ...,
-                          pivot: Optional[_Array] = ...) -> None: ...
+    def transform_handles(
+        self,
+        *,
+        points: Optional[_Array] = ...,
+        segments: Optional[_Array] = ...,
+        rotation: Optional[_Array] = ...,
+        translation: Optional[_Array] = ...,
+        pivot: Optional[_Array] = ...,
+    ) -> None: ...
     @property
     def targets(self) -> _Targets: ...
     @property
@@ -45,11 +67,18 @@ class Deformer:
     @property
     def uses_precomputed_weights(self) -> bool: ...
 
-def fit_rotations(H: _Array, *, method: _Method = ..., threads: int = ...,
-                  out: Optional[np.ndarray] = ...) -> np.ndarray: ...
+def fit_rotations(
+    H: _Array, *, method: _Method = ..., threads: int = ..., out: Optional[np.ndarray] = ...
+) -> np.ndarray: ...
 def fit_rotation(H: _Array, *, method: _Method = ...) -> np.ndarray: ...
-def fit_points(P: _Array, Q: _Array, w: Optional[_Array] = ..., *, transform: Literal["rigid", "similarity"] = ...,
-               method: _Method = ...) -> Union[Tuple[np.ndarray, np.ndarray], Tuple[np.ndarray, np.ndarray, float]]: ...
+def fit_points(
+    P: _Array,
+    Q: _Array,
+    w: Optional[_Array] = ...,
+    *,
+    transform: Literal["rigid", "similarity"] = ...,
+    method: _Method = ...,
+) -> Union[Tuple[np.ndarray, np.ndarray], Tuple[np.ndarray, np.ndarray, float]]: ...
 def active_isa() -> str: ...
 def supported_isas() -> Sequence[str]: ...
 def set_isa(isa: Literal["scalar", "sse4_2", "avx2", "avx512"]) -> None: ...

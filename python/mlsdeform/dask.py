@@ -54,9 +54,10 @@ class Summary:
     tasks (the share of the work spent writing files is seconds_write / (seconds_deform + seconds_write));
     `seconds_setup`: of `seconds`, the client's part before the first task (render_animation: reading the mesh,
     resolving the handles, sending the rest pose); `cpu_seconds`: the CPU time of the worker processes while they
-    ran the frames (render_animation; with the worker's other threads, if any); `sessions_built`: sessions built on the workers (one per worker for render_animation, one per mesh for
-    deform_meshes, more when a worker died and its replacement built its own); `temporaries_removed`: files of
-    attempts that died."""
+    ran the frames (render_animation; with the worker's other threads, if any); `sessions_built`: sessions built
+    on the workers (one per worker for render_animation, one per mesh for deform_meshes, more when a worker died
+    and its replacement built its own); `temporaries_removed`: files of attempts that died."""
+
     written: list = field(default_factory=list)
     failed: dict = field(default_factory=dict)
     frames: int = 0
@@ -85,10 +86,12 @@ class Summary:
         return self.seconds_write / work if work > 0 else 0.0
 
     def __str__(self):
-        text = (f"{len(self.written)} files ({self.bytes / 2**20:.1f} MiB) from {self.frames} frames in "
-                f"{self.seconds:.2f} s ({self.frames_per_second:.2f} frames/s), {self.tasks} tasks, "
-                f"{self.sessions_built} sessions built; of the tasks' time {100 * self.write_share:.0f}% writing "
-                "files")
+        text = (
+            f"{len(self.written)} files ({self.bytes / 2**20:.1f} MiB) from {self.frames} frames in "
+            f"{self.seconds:.2f} s ({self.frames_per_second:.2f} frames/s), {self.tasks} tasks, "
+            f"{self.sessions_built} sessions built; of the tasks' time {100 * self.write_share:.0f}% writing "
+            "files"
+        )
         if self.failed:
             text += f"; {len(self.failed)} failed: " + "; ".join(f"{k}: {v}" for k, v in self.failed.items())
         return text
@@ -118,6 +121,7 @@ def _threads(threads):
         return threads
     try:
         from distributed import get_worker
+
         worker = get_worker()
         return worker.state.nthreads if hasattr(worker, "state") else worker.nthreads
     except (ImportError, ValueError):  # not on a Dask worker: all cores
@@ -148,8 +152,14 @@ def _render_shard(run, V, faces, rest, options, frames, targets, paths):
         seconds_deform += t1 - t0
         seconds_write += time.perf_counter() - t1
         written.append((frame, path))
-    return {"written": written, "bytes": nbytes, "deform": seconds_deform, "write": seconds_write, "built": built,
-            "cpu": time.process_time() - cpu}
+    return {
+        "written": written,
+        "bytes": nbytes,
+        "deform": seconds_deform,
+        "write": seconds_write,
+        "built": built,
+        "cpu": time.process_time() - cpu,
+    }
 
 
 def _forget(run):
@@ -157,8 +167,19 @@ def _forget(run):
         _sessions.pop(run, None)
 
 
-def render_animation(client, mesh, handles, out, *, frames_per_task=None, overwrite=False, retries=2,
-                     dtype=np.float32, threads=None, **options):
+def render_animation(
+    client,
+    mesh,
+    handles,
+    out,
+    *,
+    frames_per_task=None,
+    overwrite=False,
+    retries=2,
+    dtype=np.float32,
+    threads=None,
+    **options,
+):
     """Renders every frame of the handles file `handles` (the program's format) on the mesh file `mesh`, over
     the Dask `client`'s workers, into the program's file names for `out` (OUT_0000.EXT, ...; .ply, .obj or
     .npy). `options` go to mlsdeform.Deformer (transform=, exponent=, backend=, ...); `dtype` is the session's
@@ -184,16 +205,30 @@ def render_animation(client, mesh, handles, out, *, frames_per_task=None, overwr
     futures = []
     for first in range(0, n, per_task):
         ids = list(range(first, min(n, first + per_task)))
-        futures.append(client.submit(_render_shard, run, V_remote, faces_remote, anim.session_arguments(), options,
-                                     ids, [anim.targets(i) for i in ids], [paths[i] for i in ids], pure=False,
-                                     retries=retries, key=f"mlsdeform-frames-{first}-{run}"))
+        futures.append(
+            client.submit(
+                _render_shard,
+                run,
+                V_remote,
+                faces_remote,
+                anim.session_arguments(),
+                options,
+                ids,
+                [anim.targets(i) for i in ids],
+                [paths[i] for i in ids],
+                pure=False,
+                retries=retries,
+                key=f"mlsdeform-frames-{first}-{run}",
+            )
+        )
     summary = Summary(tasks=len(futures), seconds_setup=setup)
     try:
         results = client.gather(futures)
     finally:
         client.run(_forget, run)
-        summary.temporaries_removed = sum(files.remove_temporaries(d, run) for d in {os.path.dirname(
-            os.path.abspath(p)) for p in paths})
+        summary.temporaries_removed = sum(
+            files.remove_temporaries(d, run) for d in {os.path.dirname(os.path.abspath(p)) for p in paths}
+        )
     written = {}
     for r in results:
         for frame, path in r["written"]:
@@ -248,8 +283,7 @@ def _deform_one(run, mesh, handles, outs_for, options, dtype, overwrite):
             except OSError:
                 pass
         raise
-    return {"written": written, "bytes": nbytes, "deform": seconds_deform, "write": seconds_write,
-            "frames": len(paths)}
+    return {"written": written, "bytes": nbytes, "deform": seconds_deform, "write": seconds_write, "frames": len(paths)}
 
 
 class _Outputs:
@@ -262,8 +296,18 @@ class _Outputs:
         return _output_paths(os.path.join(self.out_dir, self.name + self.ext), count, animated)
 
 
-def deform_meshes(client, in_dir, out_dir, *, output_format=".ply", overwrite=False, retries=2, dtype=np.float32,
-                  threads=None, **options):
+def deform_meshes(
+    client,
+    in_dir,
+    out_dir,
+    *,
+    output_format=".ply",
+    overwrite=False,
+    retries=2,
+    dtype=np.float32,
+    threads=None,
+    **options,
+):
     """Deforms every mesh NAME.obj / NAME.ply (or .gz) of `in_dir` that has a handles file NAME.json beside it,
     one task per mesh over the Dask `client`'s workers, into `out_dir` (NAME_0000.EXT per frame of the handles
     file, or NAME.EXT). `options` go to mlsdeform.Deformer (arap_iterations= with the mesh's triangles). Returns
@@ -287,17 +331,38 @@ def deform_meshes(client, in_dir, out_dir, *, output_format=".ply", overwrite=Fa
         raise ValueError(f"{in_dir}: two meshes share a name: {sorted(n for n in names if names.count(n) > 1)}")
     if not overwrite:
         # Whatever this run may write: NAME.EXT and NAME_NNNN.EXT.
-        taken = [e for e in os.listdir(out_dir) for name in names
-                 if e == name + output_format or (e.startswith(name + "_") and e.endswith(output_format)
-                                                  and e[len(name) + 1:-len(output_format)].isdigit())]
+        taken = [
+            e
+            for e in os.listdir(out_dir)
+            for name in names
+            if e == name + output_format
+            or (
+                e.startswith(name + "_")
+                and e.endswith(output_format)
+                and e[len(name) + 1 : -len(output_format)].isdigit()
+            )
+        ]
         if taken:
             raise ValueError(f"{out_dir}: {taken[0]} already exists (overwrite=True replaces outputs)")
     if threads is not None:
         options["threads"] = threads
     run = uuid.uuid4().hex
-    futures = {mesh: client.submit(_deform_one, run, mesh, handles, _Outputs(out_dir, name, output_format), options,
-                                   dtype, overwrite, pure=False, retries=retries, key=f"mlsdeform-mesh-{name}-{run}")
-               for mesh, handles, name in jobs}
+    futures = {
+        mesh: client.submit(
+            _deform_one,
+            run,
+            mesh,
+            handles,
+            _Outputs(out_dir, name, output_format),
+            options,
+            dtype,
+            overwrite,
+            pure=False,
+            retries=retries,
+            key=f"mlsdeform-mesh-{name}-{run}",
+        )
+        for mesh, handles, name in jobs
+    }
     summary = Summary(tasks=len(futures))
     try:
         client.gather(list(futures.values()), errors="skip")

@@ -28,8 +28,9 @@ cloudpickle.register_pickle_by_value(sys.modules[__name__])
 
 @pytest.fixture
 def client():
-    cluster = distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None,
-                                       silence_logs=logging.ERROR)
+    cluster = distributed.LocalCluster(
+        n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None, silence_logs=logging.ERROR
+    )
     c = distributed.Client(cluster)
     yield c
     c.close()
@@ -46,10 +47,17 @@ def direct(mesh, handles):
 def long_animation(path, frames):
     """human_bend.json's handles with `frames` frames (its own, repeated with growing offsets)."""
     import json
+
     spec = json.load(open(BEND))
     base = spec["frames"]
-    spec["frames"] = [{"points": [p if p is None else [p[0], p[1], p[2] + 0.001 * (i // len(base))]
-                                  for p in base[i % len(base)]["points"]]} for i in range(frames)]
+    spec["frames"] = [
+        {
+            "points": [
+                p if p is None else [p[0], p[1], p[2] + 0.001 * (i // len(base))] for p in base[i % len(base)]["points"]
+            ]
+        }
+        for i in range(frames)
+    ]
     path.write_text(json.dumps(spec))
     return str(path)
 
@@ -99,8 +107,10 @@ def die_in_second_write(marker):
                 f.write(b"\x93NUMPY half a frame")
                 f.flush()
                 os._exit(1)
+
             files.write_atomically(path, half_then_die, tag)
         return real(path, vertices, faces, tag)
+
     files.write_mesh = write_mesh
 
 
@@ -134,28 +144,34 @@ def flaky_writes(marker_dir):
         def half(f):
             f.write(b"ply\nformat binary_little_endian 1.0\n")
             raise OSError("simulated: the disk went away")
+
         files.write_atomically(path, half, tag)
+
     files.write_mesh = write_mesh
 
 
 def test_deform_meshes(client, tmp_path):
     import json
+
     src, out, markers = tmp_path / "in", tmp_path / "out", tmp_path / "markers"
     for d in (src, out, markers):
         d.mkdir()
     V, F = files.read_mesh(HUMAN)
-    files.write_mesh(str(src / "a.ply"), V, F)                            # binary PLY, the animation
+    files.write_mesh(str(src / "a.ply"), V, F)  # binary PLY, the animation
     spec = json.load(open(BEND))
     spec["frames"] = spec["frames"][:3]
     (src / "a.json").write_text(json.dumps(spec))
-    files.write_mesh(str(src / "b.obj"), V[::2].copy(), None)              # a point cloud, one pose
+    files.write_mesh(str(src / "b.obj"), V[::2].copy(), None)  # a point cloud, one pose
     (src / "b.json").write_text(json.dumps({"points": [{"vertex": 0}, {"vertex": 100, "offset": [0, 0.1, 0]}]}))
-    files.write_mesh(str(src / "c.obj"), V, F)                             # bad handles
+    files.write_mesh(str(src / "c.obj"), V, F)  # bad handles
     (src / "c.json").write_text(json.dumps({"points": [{"vertex": 99999}]}))
-    (src / "d.obj").write_text("v 0 0 0\n")                                # no handles file: not a job
+    (src / "d.obj").write_text("v 0 0 0\n")  # no handles file: not a job
     client.run(flaky_writes, str(markers))
     s = mdask.deform_meshes(client, str(src), str(out))
-    assert list(s.failed) == [str(src / "c.obj")] and "/points/0/vertex: vertex index 99999" in s.failed[str(src / "c.obj")]
+    assert (
+        list(s.failed) == [str(src / "c.obj")]
+        and "/points/0/vertex: vertex index 99999" in s.failed[str(src / "c.obj")]
+    )
     assert sorted(os.listdir(out)) == ["a_0000.ply", "a_0001.ply", "a_0002.ply", "b.ply"]
     assert sorted(os.listdir(markers)) == ["a_0001.ply", "b.ply"], "the two writes failed once, then retried"
     for i, X in enumerate(direct(str(src / "a.ply"), str(src / "a.json"))):

@@ -12,8 +12,9 @@ DATA = os.path.join(HERE, "..", "..", "data")
 
 
 def run(script, *args, cwd):
-    return subprocess.run([sys.executable, os.path.join(EXAMPLES, script), *args], cwd=cwd, check=True,
-                          capture_output=True, text=True).stdout
+    return subprocess.run(
+        [sys.executable, os.path.join(EXAMPLES, script), *args], cwd=cwd, check=True, capture_output=True, text=True
+    ).stdout
 
 
 def test_deform_obj(tmp_path):

@@ -50,9 +50,12 @@ def test_ascii_ply_and_npy(tmp_path):
     V, F = polygons()
     path = tmp_path / "a.ply"
     faces = ["4 0 1 2 3", "3 3 4 5", "5 6 5 4 1 0"]
-    path.write_text("ply\nformat ascii 1.0\ncomment x\nelement vertex 7\nproperty float x\nproperty float y\n"
-                    "property float z\nelement face 3\nproperty list uchar int vertex_indices\nend_header\n"
-                    + "".join(f"{x!r} {y!r} {z!r}\n" for x, y, z in V.astype(float).tolist()) + "\n".join(faces))
+    path.write_text(
+        "ply\nformat ascii 1.0\ncomment x\nelement vertex 7\nproperty float x\nproperty float y\n"
+        "property float z\nelement face 3\nproperty list uchar int vertex_indices\nend_header\n"
+        + "".join(f"{x!r} {y!r} {z!r}\n" for x, y, z in V.astype(float).tolist())
+        + "\n".join(faces)
+    )
     V2, F2 = files.read_mesh(str(path))
     assert np.array_equal(V, V2) and np.array_equal(F.indices, F2.indices)
     files.write_mesh(str(tmp_path / "v.npy"), V)
@@ -65,22 +68,30 @@ def test_decimal_text_is_rounded_once(tmp_path):
     (the tie to even); a little below, 1 either way. Likewise in double for 1 + 2^-53."""
     half = "1.000000059604644775390625"
     above, below = half + "0000001", "1.0000000596046447753906249999"
-    for ext, text in ((".obj", f"v {above} {below} {half}\n"),
-                      (".ply", "ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nproperty float y\n"
-                               f"property float z\nend_header\n{above} {below} {half}\n")):
+    for ext, text in (
+        (".obj", f"v {above} {below} {half}\n"),
+        (
+            ".ply",
+            "ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nproperty float y\n"
+            f"property float z\nend_header\n{above} {below} {half}\n",
+        ),
+    ):
         path = tmp_path / ("tie" + ext)
         path.write_text(text)
         V, _ = files.read_mesh(str(path))
-        assert V.tolist() == [[1 + 2**-23, 1.0, 1.0]], ext      # the exact half itself: to even
+        assert V.tolist() == [[1 + 2**-23, 1.0, 1.0]], ext  # the exact half itself: to even
         V, _ = files.read_mesh(str(path), dtype=np.float64)
         assert V.dtype == np.float64 and V[0, 0] == float(above) and V[0, 2] == 1 + 2**-24
 
 
-@pytest.mark.parametrize("text, problem", [
-    ("v 0 0 0\nv 1 0 0\nf 1 2 3\n", "out of range"),
-    ("v 0 0 zero\n", "not a number"),
-    ("v 0 0 0\nf 1 2\n", "at least 3"),
-])
+@pytest.mark.parametrize(
+    "text, problem",
+    [
+        ("v 0 0 0\nv 1 0 0\nf 1 2 3\n", "out of range"),
+        ("v 0 0 zero\n", "not a number"),
+        ("v 0 0 0\nf 1 2\n", "at least 3"),
+    ],
+)
 def test_bad_obj_is_refused(tmp_path, text, problem):
     path = tmp_path / "bad.obj"
     path.write_text(text)
@@ -107,20 +118,25 @@ def test_write_is_all_or_nothing(tmp_path):
     def half_then_fail(f):
         f.write(b"partial")
         raise OSError("disk full")
+
     with pytest.raises(OSError):
         files.write_atomically(path, half_then_fail, tag="t")
     assert os.listdir(tmp_path) == []
 
 
-@pytest.mark.parametrize("spec, problem", [
-    ({"points": [{"vertex": 7000}]}, "/points/0/vertex: vertex index 7000 out of range"),
-    ({"points": [{"vertex": 1, "tagret": [0, 0, 0]}]}, "/points/0: unknown key \"tagret\""),
-    ({"points": [{"vertex": 1}], "frames": [{"points": [None, None]}]},
-     "/frames/0/points: 2 entries, expected 1"),
-    ({"points": [{"vertex": 1}], "groups": [{"points": [0], "rotate": {"axis": [0, 0, 0], "degrees": 9}}]},
-     "/groups/0/rotate/axis: zero axis"),
-    ({}, "no handles"),
-])
+@pytest.mark.parametrize(
+    "spec, problem",
+    [
+        ({"points": [{"vertex": 7000}]}, "/points/0/vertex: vertex index 7000 out of range"),
+        ({"points": [{"vertex": 1, "tagret": [0, 0, 0]}]}, '/points/0: unknown key "tagret"'),
+        ({"points": [{"vertex": 1}], "frames": [{"points": [None, None]}]}, "/frames/0/points: 2 entries, expected 1"),
+        (
+            {"points": [{"vertex": 1}], "groups": [{"points": [0], "rotate": {"axis": [0, 0, 0], "degrees": 9}}]},
+            "/groups/0/rotate/axis: zero axis",
+        ),
+        ({}, "no handles"),
+    ],
+)
 def test_bad_handles_are_refused(tmp_path, spec, problem):
     V, _ = files.read_mesh(HUMAN)
     path = tmp_path / "h.json"
@@ -139,18 +155,19 @@ def test_handles_resolve_as_the_program_does(tmp_path):
     37 degrees, a translation, comments): every frame equals the program's output bitwise (float32)."""
     exe = program()
     groups = tmp_path / "groups.json"
-    groups.write_text("""// comments as the program allows them
+    groups.write_text(
+        """// comments as the program allows them
     {"points": [{"vertex": 1337}, {"vertex": 411}, {"vertex": 5906}, {"vertex": 2445}],
      "segments": [{"vertices": [6618, 6786]}],
      /* the arms as one rigid body */
      "groups": [{"points": [2, 3], "rotate": {"axis": [0, 0, 2], "degrees": 90}, "translate": [0, 0.1, 0]}],
      "frames": [{}, {"groups": [{"rotate": {"axis": [0, 0, 1], "degrees": 37, "pivot": [0, 1, 0]}}]},
                 {"points": [null, {"offset": [0, 0.1, 0]}, null, null], "segments": [{"offset": [0, 0, 0.1]}]}]}
-    """)
+    """
+    )
     for handles, count in ((os.path.join(DATA, "human_bend.json"), 24), (str(groups), 3)):
         out = tmp_path / (os.path.basename(handles) + ".obj")
-        subprocess.run([exe, "deform", "-m", HUMAN, "-H", handles, "-o", str(out)], check=True,
-                       capture_output=True)
+        subprocess.run([exe, "deform", "-m", HUMAN, "-H", handles, "-o", str(out)], check=True, capture_output=True)
         V, _ = files.read_mesh(HUMAN)
         anim = files.read_handles(handles, V)
         assert anim.animated and len(anim.frames) == count

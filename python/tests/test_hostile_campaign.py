@@ -19,8 +19,12 @@ FAILURES = ("SILENT WRONG", "BAD ERROR", "CRASH", "HANG")
 def outcomes():
     with tempfile.TemporaryDirectory() as tmp:
         path = os.path.join(tmp, "outcomes.json")
-        r = subprocess.run([sys.executable, os.path.join(HERE, "hostile_campaign.py"), "--quick", "--json", path],
-                           capture_output=True, text=True, timeout=600)
+        r = subprocess.run(
+            [sys.executable, os.path.join(HERE, "hostile_campaign.py"), "--quick", "--json", path],
+            capture_output=True,
+            text=True,
+            timeout=600,
+        )
         print(r.stdout[-4000:], r.stderr[-2000:])
         assert os.path.exists(path), f"the campaign did not finish: exit {r.returncode}\n{r.stderr[-2000:]}"
         with open(path) as fh:
@@ -32,6 +36,9 @@ def test_campaign_size(outcomes):
 
 
 def test_no_failure(outcomes):
-    failed = [f"#{c['id']} [{c['tag']}] {c['name']}: {c['outcome']}: {c['detail']}" for c in outcomes
-              if c["outcome"] in FAILURES]
+    failed = [
+        f"#{c['id']} [{c['tag']}] {c['name']}: {c['outcome']}: {c['detail']}"
+        for c in outcomes
+        if c["outcome"] in FAILURES
+    ]
     assert not failed, "\n".join(failed)

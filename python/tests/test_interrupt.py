@@ -6,7 +6,6 @@ Each long call runs in a child Python and is long by its size (from half a minut
 tuned to the machine: the child prints READY just before the call, the test sends the signal 0.3 s later, and
 a child not done LIMIT seconds after it is killed (a failure, never a hang).
 """
-import os
 import signal
 import subprocess
 import sys
@@ -44,8 +43,9 @@ def report(call, untouched=lambda: True):
 def interrupted(script, sig=signal.SIGINT, after=0.3):
     """Runs PRELUDE + script in a child Python, sends `sig` `after` seconds after it prints READY; returns
     its last line of output and the seconds from the signal to its exit."""
-    child = subprocess.Popen([sys.executable, "-c", PRELUDE + script], stdout=subprocess.PIPE,
-                             stderr=subprocess.PIPE, text=True)
+    child = subprocess.Popen(
+        [sys.executable, "-c", PRELUDE + script], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True
+    )
     ready = child.stdout.readline()
     if ready.strip() != "READY":
         out, err = child.communicate()
@@ -67,14 +67,16 @@ def interrupted(script, sig=signal.SIGINT, after=0.3):
 def test_setup_of_exact_integral_segments_stops_at_sigint(threads):
     # 2,000 vertices and 1,000 segments with the exact integral: 2e6 segment integrals, about half a minute
     # on one thread.
-    line, seconds = interrupted(f"""
+    line, seconds = interrupted(
+        f"""
 g = np.random.default_rng(1)
 V = g.uniform(-1, 1, (2000, 3)).astype(np.float32)
 A = g.uniform(-1, 1, (1000, 3)).astype(np.float32)
 B = A + g.uniform(-0.2, 0.2, (1000, 3)).astype(np.float32)
 report(lambda: mlsdeform.Deformer(V, segments=(A, B), segment_weight="exact_integral", exponent=3e4,
                                   threads={threads}, weight_storage="precomputed"))
-""")
+"""
+    )
     assert line == "KeyboardInterrupt untouched"
     assert seconds < LIMIT
 
@@ -82,7 +84,8 @@ report(lambda: mlsdeform.Deformer(V, segments=(A, B), segment_weight="exact_inte
 @pytest.mark.parametrize("dtype", ["float32", "float64"])
 def test_arap_frame_stops_at_sigint_and_leaves_out_untouched(dtype):
     # 10^8 ARAP iterations on a 20 x 20 grid: days.
-    line, seconds = interrupted(f"""
+    line, seconds = interrupted(
+        f"""
 V, F = grid(20)
 ends = np.flatnonzero((V[:, 0] == 0) | (V[:, 0] == 19))
 P = V[ends]
@@ -91,7 +94,8 @@ Q[P[:, 0] == 19, 2] += 5.0
 d = mlsdeform.Deformer(V.astype(np.{dtype}), points=P, faces=F, arap_iterations=10**8)
 out = np.full((len(V), 3), -7.25, dtype=np.{dtype})
 report(lambda: d.deform(points=Q, out=out), lambda: bool(np.all(out == -7.25)))
-""")
+"""
+    )
     assert line == "KeyboardInterrupt untouched"
     assert seconds < LIMIT
 
@@ -100,20 +104,24 @@ report(lambda: d.deform(points=Q, out=out), lambda: bool(np.all(out == -7.25)))
 def test_long_plain_frame_stops_at_sigint_and_leaves_out_untouched(with_out):
     # On-the-fly weights, 4 x 10^5 vertices x 4,000 handles, one thread: one MLS pass is 1.6 x 10^9
     # vertex-handle pairs, ten seconds or more, in 400 checked chunks.
-    line, seconds = interrupted(f"""
+    line, seconds = interrupted(
+        f"""
 g = np.random.default_rng(5)
 V = g.uniform(-1, 1, (400000, 3))
 P = g.uniform(-1, 1, (4000, 3))
 d = mlsdeform.Deformer(V, points=P, weight_storage="on_the_fly", threads=1)
 out = np.full((len(V), 3), -7.25)
 report(lambda: d.deform(points=P + 0.1, {"out=out" if with_out else ""}), lambda: bool(np.all(out == -7.25)))
-""", after=1.0)
+""",
+        after=1.0,
+    )
     assert line == "KeyboardInterrupt untouched"
     assert seconds < LIMIT
 
 
 def test_any_signal_handler_runs_and_its_exception_comes_out():
-    line, seconds = interrupted("""
+    line, seconds = interrupted(
+        """
 V, F = grid(12)
 P = V[[0, len(V) - 1]]
 d = mlsdeform.Deformer(V, points=P, faces=F, arap_iterations=10**8)
@@ -123,18 +131,23 @@ def handler(signum, frame):
     raise Stop(signum)
 signal.signal(signal.SIGUSR1, handler)
 report(lambda: d.deform(points=P + [0, 0, 1]))
-""", sig=signal.SIGUSR1)
+""",
+        sig=signal.SIGUSR1,
+    )
     assert line == f"Stop ({int(signal.SIGUSR1)},) untouched"
     assert seconds < LIMIT
 
 
 def test_large_fit_rotations_stops_at_sigint_and_leaves_out_untouched():
     # 3e6 matrices by the scalar SVD on one thread, checked between blocks of 2,048: several seconds.
-    line, seconds = interrupted("""
+    line, seconds = interrupted(
+        """
 H = np.random.default_rng(2).standard_normal((3_000_000, 3, 3)).astype(np.float32)
 out = np.full_like(H, 5.0)
 report(lambda: mlsdeform.fit_rotations(H, method="svd", threads=1, out=out), lambda: bool(np.all(out == 5.0)))
-""", after=0.2)
+""",
+        after=0.2,
+    )
     assert line == "KeyboardInterrupt untouched"
     assert seconds < LIMIT
 

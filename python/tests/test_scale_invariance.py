@@ -30,15 +30,19 @@ def grid(n=30):
     return V, F, P, Q
 
 
-@pytest.mark.parametrize("dtype,s", [(np.float32, 1e21), (np.float64, 1e160), (np.float32, 1e-23),
-                                     (np.float64, 1e-300)])
+@pytest.mark.parametrize(
+    "dtype,s", [(np.float32, 1e21), (np.float64, 1e160), (np.float32, 1e-23), (np.float64, 1e-300)]
+)
 def test_arap_grid_far_from_unit_size(dtype, s):
     V, F, P, Q = grid()
     Vs, Ps, Qs = ((x * s).astype(dtype) for x in (V, P, Q))
     X = mlsdeform.Deformer(Vs, points=Ps, faces=F, arap_iterations=2).deform(points=Qs)
     assert np.isfinite(X).all()
     j = round(math.log2(s))
-    down = lambda x: np.ldexp(x, -j).astype(dtype)  # exact: stays in the normal range
+
+    def down(x):  # exact: stays in the normal range
+        return np.ldexp(x, -j).astype(dtype)
+
     X1 = mlsdeform.Deformer(down(Vs), points=down(Ps), faces=F, arap_iterations=2).deform(points=down(Qs))
     assert np.array_equal(X, np.ldexp(X1, j).astype(dtype))
     # And the scene is deformed, not collapsed: the lifted handle's vertex sits on its target.
@@ -72,7 +76,7 @@ def test_fit_points_names_itself_and_the_reason():
 def test_deformed_position_beyond_float_raises(arap):
     # Similarity: two handles 2^-10 apart pulled max / 256 apart scale the scene by about 4 max / 1024 per unit;
     # the third vertex, 1 away, would land near 4 max(float32).
-    V = np.array([[0, 0, 0], [2.0 ** -10, 0, 0], [1, 0.5, 0]], dtype=np.float32)
+    V = np.array([[0, 0, 0], [2.0**-10, 0, 0], [1, 0.5, 0]], dtype=np.float32)
     F = np.array([[0, 1, 2]])
     d = mlsdeform.Deformer(V, points=V[:2], faces=F, transform="similarity", arap_iterations=arap)
     Q = V[:2].copy()

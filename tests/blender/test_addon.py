@@ -25,7 +25,7 @@ import traceback
 import bpy
 import numpy as np
 
-ARGS = sys.argv[sys.argv.index("--") + 1:] if "--" in sys.argv else []
+ARGS = sys.argv[sys.argv.index("--") + 1 :] if "--" in sys.argv else []
 ZIP = ARGS[0] if ARGS else None
 if len(ARGS) > 1:
     sys.path.insert(0, ARGS[1])
@@ -52,9 +52,9 @@ def cylinder(rings=20, segments=24, radius=0.3, height=2.0):
         for s in range(segments):
             a, b = r * segments + s, r * segments + (s + 1) % segments
             faces.append((a, b, b + segments, a + segments))
-    faces.append(tuple(range(segments - 1, -1, -1)))                              # n-gon caps
+    faces.append(tuple(range(segments - 1, -1, -1)))  # n-gon caps
     faces.append(tuple(range(rings * segments, (rings + 1) * segments)))
-    verts.append((2.0, 2.0, 2.0))                                                  # a loose vertex
+    verts.append((2.0, 2.0, 2.0))  # a loose vertex
     mesh = bpy.data.meshes.new("cyl")
     mesh.from_pydata(verts, [], faces)
     obj = bpy.data.objects.new("cyl", mesh)
@@ -136,11 +136,14 @@ def main():
     bpy.ops.preferences.addon_install(filepath=ZIP, overwrite=True)
     bpy.ops.preferences.addon_enable(module="mlsdeform_blender")
     import mlsdeform_blender as addon
+
     check("add-on enabled, module imported", hasattr(bpy.ops.mlsdeform, "bind"))
     if len(ARGS) > 1:
-        check("the compiled package is the wheel's, unpacked into the site-packages",
-              os.path.realpath(addon.mlsdeform.__file__).startswith(os.path.realpath(ARGS[1]) + os.sep),
-              addon.mlsdeform.__file__)
+        check(
+            "the compiled package is the wheel's, unpacked into the site-packages",
+            os.path.realpath(addon.mlsdeform.__file__).startswith(os.path.realpath(ARGS[1]) + os.sep),
+            addon.mlsdeform.__file__,
+        )
     for o in list(bpy.data.objects):
         bpy.data.objects.remove(o)
     obj = cylinder()
@@ -155,16 +158,22 @@ def main():
     check("bind", bpy.ops.mlsdeform.bind() == {"FINISHED"})
     rest = local(obj, empties)
     bpy.context.view_layer.update()
-    check("rest pose: evaluated mesh equals the rest mesh to rounding",
-          np.abs(evaluated(obj) - rest_mesh).max() <= 1e-5, f"{np.abs(evaluated(obj) - rest_mesh).max()}")
+    check(
+        "rest pose: evaluated mesh equals the rest mesh to rounding",
+        np.abs(evaluated(obj) - rest_mesh).max() <= 1e-5,
+        f"{np.abs(evaluated(obj) - rest_mesh).max()}",
+    )
 
     e1.location = (0.6, 0.2, 1.8)
     e3.location = (0.5, 0.1, 1.5)
     bpy.context.view_layer.update()
     now = local(obj, empties)
     got, want = evaluated(obj), expected(addon, obj, rest, now, (2, 3))
-    check("moved Empties: the evaluated vertices equal mlsdeform.Deformer's bitwise (float)", matches(obj, want),
-          f"max diff {np.abs(got - want).max()}")
+    check(
+        "moved Empties: the evaluated vertices equal mlsdeform.Deformer's bitwise (float)",
+        matches(obj, want),
+        f"max diff {np.abs(got - want).max()}",
+    )
     obj.mlsdeform.precision = "double"
     bpy.context.view_layer.update()
     V = rest_coords(obj).astype(np.float64)
@@ -173,8 +182,10 @@ def main():
     check("precision double: the double session's result rounded once to float", matches(obj, want64))
     obj.mlsdeform.precision = "float"
     bpy.context.view_layer.update()
-    check("bound without shape keys: vertices mode, the rest positions kept exactly",
-          obj["mlsdeform_mode"] == "vertices" and np.array_equal(rest_coords(obj), rest_mesh))
+    check(
+        "bound without shape keys: vertices mode, the rest positions kept exactly",
+        obj["mlsdeform_mode"] == "vertices" and np.array_equal(rest_coords(obj), rest_mesh),
+    )
 
     # Object transforms: move the mesh object and its Empties together: handles are in its local space.
     t = (1.0, -2.0, 0.5)
@@ -183,8 +194,10 @@ def main():
     bpy.context.view_layer.update()
     # The local positions change only by the rounding of the float32 transforms (a bitwise comparison with
     # the module on them); with world positions instead, the mesh would move by the translation.
-    check("moving the mesh with its Empties: handles in its local space",
-          matches(obj, expected(addon, obj, rest, local(obj, empties), (2, 3))))
+    check(
+        "moving the mesh with its Empties: handles in its local space",
+        matches(obj, expected(addon, obj, rest, local(obj, empties), (2, 3))),
+    )
     check("... and the shape stays where it was to rounding", np.abs(evaluated(obj) - got).max() <= 1e-2)
     for o in [obj] + empties:
         o.location = tuple(a - b for a, b in zip(o.location, t))
@@ -211,8 +224,10 @@ def main():
     check("bake frames 1-3", bpy.ops.mlsdeform.bake(frame_start=1, frame_end=3) == {"FINISHED"})
     keys = obj.data.shape_keys.key_blocks
     check("bake wrote three shape keys", all(f"MLS f{f:04d}" in keys for f in (1, 2, 3)))
-    check("after bake: shape-key mode with the rest pose as Basis",
-          obj["mlsdeform_mode"] == "shape_key" and np.array_equal(rest_coords(obj), rest_mesh))
+    check(
+        "after bake: shape-key mode with the rest pose as Basis",
+        obj["mlsdeform_mode"] == "shape_key" and np.array_equal(rest_coords(obj), rest_mesh),
+    )
     scene.frame_set(10)
     bpy.context.view_layer.update()
     check("shape-key mode deforms live", matches(obj, expected(addon, obj, rest, local(obj, empties), (2, 3))))
@@ -242,8 +257,10 @@ def main():
     check("unbind", bpy.ops.mlsdeform.unbind() == {"FINISHED"})
     bpy.context.view_layer.update()
     check("unbind restores the rest mesh exactly", np.array_equal(evaluated(obj), rest_mesh))
-    check("unbind leaves no MLS shape key",
-          obj.data.shape_keys is None or "MLS Deform" not in obj.data.shape_keys.key_blocks)
+    check(
+        "unbind leaves no MLS shape key",
+        obj.data.shape_keys is None or "MLS Deform" not in obj.data.shape_keys.key_blocks,
+    )
     # A fresh binding in vertices mode: unbind puts back the exact rest positions from the attribute.
     select([bpy.data.objects[n] for n in ("h0_base", "h1_top")] + [obj], obj)
     obj2 = cylinder()
@@ -256,8 +273,10 @@ def main():
     select([obj2], obj2)
     bpy.ops.mlsdeform.unbind()
     bpy.context.view_layer.update()
-    check("vertices mode: unbind restores the rest mesh exactly, no attribute left",
-          np.array_equal(evaluated(obj2), rest2) and "mlsdeform_rest" not in obj2.data.attributes)
+    check(
+        "vertices mode: unbind restores the rest mesh exactly, no attribute left",
+        np.array_equal(evaluated(obj2), rest2) and "mlsdeform_rest" not in obj2.data.attributes,
+    )
 
     # Errors go to the operator's report, not a traceback.
     # (Headless, Blender turns an operator's error report into a RuntimeError; in the UI it is the status bar.)
@@ -288,8 +307,10 @@ def performance():
         total += time.perf_counter() - start
         lib.append(obj.mlsdeform.last_ms)
     ms = 1000 * total / updates
-    print(f"info: {len(obj.data.vertices)} vertices, 8 handles: {ms:.2f} ms per update ({1000 / ms:.0f} updates/s), "
-          f"of which the library {np.median(lib):.2f} ms (median)")
+    print(
+        f"info: {len(obj.data.vertices)} vertices, 8 handles: {ms:.2f} ms per update ({1000 / ms:.0f} updates/s), "
+        f"of which the library {np.median(lib):.2f} ms (median)"
+    )
 
 
 try:

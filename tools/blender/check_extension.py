@@ -22,20 +22,68 @@ import sys
 import tomllib
 import zipfile
 
-SEMVER = re.compile(r"^(0|[1-9]\d*)\.(0|[1-9]\d*)\.(0|[1-9]\d*)"
-                    r"(?:-((?:0|[1-9]\d*|\d*[a-zA-Z-][0-9a-zA-Z-]*)(?:\.(?:0|[1-9]\d*|\d*[a-zA-Z-][0-9a-zA-Z-]*))*))?"
-                    r"(?:\+([0-9a-zA-Z-]+(?:\.[0-9a-zA-Z-]+)*))?$")
+SEMVER = re.compile(
+    r"^(0|[1-9]\d*)\.(0|[1-9]\d*)\.(0|[1-9]\d*)"
+    r"(?:-((?:0|[1-9]\d*|\d*[a-zA-Z-][0-9a-zA-Z-]*)(?:\.(?:0|[1-9]\d*|\d*[a-zA-Z-][0-9a-zA-Z-]*))*))?"
+    r"(?:\+([0-9a-zA-Z-]+(?:\.[0-9a-zA-Z-]+)*))?$"
+)
 CONTROL = re.compile(r"[\x00-\x1f\x7f-\x9f]")
-REQUIRED = {"schema_version": str, "id": str, "name": str, "tagline": str, "version": str, "type": str,
-            "maintainer": str, "license": list, "blender_version_min": str}
-OPTIONAL = {"blender_version_max": str, "website": str, "copyright": list, "permissions": dict, "tags": list,
-            "platforms": list, "wheels": list, "build": dict}
+REQUIRED = {
+    "schema_version": str,
+    "id": str,
+    "name": str,
+    "tagline": str,
+    "version": str,
+    "type": str,
+    "maintainer": str,
+    "license": list,
+    "blender_version_min": str,
+}
+OPTIONAL = {
+    "blender_version_max": str,
+    "website": str,
+    "copyright": list,
+    "permissions": dict,
+    "tags": list,
+    "platforms": list,
+    "wheels": list,
+    "build": dict,
+}
 PERMISSIONS = {"files", "network", "clipboard", "camera", "microphone"}
 PLATFORMS = {"windows-x64", "windows-arm64", "macos-x64", "macos-arm64", "linux-x64", "linux-arm64"}
-ADDON_TAGS = {"3D View", "Add Curve", "Add Mesh", "Animation", "Bake", "Camera", "Compositing", "Development",
-              "Game Engine", "Geometry Nodes", "Grease Pencil", "Import-Export", "Lighting", "Material", "Modeling",
-              "Mesh", "Node", "Object", "Paint", "Pipeline", "Physics", "Render", "Rigging", "Scene", "Sculpt",
-              "Sequencer", "System", "Text Editor", "Tracking", "User Interface", "UV"}
+ADDON_TAGS = {
+    "3D View",
+    "Add Curve",
+    "Add Mesh",
+    "Animation",
+    "Bake",
+    "Camera",
+    "Compositing",
+    "Development",
+    "Game Engine",
+    "Geometry Nodes",
+    "Grease Pencil",
+    "Import-Export",
+    "Lighting",
+    "Material",
+    "Modeling",
+    "Mesh",
+    "Node",
+    "Object",
+    "Paint",
+    "Pipeline",
+    "Physics",
+    "Render",
+    "Rigging",
+    "Scene",
+    "Sculpt",
+    "Sequencer",
+    "System",
+    "Text Editor",
+    "Tracking",
+    "User Interface",
+    "UV",
+}
 WHEEL_PLATFORMS = {"x86_64": "x64", "amd64": "x64", "aarch64": "arm64", "arm64": "arm64"}
 
 
@@ -62,7 +110,7 @@ def terse(value):
 def blender_version(value):
     parts = value.split(".")
     if len(parts) != 3 or not all(p.isdigit() for p in parts):
-        return f"three numbers separated by \".\" expected, found {value!r}"
+        return f'three numbers separated by "." expected, found {value!r}'
     return None
 
 
@@ -71,8 +119,10 @@ def wheel_blender_platform(platform_tag):
     system = {"macosx": "macos", "win": "windows"}.get(system, system)
     if system.startswith(("manylinux", "musllinux")):
         system = "linux"
-    arch = next((blender for wheel, blender in WHEEL_PLATFORMS.items()
-                 if machine == wheel or machine.endswith("_" + wheel)), machine.rpartition("_")[2])
+    arch = next(
+        (blender for wheel, blender in WHEEL_PLATFORMS.items() if machine == wheel or machine.endswith("_" + wheel)),
+        machine.rpartition("_")[2],
+    )
     return f"{system}-{arch}"
 
 
@@ -81,23 +131,27 @@ def check_manifest(m, names, prefix):
     for key, kind in {**REQUIRED, **OPTIONAL}.items():
         if key not in m:
             if key in REQUIRED:
-                problems.append(f"missing \"{key}\"")
+                problems.append(f'missing "{key}"')
             continue
         if not isinstance(m[key], kind):
-            problems.append(f"\"{key}\" must be a {kind.__name__}, not a {type(m[key]).__name__}")
+            problems.append(f'"{key}" must be a {kind.__name__}, not a {type(m[key]).__name__}')
     for key in m:
         if key not in REQUIRED and key not in OPTIONAL:
-            problems.append(f"unknown key \"{key}\"")
+            problems.append(f'unknown key "{key}"')
     if problems:
         return problems
 
     def bad(key, error):
         if error is not None:
-            problems.append(f"\"{key}\": {error}")
+            problems.append(f'"{key}": {error}')
 
     ident = m["id"]
-    bad("id", None if ident.isidentifier() and "__" not in ident and not ident.startswith("_")
-        and not ident.endswith("_") else f"{ident!r} is no identifier without leading, trailing or double \"_\"")
+    bad(
+        "id",
+        None
+        if ident.isidentifier() and "__" not in ident and not ident.startswith("_") and not ident.endswith("_")
+        else f'{ident!r} is no identifier without leading, trailing or double "_"',
+    )
     for key in ("schema_version", "version"):
         bad(key, None if SEMVER.match(m[key]) else f"a semantic version expected, found {m[key]!r}")
     for key in ("name", "maintainer"):
@@ -112,12 +166,18 @@ def check_manifest(m, names, prefix):
     if not m["license"]:
         bad("license", "may not be empty")
     for entry in m["license"]:
-        bad("license", None if isinstance(entry, str) and re.fullmatch(r"SPDX:[A-Za-z0-9.+-]+", entry)
-            else f"{entry!r} is no \"SPDX:<identifier>\"")
+        bad(
+            "license",
+            None
+            if isinstance(entry, str) and re.fullmatch(r"SPDX:[A-Za-z0-9.+-]+", entry)
+            else f'{entry!r} is no "SPDX:<identifier>"',
+        )
     for entry in m.get("copyright", []):
         year, _, who = entry.partition(" ") if isinstance(entry, str) else ("", "", "")
-        bad("copyright", None if re.fullmatch(r"\d+(-\d+)?", year) and who.strip()
-            else f"{entry!r} is not \"YEAR[-YEAR] name\"")
+        bad(
+            "copyright",
+            None if re.fullmatch(r"\d+(-\d+)?", year) and who.strip() else f'{entry!r} is not "YEAR[-YEAR] name"',
+        )
     for key, text in m.get("permissions", {}).items():
         bad("permissions", None if key in PERMISSIONS else f"unknown permission {key!r}")
         bad(f"permissions.{key}", terse(text) if isinstance(text, str) else "a string expected")
@@ -137,7 +197,7 @@ def check_manifest(m, names, prefix):
             bad("wheels", f"{wheel!r}: a path with forward slashes expected")
             continue
         base = os.path.basename(wheel)
-        fields = base[:-len(".whl")].split("-")
+        fields = base[: -len(".whl")].split("-")
         if not base.endswith(".whl") or not 5 <= len(fields) <= 6:
             bad("wheels", f"{wheel!r} does not follow the wheel file-name spec")
             continue
@@ -165,7 +225,7 @@ def main(argv):
             if len(found) != 1:
                 print(f"{argv[1]}: no blender_manifest.toml at the root or in one folder")
                 return 1
-            prefix = found[0][:-len("blender_manifest.toml")]
+            prefix = found[0][: -len("blender_manifest.toml")]
         try:
             manifest = tomllib.loads(z.read(prefix + "blender_manifest.toml").decode())
         except (tomllib.TOMLDecodeError, UnicodeDecodeError) as e:
@@ -176,7 +236,7 @@ def main(argv):
             inside = prefix + os.path.normpath(wheel).replace(os.sep, "/")
             with z.open(inside) as f, zipfile.ZipFile(f) as w:
                 if any(".data/" in n for n in w.namelist()):
-                    problems.append(f"\"wheels\": {wheel!r} has a .data folder, which Blender would unpack as it is")
+                    problems.append(f'"wheels": {wheel!r} has a .data folder, which Blender would unpack as it is')
     for p in problems:
         print(f"{argv[1]}: blender_manifest.toml: {p}")
     if not problems:

@@ -24,21 +24,28 @@ def main(argv):
         return 2
     wheel, out = argv[1], argv[2]
     name = os.path.basename(wheel)
-    parts = name[:-len(".whl")].split("-")
+    parts = name[: -len(".whl")].split("-")
     if not name.endswith(".whl") or len(parts) != 5 or parts[0] != "mlsdeform":
-        print(f"make_extension: {wheel}: not a wheel of mlsdeform (mlsdeform-<version>-<py>-<abi>-<platform>.whl)",
-              file=sys.stderr)
+        print(
+            f"make_extension: {wheel}: not a wheel of mlsdeform (mlsdeform-<version>-<py>-<abi>-<platform>.whl)",
+            file=sys.stderr,
+        )
         return 2
     version, platform = parts[1], parts[4]
     if platform not in PLATFORMS:
-        print(f"make_extension: {wheel}: platform {platform} has no Blender name here ({', '.join(PLATFORMS)})",
-              file=sys.stderr)
+        print(
+            f"make_extension: {wheel}: platform {platform} has no Blender name here ({', '.join(PLATFORMS)})",
+            file=sys.stderr,
+        )
         return 2
     with zipfile.ZipFile(wheel) as z:
         names = z.namelist()
         if any(".data/" in n for n in names):
-            print(f"make_extension: {wheel} carries the program (build it with MLSDEFORM_WHEEL_PROGRAM=OFF): "
-                  "Blender would unpack it into its site-packages", file=sys.stderr)
+            print(
+                f"make_extension: {wheel} carries the program (build it with MLSDEFORM_WHEEL_PROGRAM=OFF): "
+                "Blender would unpack it into its site-packages",
+                file=sys.stderr,
+            )
             return 2
         meta = z.read(f"mlsdeform-{version}.dist-info/METADATA").decode()
     m = re.search(r"^License: (.*)$", meta, re.M)
@@ -47,8 +54,12 @@ def main(argv):
         return 2
     with open(os.path.join(HERE, "blender_manifest.toml.in")) as f:
         manifest = f.read()
-    for key, value in (("VERSION", version), ("LICENSE", SPDX[m.group(1)]), ("PLATFORM", PLATFORMS[platform]),
-                       ("WHEEL", name)):
+    for key, value in (
+        ("VERSION", version),
+        ("LICENSE", SPDX[m.group(1)]),
+        ("PLATFORM", PLATFORMS[platform]),
+        ("WHEEL", name),
+    ):
         manifest = manifest.replace(f"@{key}@", value)
     tmp = out + ".tmp"
     with zipfile.ZipFile(tmp, "w", zipfile.ZIP_DEFLATED) as z:

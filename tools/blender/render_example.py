@@ -11,7 +11,7 @@ import sys
 import bpy
 import numpy as np
 
-ZIP, OUT = sys.argv[sys.argv.index("--") + 1:][:2]
+ZIP, OUT = sys.argv[sys.argv.index("--") + 1 :][:2]
 ROOT = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "..")
 
 bpy.ops.preferences.addon_install(filepath=ZIP, overwrite=True)
@@ -76,7 +76,7 @@ if posed.get("mlsdeform_error"):
 
 scene = bpy.context.scene
 cam = bpy.data.objects.new("camera", bpy.data.cameras.new("camera"))
-cam.location = (3.3, -3.3, 1.2)   # three-quarter view: the forward bend shows
+cam.location = (3.3, -3.3, 1.2)  # three-quarter view: the forward bend shows
 cam.rotation_euler = (np.radians(82), 0, np.radians(45))
 scene.collection.objects.link(cam)
 scene.camera = cam

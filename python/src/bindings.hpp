@@ -1,0 +1,11 @@
+// The module's parts by API area, each adding its names to the module (module.cpp calls them in this order).
+#pragma once
+
+#include <pybind11/pybind11.h>
+
+namespace mlsdeform::python {
+
+void bind_deformer(pybind11::module_& m);  // Deformer (bind_deformer.cpp)
+void bind_fits(pybind11::module_& m);      // fit_rotations, fit_rotation, fit_points (bind_fits.cpp)
+
+}  // namespace mlsdeform::python

@@ -1,0 +1,33 @@
+#!/usr/bin/env bash
+# The Python layout and lint checks (ctest python_format, python_lint) over every Python file of the source
+# tree, with the settings of pyproject.toml ([tool.black]) and .flake8. Debian 12's black 23.1 and flake8 5
+# (tools/install_deps.sh installs them): other versions may format differently, so a missing tool skips the
+# test (exit 77, ctest's SKIP_RETURN_CODE) with a line saying so, rather than passing it.
+#   check_python_style.sh format|lint <source dir>
+set -euo pipefail
+what=$1
+cd "$2"
+case "$what" in
+  format)
+    if ! command -v black >/dev/null; then
+      echo "python_format skipped: black not found (Debian: apt-get install black; tools/install_deps.sh)"
+      exit 77
+    fi
+    # black takes the files git would (.gitignore: no build trees, no venv) and prints what it would change.
+    if ! black --check --diff --quiet .; then
+      echo "Python not formatted as black says (run tools/dev.sh format)" >&2
+      exit 1
+    fi
+    ;;
+  lint)
+    if ! command -v flake8 >/dev/null; then
+      echo "python_lint skipped: flake8 not found (Debian: apt-get install flake8; tools/install_deps.sh)"
+      exit 77
+    fi
+    flake8 .  # .flake8 excludes the build trees and the venv
+    ;;
+  *)
+    echo "usage: check_python_style.sh format|lint <source dir>" >&2
+    exit 2
+    ;;
+esac
