@@ -10,6 +10,8 @@
 // benchmark with an error naming the case. Timing then repeats the whole pass; one
 // iteration = 10^6 fits, streamed from memory (72 bytes of H per fit in double, 36 in float), one core.
 //
+// The sets and that check are in bench/rotation_fit_sets.hpp, the error sweep in bench/rotation_error_sweep.hpp.
+//
 // Names: fit/<float|double>/<method>/<path>, path = "scalar" for fit_rotation (the library's scalar
 // reference, baseline flags) and for QCP, or batch:<isa> for the batched fit_rotations forced to that ISA
 // (see the batched section below; fit_hot/... repeats a cache-resident subset).
@@ -17,146 +19,37 @@
 // Extra options (before the Google Benchmark ones):
 //   --cases=N           size of the set (default 1000000)
 //   --error_sweep=FILE  also write the error-versus-distance-from-half-turn data (CSV) for the report's plot
-#include "bench/cases.hpp"
 #include "bench/common.hpp"
-#include "bench/paper_literal.hpp"
 #include "bench/qcp.hpp"
 #include "bench/reference.hpp"
+#include "bench/rotation_error_sweep.hpp"
+#include "bench/rotation_fit_sets.hpp"
 
 #include <mlsdeform/batch.hpp>
 #include <mlsdeform/rotation.hpp>
 
-#include <tbb/blocked_range.h>
-#include <tbb/parallel_for.h>
-#include <tbb/parallel_reduce.h>
-
 #include <algorithm>
-#include <atomic>
-#include <cmath>
-#include <fstream>
-#include <functional>
-#include <mutex>
-#include <numbers>
 #include <string>
 #include <vector>
 
 namespace {
 
-using bench::Matrix3L;
-using mlsdeform::Matrix3;
-using mlsdeform::RotationMethod;
-
-std::size_t g_case_count = 1'000'000;
-
-/// The two matrix sets: correlation matrices of random weighted point sets (bench/cases.hpp make_case), and
-/// Gaussian H (make_gaussian_case). Benchmark names start with the set: fit/, fit_hot/ (point sets) and
-/// gauss/, gauss_hot/ (Gaussian).
-enum class Set { points, gaussian };
-constexpr Set kSets[] = {Set::points, Set::gaussian};
-
-std::string prefix(Set set, bool hot) {
-  return std::string(set == Set::points ? "fit" : "gauss") + (hot ? "_hot/" : "/");
-}
-
-/// The shared set and its references, built once (in parallel: the long-double SVDs take a few seconds).
-struct Data {
-  std::vector<Eigen::Matrix3d> H_double;
-  std::vector<Eigen::Matrix3f> H_float;
-  std::vector<bench::Reference> ref_double, ref_float;
-  std::size_t det_negative = 0;
-
-  template <class T>
-  const std::vector<Matrix3<T>>& H() const {
-    if constexpr (std::is_same_v<T, float>)
-      return H_float;
-    else
-      return H_double;
-  }
-  template <class T>
-  const std::vector<bench::Reference>& ref() const {
-    if constexpr (std::is_same_v<T, float>)
-      return ref_float;
-    else
-      return ref_double;
-  }
-};
-
-Data build(Set set) {
-  Data d;
-  const std::size_t n = g_case_count;
-  d.H_double.resize(n);
-  d.H_float.resize(n);
-  d.ref_double.resize(n);
-  d.ref_float.resize(n);
-  std::atomic<std::size_t> negative{0};
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, 1024), [&](const tbb::blocked_range<std::size_t>& r) {
-    std::size_t neg = 0;
-    for (std::size_t i = r.begin(); i < r.end(); ++i) {
-      d.H_double[i] =
-          set == Set::points ? bench::make_case(bench::kCaseSeed, i) : bench::make_gaussian_case(bench::kCaseSeed, i);
-      d.H_float[i] = d.H_double[i].cast<float>();
-      d.ref_double[i] = bench::reference(d.H_double[i]);
-      d.ref_float[i] = bench::reference(d.H_float[i]);
-      if (d.H_double[i].determinant() < 0) ++neg;
-    }
-    negative += neg;
-  });
-  d.det_negative = negative;
-  return d;
-}
-
-const Data& data(Set set) {
-  if (set == Set::points) {
-    static const Data points = build(Set::points);
-    return points;
-  }
-  static const Data gaussian = build(Set::gaussian);
-  return gaussian;
-}
-
-/// Check every result of `fit` against the reference (in parallel: untimed). Returns an empty string when
-/// all pass, else a message naming the first failing case; `worst` gets the largest error/tolerance ratio.
-template <class T, class Fit>
-std::string validate(Set set, const Fit& fit, const bench::Judge& how, std::vector<Matrix3<T>>& out, double& worst) {
-  const Data& d = data(set);
-  const auto& H = d.template H<T>();
-  const auto& ref = d.template ref<T>();
-  std::mutex m;
-  std::size_t first_bad = H.size(), bad = 0;
-  bench::Verdict first_verdict;
-  worst = tbb::parallel_reduce(
-      tbb::blocked_range<std::size_t>(0, H.size(), 4096), 0.0,
-      [&](const tbb::blocked_range<std::size_t>& r, double w) {
-        for (std::size_t i = r.begin(); i < r.end(); ++i) {
-          out[i] = fit(H[i]);
-          const bench::Verdict v = bench::judge(out[i], H[i], ref[i], how);
-          w = std::max(w, static_cast<double>(v.worst_ratio()));
-          if (!v.ok) {
-            std::lock_guard lock(m);
-            ++bad;
-            if (i < first_bad) {
-              first_bad = i;
-              first_verdict = v;
-            }
-          }
-        }
-        return w;
-      },
-      [](double a, double b) { return std::max(a, b); });
-  if (bad == 0) return {};
-  return std::to_string(bad) + " of " + std::to_string(H.size()) +
-         " fits off the long-double SVD reference; first: case " + std::to_string(first_bad) + " (seed " +
-         std::to_string(bench::kCaseSeed) + "): " + first_verdict.describe();
-}
+using namespace bench::rotation_fit;
 
 /// The common body: validate, then time whole passes over the set.
 template <class T, class Fit>
 void run_fit(benchmark::State& state, Set set, const bench::Judge& how, const Fit& fit) {
-  const auto& H = data(set).template H<T>();
+  const Data& d = data(set);
+  const auto& H = d.template H<T>();
+  const auto& ref = d.template ref<T>();
   const std::size_t n = H.size();
   std::vector<Matrix3<T>> out(n);
   double worst = 0;
-  if (const std::string err = validate<T>(set, fit, how, out, worst); !err.empty()) {
+  const auto verdict = [&](std::size_t i) {
+    out[i] = fit(H[i]);
+    return bench::judge(out[i], H[i], ref[i], how);
+  };
+  if (const std::string err = check_all(n, verdict, "fits", worst); !err.empty()) {
     state.SkipWithError(err.c_str());
     return;
   }
@@ -168,11 +61,6 @@ void run_fit(benchmark::State& state, Set set, const bench::Judge& how, const Fi
   state.SetItemsProcessed(static_cast<int64_t>(state.iterations() * n));
   state.counters["ns_per_fit"] = bench::ns_per(static_cast<double>(n));
   state.counters["worst_err_over_tol"] = worst;
-}
-
-template <class T>
-const char* type_name() {
-  return std::is_same_v<T, float> ? "float" : "double";
 }
 
 template <class T>
@@ -245,38 +133,19 @@ std::vector<T> soa_prefix(Set set, std::size_t m) {
   return out;
 }
 
-/// Check a batched result (n = all cases) against the references (in parallel: untimed); empty string
-/// when all pass.
+/// The batched result R (n = all cases, SoA) against the references.
 template <class T>
 std::string validate_soa(Set set, const std::vector<T>& R, RotationMethod method, double& worst) {
   const Data& d = data(set);
   const auto& H = d.template H<T>();
   const auto& ref = d.template ref<T>();
   const std::size_t n = H.size();
-  std::mutex m;
-  std::size_t bad = 0, first_bad = n;
-  bench::Verdict first_verdict;
-  worst = tbb::parallel_reduce(
-      tbb::blocked_range<std::size_t>(0, n, 4096), 0.0,
-      [&](const tbb::blocked_range<std::size_t>& r, double w) {
-        for (std::size_t i = r.begin(); i < r.end(); ++i) {
-          Matrix3<T> Ri;
-          for (std::size_t e = 0; e < 9; ++e) Ri(e / 3, e % 3) = R[e * n + i];
-          const bench::Verdict v = bench::judge(Ri, H[i], ref[i], bench::Judge::method(method));
-          w = std::max(w, static_cast<double>(v.worst_ratio()));
-          if (!v.ok) {
-            std::lock_guard lock(m);
-            ++bad;
-            if (i < first_bad) first_bad = i, first_verdict = v;
-          }
-        }
-        return w;
-      },
-      [](double a, double b) { return std::max(a, b); });
-  if (bad == 0) return {};
-  return std::to_string(bad) + " of " + std::to_string(n) +
-         " batched fits off the long-double SVD reference; first: case " + std::to_string(first_bad) + ": " +
-         first_verdict.describe();
+  const auto verdict = [&](std::size_t i) {
+    Matrix3<T> Ri;
+    for (std::size_t e = 0; e < 9; ++e) Ri(e / 3, e % 3) = R[e * n + i];
+    return bench::judge(Ri, H[i], ref[i], bench::Judge::method(method));
+  };
+  return check_all(n, verdict, "batched fits", worst);
 }
 
 /// Restores the library's default ISA choice when a batched benchmark ends.
@@ -340,62 +209,11 @@ void register_batched(Set set) {
   }
 }
 
-// ---------------------------------------------------------------------------------------------------------
-// Error versus distance from a half-turn (the report's plot): for delta = pi - angle from 1e-8 to 1 rad,
-// cases of near_half_turn_correlation; per method and precision, the median and largest angle to the
-// long-double SVD reference of the rounded H.
-// ---------------------------------------------------------------------------------------------------------
-
-template <class T>
-void sweep_type(std::ofstream& csv) {
-  struct Method {
-    std::string name;
-    std::function<Matrix3<T>(const Matrix3<T>&)> fit;
-  };
-  std::vector<Method> methods;
-  for (RotationMethod m : mlsdeform::all_rotation_methods)
-    methods.push_back(
-        {std::string(mlsdeform::to_string(m)), [m](const Matrix3<T>& H) { return mlsdeform::fit_rotation<T>(H, m); }});
-  methods.push_back({"qcp", [](const Matrix3<T>& H) { return bench::fit_rotation_qcp<T>(H); }});
-  methods.push_back(
-      {"paper_eq14_literal", [](const Matrix3<T>& H) { return bench::fit_rotation_paper_literal<T>(H); }});
-  constexpr int kPerDecade = 4, kCasesPerDelta = 400;
-  for (int e = -8 * kPerDecade; e <= 0; ++e) {
-    const double delta = std::pow(10.0, double(e) / kPerDecade);
-    std::vector<Matrix3<T>> H(kCasesPerDelta);
-    std::vector<Matrix3L> R_ref(kCasesPerDelta);
-    bench::Rng rng = bench::case_rng(bench::kCaseSeed + 1, static_cast<std::uint64_t>(e + 1000));
-    for (int i = 0; i < kCasesPerDelta; ++i) {
-      H[i] = bench::near_half_turn_correlation(rng, delta).template cast<T>();
-      R_ref[i] = bench::reference(H[i]).rotation.template cast<long double>();
-    }
-    for (const Method& m : methods) {
-      std::vector<double> err(kCasesPerDelta);
-      for (int i = 0; i < kCasesPerDelta; ++i) {
-        const Matrix3<T> R = m.fit(H[i]);
-        err[i] = R.allFinite() ? static_cast<double>(bench::rotation_angle(R.template cast<long double>(), R_ref[i]))
-                               : std::numbers::pi;
-      }
-      std::sort(err.begin(), err.end());
-      csv << type_name<T>() << ',' << m.name << ',' << delta << ',' << kCasesPerDelta << ',' << err[kCasesPerDelta / 2]
-          << ',' << err.back() << '\n';
-    }
-  }
-}
-
-void write_error_sweep(const std::string& path) {
-  std::ofstream csv(path);
-  csv.precision(6);
-  csv << "type,method,delta,cases,median_angle_error,max_angle_error\n";
-  sweep_type<float>(csv);
-  sweep_type<double>(csv);
-}
-
 }  // namespace
 
 int main(int argc, char** argv) {
   const auto opt = bench::take_options(argc, argv, {"cases", "error_sweep"});
-  if (!opt[0].empty()) g_case_count = std::stoul(opt[0]);
+  if (!opt[0].empty()) case_count = std::stoul(opt[0]);
   if (!opt[1].empty()) write_error_sweep(opt[1]);
 
   for (Set set : kSets) {

@@ -132,15 +132,7 @@ void bm_naive(benchmark::State& state, const Config& c) {
       }
     }
   }
-  for (auto _ : state) {
-    bench::naive_mls_deform<T>(v, h, q, out);
-    benchmark::DoNotOptimize(out.data());
-    benchmark::ClobberMemory();
-  }
-  state.SetItemsProcessed(static_cast<int64_t>(state.iterations()));
-  state.counters["fps"] = benchmark::Counter(1, benchmark::Counter::kIsIterationInvariantRate);
-  state.counters["ms_per_frame"] =
-      benchmark::Counter(1e-3, benchmark::Counter::kIsIterationInvariantRate | benchmark::Counter::kInvert);
+  bench::time_frames<T>(state, out, [&] { bench::naive_mls_deform<T>(v, h, q, out); });
   state.counters["worst_err_over_tol"] = worst;
   state.counters["max_dev_over_diameter"] = max_dev;
   state.counters["max_dev_vs_deformer_over_diameter"] = max_dev_vs_deformer;

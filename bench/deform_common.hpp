@@ -73,6 +73,21 @@ inline mlsdeform::Options deformer_options(mlsdeform::Backend backend, int threa
   return o;
 }
 
+/// Times frames, one call of `frame` (which deforms into `out`) per iteration. Counters: items_per_second (one
+/// item = one frame), fps and ms_per_frame.
+template <class T, class Frame>
+void time_frames(benchmark::State& state, const mlsdeform::Points<T>& out, const Frame& frame) {
+  for (auto _ : state) {
+    frame();
+    benchmark::DoNotOptimize(out.data());
+    benchmark::ClobberMemory();
+  }
+  state.SetItemsProcessed(static_cast<int64_t>(state.iterations()));
+  state.counters["fps"] = benchmark::Counter(1, benchmark::Counter::kIsIterationInvariantRate);
+  state.counters["ms_per_frame"] =
+      benchmark::Counter(1e-3, benchmark::Counter::kIsIterationInvariantRate | benchmark::Counter::kInvert);
+}
+
 /// Build a Deformer, check one frame against the reference, then time frames. Counters: fps (also as
 /// items_per_second: one item = one frame), ms_per_frame, memory of the precomputation, whether the
 /// weights are precomputed, and the check's worst error/tolerance and largest deviation.
@@ -95,15 +110,7 @@ void run_deformer(benchmark::State& state, const Scene& scene, const SampledRefe
     state.SkipWithError(err.c_str());
     return;
   }
-  for (auto _ : state) {
-    deformer->deform(moved, out);
-    benchmark::DoNotOptimize(out.data());
-    benchmark::ClobberMemory();
-  }
-  state.SetItemsProcessed(static_cast<int64_t>(state.iterations()));
-  state.counters["fps"] = benchmark::Counter(1, benchmark::Counter::kIsIterationInvariantRate);
-  state.counters["ms_per_frame"] =
-      benchmark::Counter(1e-3, benchmark::Counter::kIsIterationInvariantRate | benchmark::Counter::kInvert);
+  time_frames<T>(state, out, [&] { deformer->deform(moved, out); });
   state.counters["memory_bytes"] = static_cast<double>(deformer->memory_bytes());
   state.counters["precomputed"] = deformer->uses_precomputed_weights() ? 1 : 0;
   state.counters["vertices"] = static_cast<double>(scene.vertices.rows());

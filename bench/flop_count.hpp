@@ -55,34 +55,22 @@ template <class A, class B>
 concept CountedPair = (is_counted<A>::value && (is_counted<B>::value || std::is_arithmetic_v<B>)) ||
                       (is_counted<B>::value && std::is_arithmetic_v<A>);
 
-template <class A, class B>
-requires CountedPair<A, B> counted_of<A, B>
-operator+(A a, B b) {
-  using C = counted_of<A, B>;
-  ++flop_tally.add;
-  return C(C(a).v + C(b).v);
-}
-template <class A, class B>
-requires CountedPair<A, B> counted_of<A, B>
-operator-(A a, B b) {
-  using C = counted_of<A, B>;
-  ++flop_tally.add;
-  return C(C(a).v - C(b).v);
-}
-template <class A, class B>
-requires CountedPair<A, B> counted_of<A, B>
-operator*(A a, B b) {
-  using C = counted_of<A, B>;
-  ++flop_tally.mul;
-  return C(C(a).v * C(b).v);
-}
-template <class A, class B>
-requires CountedPair<A, B> counted_of<A, B>
-operator/(A a, B b) {
-  using C = counted_of<A, B>;
-  ++flop_tally.div;
-  return C(C(a).v / C(b).v);
-}
+// The four arithmetic operators, each counted in its tally.
+#define BENCH_COUNTED_ARITHMETIC(op, tally)   \
+  template <class A, class B>                 \
+  requires CountedPair<A, B> counted_of<A, B> \
+  operator op(A a, B b) {                     \
+    using C = counted_of<A, B>;               \
+    ++flop_tally.tally;                       \
+    return C(C(a).v op C(b).v);               \
+  }
+BENCH_COUNTED_ARITHMETIC(+, add)
+BENCH_COUNTED_ARITHMETIC(-, add)
+BENCH_COUNTED_ARITHMETIC(*, mul)
+BENCH_COUNTED_ARITHMETIC(/, div)
+#undef BENCH_COUNTED_ARITHMETIC
+
+// The comparisons, not counted.
 #define BENCH_COUNTED_COMPARE(op) \
   template <class A, class B>     \
   requires CountedPair<A, B>      \
@@ -99,29 +87,20 @@ BENCH_COUNTED_COMPARE(!=)
 #undef BENCH_COUNTED_COMPARE
 
 // Found by argument-dependent lookup from the `using std::sqrt; sqrt(x)` idiom (and Eigen's numext).
+#define BENCH_COUNTED_FUNCTION(f, tally) \
+  template <class T>                     \
+  Counted<T> f(Counted<T> x) {           \
+    ++flop_tally.tally;                  \
+    return Counted<T>(std::f(x.v));      \
+  }
+BENCH_COUNTED_FUNCTION(sqrt, sqrt)
+BENCH_COUNTED_FUNCTION(cbrt, transcendental)
+BENCH_COUNTED_FUNCTION(cos, transcendental)
+BENCH_COUNTED_FUNCTION(acos, transcendental)
+#undef BENCH_COUNTED_FUNCTION
 template <class T>
-Counted<T> sqrt(Counted<T> x) {
-  ++flop_tally.sqrt;
-  return Counted<T>(std::sqrt(x.v));
-}
-template <class T>
-Counted<T> abs(Counted<T> x) {
+Counted<T> abs(Counted<T> x) {  // free, like a sign flip
   return Counted<T>(std::abs(x.v));
-}
-template <class T>
-Counted<T> cbrt(Counted<T> x) {
-  ++flop_tally.transcendental;
-  return Counted<T>(std::cbrt(x.v));
-}
-template <class T>
-Counted<T> cos(Counted<T> x) {
-  ++flop_tally.transcendental;
-  return Counted<T>(std::cos(x.v));
-}
-template <class T>
-Counted<T> acos(Counted<T> x) {
-  ++flop_tally.transcendental;
-  return Counted<T>(std::acos(x.v));
 }
 template <class T>
 bool isfinite(Counted<T> x) {

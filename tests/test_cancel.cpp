@@ -15,19 +15,9 @@
 #include <vector>
 
 using namespace mlsdeform;
+using mlsdeform::testing::human;
 
 namespace {
-
-struct Human {
-  Points<double> v;
-  Triangles f;
-};
-
-const Human& human() {
-  static const Human h{testing::read_obj_vertices(testing::bundled_mesh("human_man.obj")),
-                       testing::read_obj_triangles(testing::bundled_mesh("human_man.obj"))};
-  return h;
-}
 
 /// Handles on the two hands and the two feet (vertex positions of the human), the right hand moved.
 std::pair<Handles<double>, Handles<double>> limb_handles() {

@@ -24,20 +24,10 @@
 #include <vector>
 
 using namespace mlsdeform;
+using mlsdeform::testing::human;
 using mlsdeform::testing::IsaGuard;
 
 namespace {
-
-struct Human {
-  Points<double> v;
-  Triangles f;
-};
-
-const Human& human() {
-  static const Human h{testing::read_obj_vertices(testing::bundled_mesh("human_man.obj")),
-                       testing::read_obj_triangles(testing::bundled_mesh("human_man.obj"))};
-  return h;
-}
 
 constexpr Eigen::Index kRightHand = 2445;  // data/human_bend.json
 

@@ -51,6 +51,12 @@ PointsD read_obj_vertices(const std::string& path) {
   return p;
 }
 
+const TriangleMesh& human() {
+  static const TriangleMesh h{read_obj_vertices(bundled_mesh("human_man.obj")),
+                              read_obj_triangles(bundled_mesh("human_man.obj"))};
+  return h;
+}
+
 Triangles read_obj_triangles(const std::string& path) {
   std::ifstream in(path);
   if (!in) throw std::runtime_error("cannot open " + path);

@@ -38,6 +38,16 @@ PointsD read_obj_vertices(const std::string& path);
 /// a face has fewer than three corners or an index that names no vertex of the file.
 Triangles read_obj_triangles(const std::string& path);
 
+/// A mesh's vertices and triangles, as read_obj_vertices and read_obj_triangles read them.
+struct TriangleMesh {
+  PointsD v;
+  Triangles f;
+};
+
+/// The bundled human, data/human_man.obj (6,890 vertices), read on first use and kept: the tests that deform
+/// it share one copy.
+const TriangleMesh& human();
+
 /// The vertices of a binary little-endian PLY file, optionally gzip-compressed (zlib reads both). Supports
 /// a vertex element whose properties are scalars (float, double, uchar, int ...) with x, y, z among them
 /// (float). With `faces`, also the face element that must follow it: one property 'list uchar int' (or
