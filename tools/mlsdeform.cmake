@@ -21,7 +21,13 @@ add_library(mlsdeform_cli STATIC
   ${_cli}/handles/parse.cpp
   ${_cli}/handles/resolve.cpp
   ${_cli}/render.cpp
+  ${_cli}/primitives.cpp
   ${_cli}/scenes.cpp
+  ${_cli}/scene_run.cpp
+  ${_cli}/figures/layout.cpp
+  ${_cli}/figures/centroids.cpp
+  ${_cli}/figures/figures.cpp
+  ${_cli}/figures/measures.cpp
   ${_cli}/cmd_deform.cpp
   ${_cli}/cmd_demo.cpp
   ${_cli}/cmd_figures.cpp)
