@@ -70,7 +70,7 @@ std::vector<Vec3d> pseudo_handles(const Handles<T>& h) {
 /// The scale of the deformer's local frame (core/src/deformer/local_frame.hpp): 2^-e, e the exponent of the
 /// bounding-box diagonal of the rest vertices and handles.
 template <class T>
-double local_scale(const Scene<T>& sc) {
+double local_scale(const DeformCase<T>& sc) {
   return std::ldexp(1.0, -std::ilogb(scene_size(sc.vertices, sc.rest)));
 }
 
@@ -78,7 +78,7 @@ double local_scale(const Scene<T>& sc) {
 /// M): beta does not depend on the frame (phi is homogeneous and the linear polynomials are invariant under
 /// similarity), but kappa(M) does.
 template <class T>
-std::vector<Vec3d> handle_points(const Scene<T>& sc) {
+std::vector<Vec3d> handle_points(const DeformCase<T>& sc) {
   const double scale = local_scale(sc);
   std::vector<Vec3d> P = pseudo_handles(sc.rest);
   for (Vec3d& p : P) p *= scale;
@@ -110,7 +110,7 @@ Vec3d rest_centroid(const Vec3d& v, const Handles<T>& rest) {
 /// The extra bound of the file comment for every vertex of a scene: max over vertices of the RBF terms, with
 /// Q the largest |q_j| (so that sum_j |beta_j| |q_j| <= B Q bounds the error of q* in norm).
 template <class T>
-double rbf_extra(const Scene<T>& sc, const Handles<T>& moved) {
+double rbf_extra(const DeformCase<T>& sc, const Handles<T>& moved) {
   const double scale = local_scale(sc);
   const std::vector<Vec3d> P = handle_points(sc);
   const RbfCentroids rbf(P);  // the kernel the deformer used: rbf_kernel()
@@ -270,7 +270,7 @@ TEMPLATE_TEST_CASE("RBF centroids in the deformer: identity, interpolation, affi
   const mlsdeform::detail::ScopedRbfKernel scoped(kernel);
   INFO("kernel " << (kernel == RbfKernel::r ? "r" : "r^3"));
   for (int trial = 0; trial < 3; ++trial) {
-    const Scene<T> sc = random_scene<T>(g, 250, 6 + 2 * trial, 0);
+    const DeformCase<T> sc = random_case<T>(g, 250, 6 + 2 * trial, 0);
     const Mat3d R = random_rotation(g);
     const Vec3d t = random_vector(g, -2, 2);
     Mat3d N;
@@ -318,12 +318,12 @@ TEMPLATE_TEST_CASE("RBF centroids: a rigid motion or similarity of the whole sce
   INFO("kernel " << (kernel == RbfKernel::r ? "r" : "r^3"));
   double worst = 0, worst_on_handles = 0;
   for (int trial = 0; trial < 4; ++trial) {
-    // Scene a: point handles (even trials) or points and segments (odd trials, paper_constant weights),
+    // Case a: point handles (even trials) or points and segments (odd trials, paper_constant weights),
     // moved by a rigid motion plus noise, so that q* = g(p*) is not an affine map of p*; every coordinate on
     // the motion's grid, and a vertex on each point handle (interpolated exactly).
     GridMotion mo = random_grid_motion(g);
     const Eigen::Index k = trial % 2 ? 6 : 8, segments = trial % 2 ? 2 : 0;
-    Scene<T> a = random_scene<T>(g, 200, k, segments);
+    DeformCase<T> a = random_case<T>(g, 200, k, segments);
     a.moved = transformed(a.rest, random_rotation(g), random_vector(g, -0.5, 0.5));
     for (Points<T>* m : {&a.moved.points, &a.moved.segment_a, &a.moved.segment_b})
       *m += T(0.3) * random_points<T>(g, m->rows());
@@ -334,7 +334,7 @@ TEMPLATE_TEST_CASE("RBF centroids: a rigid motion or similarity of the whole sce
     const double la = scene_size(a.vertices, a.rest), extra_a = rbf_extra(a, a.moved);
     for (const long long p : {2, 3}) {  // s = 1 (a rigid motion), s = 3/2 (a similarity)
       mo.p = p;
-      Scene<T> b;  // scene a's exact image: vertices, rest handles and moved handles
+      DeformCase<T> b;  // case a's exact image: vertices, rest handles and moved handles
       b.vertices = apply(mo, a.vertices);
       b.rest = apply(mo, a.rest);
       b.moved = apply(mo, a.moved);
@@ -389,7 +389,7 @@ TEMPLATE_TEST_CASE("RBF centroids: SIMD agrees with scalar, threads bitwise, on-
                    float, double) {
   using T = TestType;
   std::mt19937_64 g(seed() + 1);
-  const Scene<T> sc = random_scene<T>(g, 700, 9, 0);
+  const DeformCase<T> sc = random_case<T>(g, 700, 9, 0);
   Handles<T> moved = sc.rest;
   moved.points.row(0).array() += T(0.8);  // a large move: where RBF and MLS centroids differ most
   Options o;
@@ -416,7 +416,7 @@ TEMPLATE_TEST_CASE("RBF centroids: SIMD agrees with scalar, threads bitwise, on-
 
 TEST_CASE("RBF centroids: a Deformer takes the kernel set when it is constructed", "[rbf][deformer]") {
   std::mt19937_64 g(seed() + 2);
-  const Scene<double> sc = random_scene<double>(g, 300, 7, 0);
+  const DeformCase<double> sc = random_case<double>(g, 300, 7, 0);
   Handles<double> moved = sc.rest;
   moved.points.row(0).array() += 0.8;
   Options o;
