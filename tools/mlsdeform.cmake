@@ -18,6 +18,9 @@ add_library(mlsdeform_cli STATIC
   ${_cli}/formats/off_read.cpp
   ${_cli}/formats/ply_read.cpp
   ${_cli}/mesh_write.cpp
+  ${_cli}/formats/obj_write.cpp
+  ${_cli}/formats/off_write.cpp
+  ${_cli}/formats/ply_write.cpp
   ${_cli}/handles/parse.cpp
   ${_cli}/handles/resolve.cpp
   ${_cli}/render.cpp
