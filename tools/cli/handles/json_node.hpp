@@ -32,6 +32,12 @@ struct Node {
   Node operator[](const char* key) const { return {v.at(key), path + "/" + key, file}; }
   Node at(std::size_t i) const { return {v.at(i), path + "/" + std::to_string(i), file}; }
   bool has(const char* key) const { return v.contains(key); }
+  /// One of the two keys, not both and not neither.
+  void exactly_one_of(const char* a, const char* b) const {
+    if (has(a) == has(b))
+      fail(has(a) ? std::string("give \"") + a + "\" or \"" + b + "\", not both"
+                  : std::string("missing \"") + a + "\" or \"" + b + "\"");
+  }
 
   void require_object(const char* what) const {
     if (!v.is_object()) fail(std::string("expected ") + what + ", found " + v.type_name());

@@ -42,8 +42,7 @@ PointHandleSpec parse_point(const Node& n) {
   n.only_keys({"vertex", "rest", "target", "offset", "name"});
   PointHandleSpec h;
   h.path = n.path;
-  if (n.has("vertex") == n.has("rest"))
-    n.fail(n.has("vertex") ? "give \"vertex\" or \"rest\", not both" : "missing \"vertex\" or \"rest\"");
+  n.exactly_one_of("vertex", "rest");
   if (n.has("vertex"))
     h.vertex = n["vertex"].index();
   else
@@ -57,8 +56,7 @@ SegmentHandleSpec parse_segment(const Node& n) {
   n.only_keys({"vertices", "rest", "target", "offset", "name"});
   SegmentHandleSpec h;
   h.path = n.path;
-  if (n.has("vertices") == n.has("rest"))
-    n.fail(n.has("vertices") ? "give \"vertices\" or \"rest\", not both" : "missing \"vertices\" or \"rest\"");
+  n.exactly_one_of("vertices", "rest");
   if (n.has("vertices")) {
     const Node vs = n["vertices"];
     if (!vs.v.is_array() || vs.v.size() != 2)
