@@ -256,7 +256,7 @@ void bm_fit(benchmark::State& state, mlsdeform::Isa isa, std::size_t n, int thre
 // ---------------------------------------------------------------------------------------------------------
 
 struct Prepared {
-  bench::Scene scene;
+  bench::DeformCase scene;
   std::vector<Eigen::Index> rows;
   bench::SampledReference ref;
 };
@@ -268,9 +268,9 @@ const Prepared& scene(const std::string& name) {
     slot = std::make_unique<Prepared>();
     namespace testing = mlsdeform::testing;
     if (name == "Bar") {
-      slot->scene = testing::twisted_mesh_scene(name, testing::box_surface(16, 16, 88), 256, 356);
+      slot->scene = testing::twisted_mesh_case(name, testing::box_surface(16, 16, 88), 256, 356);
     } else {  // box1M: 10^6 random points in a 4 x 1 x 1 box (bench_scaling's n:1000000), 10 handles
-      slot->scene = testing::twisted_mesh_scene(name, testing::random_box(1000000, 7 + 1000000), 10, 21);
+      slot->scene = testing::twisted_mesh_case(name, testing::random_box(1000000, 7 + 1000000), 10, 21);
     }
     slot->rows = bench::check_rows(slot->scene.vertices.rows(), 2000);
     slot->ref = bench::scene_reference<float>(slot->scene, slot->rows);

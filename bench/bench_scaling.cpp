@@ -31,7 +31,7 @@ using mlsdeform::WeightStorage;
 constexpr Eigen::Index kCheckedRows = 2000;
 
 struct Prepared {
-  bench::Scene scene;
+  bench::DeformCase scene;
   std::vector<Eigen::Index> rows;
   bench::SampledReference ref, rbf_ref;
 };
@@ -45,7 +45,7 @@ const Prepared& prepared(const std::string& key, Eigen::Index n, Eigen::Index k)
     namespace testing = mlsdeform::testing;
     PointsD v = key == "spot_loop3" ? testing::read_ply_vertices(testing::mesh_dir() + "/spot_loop3.ply.gz")
                                     : testing::random_box(n, 7 + static_cast<std::uint64_t>(n));
-    slot->scene = testing::twisted_mesh_scene(key, std::move(v), k, 11 + static_cast<std::uint64_t>(k));
+    slot->scene = testing::twisted_mesh_case(key, std::move(v), k, 11 + static_cast<std::uint64_t>(k));
     slot->rows = bench::check_rows(slot->scene.vertices.rows(), kCheckedRows);
     slot->ref = bench::scene_reference<T>(slot->scene, slot->rows);
     slot->rbf_ref =

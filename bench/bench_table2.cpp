@@ -20,7 +20,7 @@
 //   Bar      6,146 / 256  generated 16 x 16 x 88 box surface (the paper's Fig. 3 parallelepiped)
 //   Cylinder 1,058 / 322  generated open cylinder, 46 around x 23 rings
 // Handles are random mesh vertices (fixed seed); the frame twists them by up to 90 degrees about the
-// model's long axis and bends them (tests/support/scenes.hpp: twisted_mesh_scene).
+// model's long axis and bends them (tests/support/deform_cases.hpp: twisted_mesh_case).
 #include "bench/deform_common.hpp"
 
 #include <mlsdeform/batch.hpp>
@@ -62,7 +62,7 @@ PointsD model_vertices(const Config& c) {
 
 /// A configuration's scene and reference, built on first use.
 struct Prepared {
-  bench::Scene scene;
+  bench::DeformCase scene;
   std::vector<Eigen::Index> rows;
   bench::SampledReference ref;
 };
@@ -76,8 +76,8 @@ const Prepared& prepared(const Config& c) {
   if (v.rows() != c.vertices)
     throw std::runtime_error(std::string(c.name) + ": " + std::to_string(v.rows()) + " vertices, expected " +
                              std::to_string(c.vertices));
-  p.scene = mlsdeform::testing::twisted_mesh_scene(c.name, std::move(v), c.handles,
-                                                   100 + static_cast<std::uint64_t>(c.handles));
+  p.scene = mlsdeform::testing::twisted_mesh_case(c.name, std::move(v), c.handles,
+                                                  100 + static_cast<std::uint64_t>(c.handles));
   p.rows = bench::check_rows(c.vertices, c.vertices);
   p.ref = bench::scene_reference<T>(p.scene, p.rows);
   return cache.emplace(c.name, std::move(p)).first->second;

@@ -1,14 +1,14 @@
 // Shared by the deformation benchmarks (bench_table2, bench_scaling, bench_roofline): the check of a
 // deformer's output against the test-support library's reference deformer (tests/support/mls_reference.hpp:
 // sampled_reference, deform_tolerance) on all vertices or a sample, and the benchmark body. Scenes and meshes
-// come from the same library (scenes.hpp, meshes.hpp).
+// come from the same library (deform_cases.hpp, meshes.hpp).
 #pragma once
 
 #include "bench/common.hpp"
 #include "bench/naive_mls.hpp"
+#include "tests/support/deform_cases.hpp"
 #include "tests/support/meshes.hpp"
 #include "tests/support/mls_reference.hpp"
-#include "tests/support/scenes.hpp"
 
 #include <mlsdeform/deformer.hpp>
 
@@ -22,7 +22,7 @@ namespace bench {
 
 // From the test-support library (tests/support): meshes, scenes, the reference deformer and its tolerance.
 using PointsD = mlsdeform::testing::PointsD;
-using Scene = mlsdeform::testing::Scene<double>;  ///< rest vertices, rest and moved point handles, a name
+using DeformCase = mlsdeform::testing::DeformCase<double>;  ///< rest vertices, rest and moved point handles, a name
 using mlsdeform::testing::check_rows;
 using mlsdeform::testing::deform_tolerance;
 using mlsdeform::testing::point_handles;
@@ -31,7 +31,7 @@ using mlsdeform::testing::SampledReference;
 /// The reference on the rows of a scene as T sees it (inputs rounded to T first, so that the check measures
 /// the computation, not the input rounding).
 template <class T>
-SampledReference scene_reference(const Scene& s, const std::vector<Eigen::Index>& rows) {
+SampledReference scene_reference(const DeformCase& s, const std::vector<Eigen::Index>& rows) {
   return mlsdeform::testing::sampled_reference(s.vertices.cast<T>().template cast<double>(),
                                                s.rest.points.cast<T>().template cast<double>(),
                                                s.moved.points.cast<T>().template cast<double>(), rows);
@@ -92,7 +92,7 @@ void time_frames(benchmark::State& state, const mlsdeform::Points<T>& out, const
 /// items_per_second: one item = one frame), ms_per_frame, memory of the precomputation, whether the
 /// weights are precomputed, and the check's worst error/tolerance and largest deviation.
 template <class T>
-void run_deformer(benchmark::State& state, const Scene& scene, const SampledReference& ref,
+void run_deformer(benchmark::State& state, const DeformCase& scene, const SampledReference& ref,
                   const std::vector<Eigen::Index>& rows, const mlsdeform::Options& options) {
   std::unique_ptr<mlsdeform::Deformer<T>> deformer;
   try {

@@ -51,7 +51,7 @@ if(NOT MLSDEFORM_SANITIZE)
     endforeach()
     list(REMOVE_DUPLICATES _fuzz_includes)
     set(_cli_dir ${PROJECT_SOURCE_DIR}/tools/cli)
-    file(GLOB _cli_headers ${_cli_dir}/*.hpp)
+    file(GLOB_RECURSE _cli_headers ${_cli_dir}/*.hpp)
     # mlsdeform_fuzz_binary(NAME SOURCES...): builds NAME from the sources.
     function(mlsdeform_fuzz_binary name)
       set(bin ${CMAKE_CURRENT_BINARY_DIR}/${name})
@@ -76,12 +76,17 @@ if(NOT MLSDEFORM_SANITIZE)
       set_tests_properties(cli:${name} PROPERTIES LABELS "cli;no_sanitizer" TIMEOUT 300)
     endfunction()
 
-    mlsdeform_fuzz_binary(fuzz_handles ${_fuzz_dir}/fuzz_handles.cpp ${_cli_dir}/handles_file.cpp ${_cli_dir}/file_io.cpp)
+    mlsdeform_fuzz_binary(fuzz_handles ${_fuzz_dir}/fuzz_handles.cpp ${_cli_dir}/handles/parse.cpp
+                          ${_cli_dir}/handles/resolve.cpp ${_cli_dir}/file_read.cpp)
     mlsdeform_fuzz_test(fuzz_handles fuzz_handles ${_fuzz_dir}/corpus ${_fuzz_dir}/handles.dict 20000 2048)
+    # The mesh readers and writers, one per format, and what they share.
+    set(_cli_formats ${_cli_dir}/formats/reader.cpp ${_cli_dir}/formats/obj_read.cpp ${_cli_dir}/formats/off_read.cpp
+                     ${_cli_dir}/formats/ply_read.cpp ${_cli_dir}/formats/obj_write.cpp
+                     ${_cli_dir}/formats/off_write.cpp ${_cli_dir}/formats/ply_write.cpp)
     # One target per mesh reader, and one for gzip input (FUZZ_MESH_FORMAT picks it); each round-trips what it
     # reads through the writer.
-    mlsdeform_fuzz_binary(fuzz_mesh ${_fuzz_dir}/fuzz_mesh.cpp ${_cli_dir}/mesh_read.cpp ${_cli_dir}/mesh_write.cpp
-                          ${_cli_dir}/file_io.cpp)
+    mlsdeform_fuzz_binary(fuzz_mesh ${_fuzz_dir}/fuzz_mesh.cpp ${_cli_dir}/mesh_read.cpp ${_cli_formats}
+                          ${_cli_dir}/mesh_write.cpp ${_cli_dir}/file_read.cpp ${_cli_dir}/file_write.cpp)
     foreach(fmt obj off ply)
       mlsdeform_fuzz_test(fuzz_mesh_${fmt} fuzz_mesh ${_fuzz_dir}/corpus_${fmt} ${_fuzz_dir}/mesh.dict 100000 4096
                           FUZZ_MESH_FORMAT=${fmt})

@@ -21,8 +21,8 @@ namespace {
 /// singular in double (affine with fewer than four handles of non-negligible weight) fail the test unless
 /// `ill_posed` is given, which then counts them.
 template <class T, class F>
-double check_expected(const Points<T>& out, const Scene<T>& sc, const Handles<T>& moved, const Options& o, F expected,
-                      double extra = 0, long* ill_posed = nullptr) {
+double check_expected(const Points<T>& out, const DeformCase<T>& sc, const Handles<T>& moved, const Options& o,
+                      F expected, double extra = 0, long* ill_posed = nullptr) {
   const double l = scene_size(sc.vertices, sc.rest);
   double worst = 0;
   for (Eigen::Index i = 0; i < sc.vertices.rows(); ++i) {
@@ -51,7 +51,7 @@ TEMPLATE_TEST_CASE("identity: moved handles equal to the rest handles give the r
   INFO("seed " << seed() << " (rerun with --rng-seed N)");
   for (Transform tr : all_transforms) {
     INFO(name(tr));
-    const Scene<T> sc = random_scene<T>(g, 300, 9, 2);
+    const DeformCase<T> sc = random_case<T>(g, 300, 9, 2);
     Options o;
     o.transform = tr;
     const Deformer<T> def(sc.vertices, sc.rest, o);
@@ -70,7 +70,7 @@ TEMPLATE_TEST_CASE("interpolation: vertices on point handles go exactly to their
   INFO("seed " << seed());
   for (Transform tr : all_transforms) {
     INFO(name(tr));
-    Scene<T> sc = random_scene<T>(g, 40, 7, 1);
+    DeformCase<T> sc = random_case<T>(g, 40, 7, 1);
     // Every handle is also a vertex (rows 0..6), plus vertices at a segment end and its midpoint.
     for (Eigen::Index i = 0; i < 7; ++i) sc.vertices.row(i) = sc.rest.points.row(i);
     sc.vertices.row(7) = sc.rest.segment_a.row(0);
@@ -116,8 +116,8 @@ TEMPLATE_TEST_CASE("interpolation: vertices within the snapping distance of a ha
       for (Eigen::Index j = 0; j < i; ++j) d = std::min(d, double((p.row(i) - p.row(j)).norm()));
     return d;
   };
-  Scene<T> sc = random_scene<T>(g, 20, 6, 0);
-  while (!(spacing(sc.rest.points) >= 1.0 / 64)) sc = random_scene<T>(g, 20, 6, 0);
+  DeformCase<T> sc = random_case<T>(g, 20, 6, 0);
+  while (!(spacing(sc.rest.points) >= 1.0 / 64)) sc = random_case<T>(g, 20, 6, 0);
   for (Eigen::Index i = 0; i < 6; ++i) {
     sc.vertices.row(i) = sc.rest.points.row(i);
     sc.vertices(i, int(i % 3)) = std::nextafter(sc.vertices(i, int(i % 3)), T(10));
@@ -140,7 +140,7 @@ TEMPLATE_TEST_CASE("extreme weight exponents and vertices close to handles stay 
   using T = TestType;
   std::mt19937_64 g(seed());
   INFO("seed " << seed());
-  Scene<T> sc = random_scene<T>(g, 200, 7, 2);
+  DeformCase<T> sc = random_case<T>(g, 200, 7, 2);
   // Vertices 1e-3 of the scene from a handle, and 4 times 64 eps(T) times the scene size (about 1e-4 in
   // float, 2e-13 in double; beyond the snapping distance, deformer/snap.hpp): weight ratios down to
   // (1e-4 / 3.5)^20 = 1e-90 in float and (5e-14)^20 = 1e-266 in double. The first is far below the float
@@ -183,7 +183,7 @@ TEMPLATE_TEST_CASE("reproduction: rigid motions, uniform scales and affine maps 
   std::mt19937_64 g(seed());
   INFO("seed " << seed());
   for (int trial = 0; trial < 4; ++trial) {
-    const Scene<T> sc = random_scene<T>(g, 200, 8, trial % 2 ? 2 : 0);
+    const DeformCase<T> sc = random_case<T>(g, 200, 8, trial % 2 ? 2 : 0);
     const Mat3d R = random_rotation(g);
     const Vec3d t = random_vector(g, -2, 2);
     const double s = std::exp(std::uniform_real_distribution<double>(-1.5, 1.5)(g));
@@ -218,7 +218,7 @@ TEMPLATE_TEST_CASE("translation of all handles translates every vertex", "[defor
   INFO("seed " << seed());
   for (Transform tr : all_transforms) {
     INFO(name(tr));
-    const Scene<T> sc = random_scene<T>(g, 200, 6, 2);
+    const DeformCase<T> sc = random_case<T>(g, 200, 6, 2);
     Options o;
     o.transform = tr;
     const Deformer<T> def(sc.vertices, sc.rest, o);
@@ -249,7 +249,7 @@ TEMPLATE_TEST_CASE("scale invariance: scaling the scene scales the output and ch
   for (Transform tr : all_transforms) {
     for (SegmentWeight sw : {SegmentWeight::paper_constant, SegmentWeight::exact_integral}) {
       INFO(name(tr) << (sw == SegmentWeight::exact_integral ? " exact_integral" : " paper_constant"));
-      const Scene<T> sc = random_scene<T>(g, 100, 6, 2);
+      const DeformCase<T> sc = random_case<T>(g, 100, 6, 2);
       Options o;
       o.transform = tr;
       o.segment_weight = sw;
@@ -258,7 +258,7 @@ TEMPLATE_TEST_CASE("scale invariance: scaling the scene scales the output and ch
       Deformer<T>(sc.vertices, sc.rest, o).deform(moved, out);
       for (int sign : {-1, 1}) {
         const T f = std::ldexp(T(1), sign * e);
-        Scene<T> s2;
+        DeformCase<T> s2;
         s2.vertices = sc.vertices * f;
         s2.rest = {sc.rest.points * f, sc.rest.segment_a * f, sc.rest.segment_b * f};
         const Handles<T> m2{moved.points * f, moved.segment_a * f, moved.segment_b * f};
@@ -267,7 +267,7 @@ TEMPLATE_TEST_CASE("scale invariance: scaling the scene scales the output and ch
         CHECK(out2 == out * f);
         if (sw == SegmentWeight::exact_integral) continue;  // the direct evaluation knows paper_constant only
         const T fd = T(sign > 0 ? decimal : 1 / decimal);
-        Scene<T> s3;
+        DeformCase<T> s3;
         s3.vertices = sc.vertices * fd;
         s3.rest = {sc.rest.points * fd, sc.rest.segment_a * fd, sc.rest.segment_b * fd};
         const Handles<T> m3{moved.points * fd, moved.segment_a * fd, moved.segment_b * fd};

@@ -3,10 +3,10 @@
 // reader, and the direct per-vertex MLS evaluation with its derived error bound, mls_reference.hpp).
 #pragma once
 
+#include "tests/support/deform_cases.hpp"
 #include "tests/support/meshes.hpp"
 #include "tests/support/mls_reference.hpp"
 #include "tests/support/random.hpp"
-#include "tests/support/scenes.hpp"
 
 #include <mlsdeform/mlsdeform.hpp>
 
@@ -50,20 +50,20 @@ using testing::bundled_mesh;
 using testing::cast_handles;
 using testing::compare_with_direct;
 using testing::Comparison;
+using testing::DeformCase;
 using testing::direct_vertex;
 using testing::DirectVertex;
+using testing::random_case;
 using testing::random_points;
 using testing::random_rotation;
-using testing::random_scene;
 using testing::random_vector;
 using testing::read_obj_vertices;
 using testing::rotation_about;
 using testing::rounded_points;
 using testing::rounded_to;
-using testing::Scene;
 using testing::scene_size;
 using testing::shared_mesh;
 using testing::transformed;
-using testing::twisted_cube_scene;
+using testing::twisted_cube_case;
 
 }  // namespace deformer_test

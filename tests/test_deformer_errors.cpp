@@ -37,7 +37,7 @@ TEMPLATE_TEST_CASE("bad rest input is rejected with a message naming the problem
                    double) {
   using T = TestType;
   std::mt19937_64 g(seed());
-  const Scene<T> sc = random_scene<T>(g, 50, 5, 2);
+  const DeformCase<T> sc = random_case<T>(g, 50, 5, 2);
   const T nan = std::numeric_limits<T>::quiet_NaN(), inf = std::numeric_limits<T>::infinity();
   Options o;
   SECTION("no handles") { expect_ctor_error(sc.vertices, Handles<T>{}, o, "no handles"); }
@@ -145,7 +145,7 @@ TEMPLATE_TEST_CASE("bad rest input is rejected with a message naming the problem
 TEMPLATE_TEST_CASE("bad moved handles are rejected and leave out untouched", "[deformer][errors]", float, double) {
   using T = TestType;
   std::mt19937_64 g(seed());
-  const Scene<T> sc = random_scene<T>(g, 50, 5, 2);
+  const DeformCase<T> sc = random_case<T>(g, 50, 5, 2);
   for (Transform tr : all_transforms) {
     INFO(name(tr));
     Options o;
@@ -183,7 +183,7 @@ TEMPLATE_TEST_CASE("bad moved handles are rejected and leave out untouched", "[d
 TEMPLATE_TEST_CASE("stateful targets validate their index and coordinates", "[deformer][errors]", float, double) {
   using T = TestType;
   std::mt19937_64 g(seed());
-  const Scene<T> sc = random_scene<T>(g, 20, 3, 1);
+  const DeformCase<T> sc = random_case<T>(g, 20, 3, 1);
   Deformer<T> def(sc.vertices, sc.rest, {});
   CHECK_THROWS_AS(def.set_point_target(3, Vector3<T>::Zero()), std::out_of_range);
   CHECK_THROWS_AS(def.set_point_target(-1, Vector3<T>::Zero()), std::out_of_range);
@@ -197,7 +197,7 @@ TEMPLATE_TEST_CASE("the stateful session writes interleaved output like the colu
                    double) {
   using T = TestType;
   std::mt19937_64 g(seed());
-  const Scene<T> sc = random_scene<T>(g, 50, 4, 1);
+  const DeformCase<T> sc = random_case<T>(g, 50, 4, 1);
   Deformer<T> def(sc.vertices, sc.rest, {});
   def.set_point_target(1, sc.rest.points.row(1).transpose() + Vector3<T>(T(0.25), 0, 0));
   Points<T> expected;
@@ -214,7 +214,7 @@ TEMPLATE_TEST_CASE("a moved-from session throws std::logic_error instead of cras
                    double) {
   using T = TestType;
   std::mt19937_64 g(seed());
-  const Scene<T> sc = random_scene<T>(g, 20, 3);
+  const DeformCase<T> sc = random_case<T>(g, 20, 3);
   Deformer<T> a(sc.vertices, sc.rest, {});
   Deformer<T> b(std::move(a));
   Points<T> out;
@@ -238,7 +238,7 @@ TEMPLATE_TEST_CASE("a moved-from session throws std::logic_error instead of cras
 TEMPLATE_TEST_CASE("point handles at one rest position must keep one target", "[deformer][errors]", float, double) {
   using T = TestType;
   std::mt19937_64 g(seed());
-  Scene<T> sc = random_scene<T>(g, 30, 5);
+  DeformCase<T> sc = random_case<T>(g, 30, 5);
   sc.rest.points.row(3) = sc.rest.points.row(1);  // handles 1 and 3 coincide
   Deformer<T> def(sc.vertices, sc.rest, {});
   Handles<T> moved = transformed(sc.rest, random_rotation(g), random_vector(g));

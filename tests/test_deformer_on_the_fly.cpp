@@ -1,5 +1,5 @@
 // WeightStorage::on_the_fly against the precomputed table, scalar and SIMD, and its limits.
-#include "tests/support/scenes.hpp"
+#include "tests/support/deform_cases.hpp"
 
 #include <mlsdeform/mlsdeform.hpp>
 
@@ -12,13 +12,13 @@ using namespace mlsdeform;
 
 namespace {
 
-using mlsdeform::testing::Scene;
+using mlsdeform::testing::DeformCase;
 
 // Vertices in the unit cube, k handles among them (so some vertices sit exactly on handles), moved by a
-// twist of up to `angle` about z (tests/support/scenes.hpp, no noise).
+// twist of up to `angle` about z (tests/support/deform_cases.hpp, no noise).
 template <class T>
-Scene<T> scene(Eigen::Index n, int k, double angle, std::uint64_t seed) {
-  return mlsdeform::testing::twisted_cube_scene<T>(n, k, 0, false, angle, 0.0, seed);
+DeformCase<T> scene(Eigen::Index n, int k, double angle, std::uint64_t seed) {
+  return mlsdeform::testing::twisted_cube_case<T>(n, k, 0, false, angle, 0.0, seed);
 }
 
 }  // namespace
@@ -26,7 +26,7 @@ Scene<T> scene(Eigen::Index n, int k, double angle, std::uint64_t seed) {
 TEMPLATE_TEST_CASE("on-the-fly weights agree with the precomputed table", "[deformer][on_the_fly]", float, double) {
   using T = TestType;
   constexpr T eps = std::numeric_limits<T>::epsilon();
-  const Scene<T> s = scene<T>(3000, 10, 2.5, 11);
+  const DeformCase<T> s = scene<T>(3000, 10, 2.5, 11);
   for (Transform tr : {Transform::rigid, Transform::similarity})
     for (Backend backend : {Backend::scalar, Backend::simd})
       for (double u : {2.0, 3.0}) {
@@ -57,7 +57,7 @@ TEMPLATE_TEST_CASE("on-the-fly weights agree with the precomputed table", "[defo
 
 TEST_CASE("on-the-fly weights: unsupported settings are refused, automatic follows the budget",
           "[deformer][on_the_fly]") {
-  const Scene<float> s = scene<float>(2000, 8, 1.0, 3);
+  const DeformCase<float> s = scene<float>(2000, 8, 1.0, 3);
   Options o;
   o.weight_storage = WeightStorage::on_the_fly;
   o.transform = Transform::affine;

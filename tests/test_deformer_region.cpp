@@ -3,10 +3,10 @@
 // handles (bitwise with on-the-fly weights; precomputed, the ring is folded into four pseudo-handles, to a
 // derived bound), the result is continuous across the border (a derived bound that goes to zero at the
 // ring), an empty region is the whole model, and bad regions are refused.
+#include "tests/support/deform_cases.hpp"
 #include "tests/support/isa_guard.hpp"
 #include "tests/support/meshes.hpp"
 #include "tests/support/mls_reference.hpp"
-#include "tests/support/scenes.hpp"
 
 #include <mlsdeform/mlsdeform.hpp>
 

@@ -17,7 +17,7 @@ TEMPLATE_TEST_CASE("paper_constant segments agree with the paper's W_i and midpo
   for (Transform tr : all_transforms) {
     for (Eigen::Index k : {0, 3}) {
       INFO(name(tr) << ", " << k << " point handles");
-      const Scene<T> sc = random_scene<T>(g, 300, k, 3);
+      const DeformCase<T> sc = random_case<T>(g, 300, k, 3);
       Options o;
       o.transform = tr;
       o.segment_weight = SegmentWeight::paper_constant;

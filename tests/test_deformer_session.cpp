@@ -21,7 +21,7 @@ TEMPLATE_TEST_CASE("thread-count invariance: bitwise identical output for any th
   INFO("seed " << seed());
   for (Transform tr : all_transforms) {
     INFO(name(tr));
-    const Scene<T> sc = random_scene<T>(g, 3001, 12, 3);  // 188 blocks, the last one partial
+    const DeformCase<T> sc = random_case<T>(g, 3001, 12, 3);  // 188 blocks, the last one partial
     const Handles<T> moved = transformed(sc.rest, random_rotation(g), random_vector(g));
     Points<T> reference;
     for (int threads : {1, 2, 3, 0, 8}) {
@@ -46,7 +46,7 @@ TEMPLATE_TEST_CASE("the stateful API and the interleaved output agree with defor
   using T = TestType;
   std::mt19937_64 g(seed());
   INFO("seed " << seed());
-  const Scene<T> sc = random_scene<T>(g, 100, 5, 2);
+  const DeformCase<T> sc = random_case<T>(g, 100, 5, 2);
   Options o;
   o.transform = Transform::similarity;
   Deformer<T> def(sc.vertices, sc.rest, o);
@@ -67,7 +67,7 @@ TEMPLATE_TEST_CASE("the stateful API and the interleaved output agree with defor
   def.deform(moved, InterleavedView<T>(buffer.data(), 100, 3));
   CHECK(Points<T>(buffer) == b);
   // A new rest pose resets the targets.
-  const Scene<T> sc2 = random_scene<T>(g, 50, 5, 2);
+  const DeformCase<T> sc2 = random_case<T>(g, 50, 5, 2);
   def.reset_rest_pose(sc2.vertices, sc2.rest);
   CHECK(def.vertex_count() == 50);
   CHECK(def.targets().points == sc2.rest.points);
@@ -87,7 +87,7 @@ TEMPLATE_TEST_CASE("the stateful API and the interleaved output agree with defor
 TEMPLATE_TEST_CASE("deform is const and may run concurrently on distinct outputs", "[deformer]", float, double) {
   using T = TestType;
   std::mt19937_64 g(seed());
-  const Scene<T> sc = random_scene<T>(g, 2000, 10, 2);
+  const DeformCase<T> sc = random_case<T>(g, 2000, 10, 2);
   for (int threads : {1, 0}) {
     Options o;
     o.transform = Transform::similarity;
@@ -108,7 +108,7 @@ TEMPLATE_TEST_CASE("memory_bytes reports the table and per-vertex arrays actuall
   using T = TestType;
   std::mt19937_64 g(seed());
   const Eigen::Index n = 1000, k = 10, s = 3;  // J = 16 pseudo-handles; 63 blocks of 16 (1008 padded)
-  const Scene<T> sc = random_scene<T>(g, n, k, s);
+  const DeformCase<T> sc = random_case<T>(g, n, k, s);
   const std::size_t np = 1008, J = 16, handles_bytes = 2 * 3 * (k + 2 * s) * sizeof(T);
   for (Transform tr : all_transforms) {
     INFO(name(tr));
@@ -165,7 +165,7 @@ void operator delete[](void* p, const std::nothrow_t&) noexcept { std::free(p); 
 TEMPLATE_TEST_CASE("deform allocates nothing once out has its size (single thread)", "[deformer]", float, double) {
   using T = TestType;
   std::mt19937_64 g(seed());
-  const Scene<T> sc = random_scene<T>(g, 500, 8, 2);
+  const DeformCase<T> sc = random_case<T>(g, 500, 8, 2);
   for (Transform tr : all_transforms) {
     INFO(name(tr));
     Options o;

@@ -1,8 +1,8 @@
 // The SIMD deformation (Backend::simd) against the scalar reference (Backend::scalar), on every ISA this CPU
 // runs, on vertex counts around the lane width, for the three transforms, point and segment handles, with
 // degenerate configurations (collinear handles, vertices on handles, half-turns); thread-count invariance.
+#include "tests/support/deform_cases.hpp"
 #include "tests/support/isa_guard.hpp"
-#include "tests/support/scenes.hpp"
 
 #include <mlsdeform/mlsdeform.hpp>
 
@@ -18,15 +18,15 @@ using namespace mlsdeform;
 
 namespace {
 
+using mlsdeform::testing::DeformCase;
 using mlsdeform::testing::IsaGuard;
-using mlsdeform::testing::Scene;
 
 // Random vertices in the unit cube; k point handles (collinear if asked) plus s segments; moved by a twist
-// of up to `angle` about z that grows with height, plus noise (tests/support/scenes.hpp). Some vertices sit
+// of up to `angle` about z that grows with height, plus noise (tests/support/deform_cases.hpp). Some vertices sit
 // exactly on point handles.
 template <class T>
-Scene<T> make_scene(Eigen::Index n, int k, int s, bool collinear, double angle, std::uint64_t seed) {
-  return mlsdeform::testing::twisted_cube_scene<T>(n, k, s, collinear, angle, 0.05, seed);
+DeformCase<T> make_scene(Eigen::Index n, int k, int s, bool collinear, double angle, std::uint64_t seed) {
+  return mlsdeform::testing::twisted_cube_case<T>(n, k, s, collinear, angle, 0.05, seed);
 }
 
 // Largest |simd - scalar| over the vertices, relative to the scene size (2). Per vertex the two paths form
@@ -57,7 +57,7 @@ TEMPLATE_TEST_CASE("SIMD deformation agrees with the scalar reference", "[deform
           // 0: 6 spread points + 2 segments; 1: 2 points only (rank-1 H everywhere); 2: 12 points, half-turn twist
           const int k = config == 0 ? 6 : (config == 1 ? 2 : 12), s = config == 0 ? 2 : 0;
           if (tr == Transform::affine && config == 1) continue;  // affine needs 4 non-coplanar handles
-          const Scene<T> sc = make_scene<T>(n, k, s, false, config == 2 ? M_PI : 1.0, 1000 + n + config);
+          const DeformCase<T> sc = make_scene<T>(n, k, s, false, config == 2 ? M_PI : 1.0, 1000 + n + config);
           INFO("isa " << to_string(isa) << " transform " << int(tr) << " n " << n << " config " << config);
           Options o;
           o.transform = tr;
@@ -90,7 +90,7 @@ TEMPLATE_TEST_CASE("SIMD deformation agrees with the scalar reference", "[deform
 
 TEMPLATE_TEST_CASE("SIMD deformation is bitwise independent of the thread count", "[deformer][simd]", float, double) {
   using T = TestType;
-  const Scene<T> sc = make_scene<T>(20000, 8, 1, false, 2.0, 77);
+  const DeformCase<T> sc = make_scene<T>(20000, 8, 1, false, 2.0, 77);
   Options o;
   o.threads = 1;
   const Deformer<T> one(sc.vertices, sc.rest, o);

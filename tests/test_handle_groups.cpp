@@ -47,7 +47,7 @@ TEMPLATE_TEST_CASE("a group of every handle moves the mesh by that rigid motion"
   std::mt19937_64 g(seed());
   INFO("seed " << seed());
   for (int trial = 0; trial < 4; ++trial) {
-    const Scene<T> sc = random_scene<T>(g, 200, 8);
+    const DeformCase<T> sc = random_case<T>(g, 200, 8);
     const Mat3d R = random_rotation(g);  // the exact motion: R in double, c and t in T
     const Vector3<T> c = random_vector(g, -2, 2).cast<T>(), t = random_vector(g, -2, 2).cast<T>();
     const Vec3d cd = c.template cast<double>(), td = t.template cast<double>();
@@ -116,7 +116,7 @@ TEMPLATE_TEST_CASE("a quarter turn about the origin is exact: every transform re
   // the reference's own bound applies unchanged (with the double reference's rounding).
   Matrix3<T> R;
   R << 0, -1, 0, 0, 0, -1, 1, 0, 0;
-  const Scene<T> sc = random_scene<T>(g, 200, 8, 2);
+  const DeformCase<T> sc = random_case<T>(g, 200, 8, 2);
   for (Transform tr : all_transforms) {
     INFO(name(tr));
     Options o;
@@ -147,7 +147,7 @@ TEMPLATE_TEST_CASE("a group of one handle sets what set_point_target / set_segme
   using T = TestType;
   std::mt19937_64 g(seed());
   INFO("seed " << seed());
-  const Scene<T> sc = random_scene<T>(g, 100, 5, 3);
+  const DeformCase<T> sc = random_case<T>(g, 100, 5, 3);
   Deformer<T> a(sc.vertices, sc.rest, {}), b(sc.vertices, sc.rest, {});
   // Some targets already moved: a group changes only its own handles.
   const Vector3<T> moved(T(0.25), T(-0.5), T(0.125));
@@ -213,7 +213,7 @@ TEMPLATE_TEST_CASE("rotations built in T pass the rotation check, other matrices
   std::printf("[groups] %s: largest |R^T R - I| of rotations built in T: %.2f eps (tolerance 64)\n", type_name<T>(),
               double(worst / std::numeric_limits<T>::epsilon()));
 
-  const Scene<T> sc = random_scene<T>(g, 20, 3);
+  const DeformCase<T> sc = random_case<T>(g, 20, 3);
   Deformer<T> def(sc.vertices, sc.rest, {});
   const std::array<Eigen::Index, 1> one{0};
   const Vector3<T> zero = Vector3<T>::Zero();
@@ -228,7 +228,7 @@ TEMPLATE_TEST_CASE("rotations built in T pass the rotation check, other matrices
 TEMPLATE_TEST_CASE("a refused group motion changes no target", "[deformer][groups][errors]", float, double) {
   using T = TestType;
   std::mt19937_64 g(seed());
-  const Scene<T> sc = random_scene<T>(g, 20, 3, 2);
+  const DeformCase<T> sc = random_case<T>(g, 20, 3, 2);
   Deformer<T> def(sc.vertices, sc.rest, {});
   def.set_point_target(1, Vector3<T>(1, 2, 3));
   def.set_segment_target(0, Vector3<T>(1, 2, 3), Vector3<T>(3, 2, 1));

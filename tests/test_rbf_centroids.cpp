@@ -88,7 +88,7 @@ TEMPLATE_TEST_CASE("RBF centroids in the deformer: identity, interpolation, affi
   const mlsdeform::detail::ScopedRbfKernel scoped(kernel);
   INFO("kernel " << kernel_name(kernel));
   for (int trial = 0; trial < 3; ++trial) {
-    const Scene<T> sc = random_scene<T>(g, 250, 6 + 2 * trial, 0);
+    const DeformCase<T> sc = random_case<T>(g, 250, 6 + 2 * trial, 0);
     const Mat3d R = random_rotation(g);
     const Vec3d t = random_vector(g, -2, 2);
     Mat3d N;
@@ -129,7 +129,7 @@ TEMPLATE_TEST_CASE("RBF centroids: SIMD agrees with scalar, threads bitwise, on-
                    float, double) {
   using T = TestType;
   std::mt19937_64 g(seed() + 1);
-  const Scene<T> sc = random_scene<T>(g, 700, 9, 0);
+  const DeformCase<T> sc = random_case<T>(g, 700, 9, 0);
   Handles<T> moved = sc.rest;
   moved.points.row(0).array() += T(0.8);  // a large move: where RBF and MLS centroids differ most
   Options o;
@@ -156,7 +156,7 @@ TEMPLATE_TEST_CASE("RBF centroids: SIMD agrees with scalar, threads bitwise, on-
 
 TEST_CASE("RBF centroids: a Deformer takes the kernel set when it is constructed", "[rbf][deformer]") {
   std::mt19937_64 g(seed() + 2);
-  const Scene<double> sc = random_scene<double>(g, 300, 7, 0);
+  const DeformCase<double> sc = random_case<double>(g, 300, 7, 0);
   Handles<double> moved = sc.rest;
   moved.points.row(0).array() += 0.8;
   Options o;

@@ -98,7 +98,7 @@ TEMPLATE_TEST_CASE("RBF centroids: a rigid motion or similarity of the whole sce
     // the motion's grid, and a vertex on each point handle (interpolated exactly).
     GridMotion mo = random_grid_motion(g);
     const Eigen::Index k = trial % 2 ? 6 : 8, segments = trial % 2 ? 2 : 0;
-    Scene<T> a = random_scene<T>(g, 200, k, segments);
+    DeformCase<T> a = random_case<T>(g, 200, k, segments);
     a.moved = transformed(a.rest, random_rotation(g), random_vector(g, -0.5, 0.5));
     for (Points<T>* m : {&a.moved.points, &a.moved.segment_a, &a.moved.segment_b})
       *m += T(0.3) * random_points<T>(g, m->rows());
@@ -109,7 +109,7 @@ TEMPLATE_TEST_CASE("RBF centroids: a rigid motion or similarity of the whole sce
     const double la = scene_size(a.vertices, a.rest), extra_a = rbf_extra(a, a.moved);
     for (const long long p : {2, 3}) {  // s = 1 (a rigid motion), s = 3/2 (a similarity)
       mo.p = p;
-      Scene<T> b;  // scene a's exact image: vertices, rest handles and moved handles
+      DeformCase<T> b;  // scene a's exact image: vertices, rest handles and moved handles
       b.vertices = apply(mo, a.vertices);
       b.rest = apply(mo, a.rest);
       b.moved = apply(mo, a.moved);

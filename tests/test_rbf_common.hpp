@@ -69,7 +69,7 @@ std::vector<Vec3d> pseudo_handles(const Handles<T>& h) {
 /// The scale of the deformer's local frame (core/src/deformer/local_frame.hpp): 2^-e, e the exponent of the
 /// bounding-box diagonal of the rest vertices and handles.
 template <class T>
-double local_scale(const Scene<T>& sc) {
+double local_scale(const DeformCase<T>& sc) {
   return std::ldexp(1.0, -std::ilogb(scene_size(sc.vertices, sc.rest)));
 }
 
@@ -77,7 +77,7 @@ double local_scale(const Scene<T>& sc) {
 /// M): beta does not depend on the frame (phi is homogeneous and the linear polynomials are invariant under
 /// similarity), but kappa(M) does.
 template <class T>
-std::vector<Vec3d> handle_points(const Scene<T>& sc) {
+std::vector<Vec3d> handle_points(const DeformCase<T>& sc) {
   const double scale = local_scale(sc);
   std::vector<Vec3d> P = pseudo_handles(sc.rest);
   for (Vec3d& p : P) p *= scale;
@@ -109,7 +109,7 @@ Vec3d rest_centroid(const Vec3d& v, const Handles<T>& rest) {
 /// The extra bound of the file comment for every vertex of a scene: max over vertices of the RBF terms, with
 /// Q the largest |q_j| (so that sum_j |beta_j| |q_j| <= B Q bounds the error of q* in norm).
 template <class T>
-double rbf_extra(const Scene<T>& sc, const Handles<T>& moved) {
+double rbf_extra(const DeformCase<T>& sc, const Handles<T>& moved) {
   const double scale = local_scale(sc);
   const std::vector<Vec3d> P = handle_points(sc);
   const RbfCentroids rbf(P);  // the kernel the deformer used: rbf_kernel()

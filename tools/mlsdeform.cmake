@@ -10,12 +10,27 @@ set(_cli ${CMAKE_CURRENT_SOURCE_DIR}/cli)
 # Everything but main(): linked by the program and by the CLI tests (tests/cli.cmake). CLI11 is compiled into
 # one translation unit (main.cpp): it is slow to compile.
 add_library(mlsdeform_cli STATIC
-  ${_cli}/file_io.cpp
+  ${_cli}/file_read.cpp
+  ${_cli}/file_write.cpp
   ${_cli}/mesh_read.cpp
+  ${_cli}/formats/reader.cpp
+  ${_cli}/formats/obj_read.cpp
+  ${_cli}/formats/off_read.cpp
+  ${_cli}/formats/ply_read.cpp
   ${_cli}/mesh_write.cpp
-  ${_cli}/handles_file.cpp
+  ${_cli}/formats/obj_write.cpp
+  ${_cli}/formats/off_write.cpp
+  ${_cli}/formats/ply_write.cpp
+  ${_cli}/handles/parse.cpp
+  ${_cli}/handles/resolve.cpp
   ${_cli}/render.cpp
+  ${_cli}/primitives.cpp
   ${_cli}/scenes.cpp
+  ${_cli}/scene_run.cpp
+  ${_cli}/figures/layout.cpp
+  ${_cli}/figures/centroids.cpp
+  ${_cli}/figures/figures.cpp
+  ${_cli}/figures/measures.cpp
   ${_cli}/cmd_deform.cpp
   ${_cli}/cmd_demo.cpp
   ${_cli}/cmd_figures.cpp)

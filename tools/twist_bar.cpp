@@ -26,7 +26,7 @@ using mlsdeform::Points;
 
 /// The surface of an a x b x c grid box (cells of size h), x in [0, a h]: (a+1)(b+1)(c+1) - (a-1)(b-1)(c-1)
 /// vertices; 188 x 8 x 8 gives the paper's 6,146. Triangles: two per boundary cell face, outward normals.
-struct Bar {
+struct GridBar {
   Points<double> vertices;
   std::vector<std::array<int, 3>> triangles;
   int a, b, c;
@@ -34,8 +34,8 @@ struct Bar {
   int at(int i, int j, int k) const { return index[(std::size_t(i) * (b + 1) + j) * (c + 1) + k]; }
 };
 
-Bar make_bar(int a, int b, int c, double h) {
-  Bar bar{{}, {}, a, b, c, std::vector<int>(std::size_t(a + 1) * (b + 1) * (c + 1), -1)};
+GridBar grid_bar(int a, int b, int c, double h) {
+  GridBar bar{{}, {}, a, b, c, std::vector<int>(std::size_t(a + 1) * (b + 1) * (c + 1), -1)};
   std::vector<Eigen::Vector3d> v;
   for (int i = 0; i <= a; ++i)
     for (int j = 0; j <= b; ++j)
@@ -72,7 +72,7 @@ Bar make_bar(int a, int b, int c, double h) {
 
 /// 256 handles on bar vertices: 16 cross-sections along the bar, 16 points around each (every other
 /// vertex of the section's boundary ring).
-std::vector<int> make_handles(const Bar& bar) {
+std::vector<int> make_handles(const GridBar& bar) {
   std::vector<std::array<int, 2>> jk;  // (j, k) around the boundary of the b x c section
   for (int j = 0; j < bar.b; ++j) jk.push_back({j, 0});
   for (int k = 0; k < bar.c; ++k) jk.push_back({bar.b, k});
@@ -149,7 +149,7 @@ int main(int argc, char** argv) try {
   }
   if (steps < 1) usage("--steps must be >= 1");
 
-  const Bar bar = make_bar(188, 8, 8, 0.125);  // 23.5 x 1 x 1
+  const GridBar bar = grid_bar(188, 8, 8, 0.125);  // 23.5 x 1 x 1
   const std::vector<int> handle_vertices = make_handles(bar);
   const double length = bar.a * 0.125;
   mlsdeform::Handles<double> handles;

@@ -18,6 +18,9 @@ extern char** environ;
 
 namespace cli_test {
 
+/// The program under test (the build tree's mlsdeform).
+inline const std::string program = MLSDEFORM_CLI;
+
 /// A fresh folder, removed with everything in it at the end of the test.
 class ScratchDir {
  public:
@@ -62,13 +65,13 @@ struct Result {
   std::string out, err;
 };
 
-/// Runs `program args...` with stdout and stderr captured (through files: no pipe deadlock), with `env` added to
+/// Runs `executable args...` with stdout and stderr captured (through files: no pipe deadlock), with `env` added to
 /// the environment, in the folder `cwd` (empty: this process's).
-inline Result run(const std::string& program, const std::vector<std::string>& args,
+inline Result run(const std::string& executable, const std::vector<std::string>& args,
                   const std::vector<std::string>& env = {}, const std::string& cwd = {}) {
   ScratchDir io;
   const std::string out = io / "stdout", err = io / "stderr";
-  std::vector<std::string> all{program};
+  std::vector<std::string> all{executable};
   all.insert(all.end(), args.begin(), args.end());
   std::vector<char*> argv;
   for (auto& a : all) argv.push_back(a.data());
@@ -87,7 +90,7 @@ inline Result run(const std::string& program, const std::vector<std::string>& ar
   if (!cwd.empty()) posix_spawn_file_actions_addchdir_np(&actions, cwd.c_str());  // glibc 2.29
   pid_t pid;
   Result r;
-  if (posix_spawn(&pid, program.c_str(), &actions, nullptr, argv.data(), envp.data()) == 0) {
+  if (posix_spawn(&pid, executable.c_str(), &actions, nullptr, argv.data(), envp.data()) == 0) {
     int status = 0;
     while (waitpid(pid, &status, 0) < 0 && errno == EINTR) {
     }
@@ -97,6 +100,14 @@ inline Result run(const std::string& program, const std::vector<std::string>& ar
   r.out = read_text(out);
   r.err = read_text(err);
   return r;
+}
+
+/// Runs `program deform -m mesh -H handles -o out extra...`.
+inline Result deform(const std::string& mesh, const std::string& handles, const std::string& out,
+                     const std::vector<std::string>& extra = {}) {
+  std::vector<std::string> args{"deform", "-m", mesh, "-H", handles, "-o", out};
+  args.insert(args.end(), extra.begin(), extra.end());
+  return run(program, args);
 }
 
 inline std::size_t line_count(const std::string& s) { return std::size_t(std::count(s.begin(), s.end(), '\n')); }

@@ -1,6 +1,6 @@
 // Malformed mesh files (truncated, out-of-range, inconsistent headers), each with the problem its error must name.
 // Shared by the reader's unit test (test_cli_mesh_io.cpp) and the program's end-to-end test
-// (test_cli_commands.cpp), so that every case is refused both by read_mesh and through `mlsdeform deform`.
+// (test_cli_bad_input.cpp), so that every case is refused both by read_mesh and through `mlsdeform deform`.
 #pragma once
 
 #include "tools/cli/file_io.hpp"

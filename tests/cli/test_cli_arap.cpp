@@ -5,7 +5,7 @@
 #include "tests/cli/cli_test_util.hpp"
 
 #include "tools/cli/mesh.hpp"
-#include "tools/cli/scenes.hpp"
+#include "tools/cli/primitives.hpp"
 
 #include <catch2/catch.hpp>
 
@@ -19,12 +19,11 @@
 
 using namespace mlsdeform;
 using namespace mlsdeform::cli;
+using cli_test::program;
 using cli_test::ScratchDir;
 using cli_test::write_text;
 
 namespace {
-
-const std::string program = MLSDEFORM_CLI;
 
 // A 0.5 x 3 x 0.5 bar of quads (2 x 12 x 2 cells, 106 vertices), its four bottom corners fixed and its four
 // top corners moved sideways and down: a bend that MLS leaves smooth and ARAP changes.
@@ -50,10 +49,9 @@ struct BarCase {
                 (k + 1 < moved.size() ? ", " : "]");
     write_text(handles, R"({"points": )" + points + "}");
   }
-  cli_test::Result deform(const std::string& out, const std::vector<std::string>& extra) const {
-    std::vector<std::string> args{"deform", "-m", mesh, "-H", handles, "-o", out, "-q"};
-    args.insert(args.end(), extra.begin(), extra.end());
-    return cli_test::run(program, args);
+  cli_test::Result deform(const std::string& out, std::vector<std::string> extra) const {
+    extra.insert(extra.begin(), "-q");
+    return cli_test::deform(mesh, handles, out, extra);
   }
 };
 

@@ -1,4 +1,4 @@
-// The handles file of the command-line tool (tools/cli/handles_file.cpp): what it accepts, what it resolves to,
+// The handles file of the command-line tool (tools/cli/handles/): what it accepts, what it resolves to,
 // and a one-line error with the JSON path for each kind of mistake.
 #include "tools/cli/handles_file.hpp"
 

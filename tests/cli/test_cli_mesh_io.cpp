@@ -44,7 +44,7 @@ Mesh sample_mesh() {
 }
 
 // Random coordinates in [-1000, 1000] with 1e-4 <= |x| (the writers' shortest texts read back exactly, see
-// float_text in mesh_write.cpp), on a triangle strip.
+// TextOut in tools/cli/formats/writer.hpp), on a triangle strip.
 Mesh random_mesh(std::uint32_t seed, int n) {
   std::mt19937 rng(seed);
   std::uniform_real_distribution<float> mag(-4.0f, 3.0f);

@@ -7,17 +7,13 @@
 // target (the library's snapping), so the output must equal the input bit for bit, and any rounding on the way
 // (reading, resolving handles, writing) shows.
 #include "tests/cli/cli_test_util.hpp"
-#include "tests/support/accuracy_bounds.hpp"
+#include "tests/cli/precision_files.hpp"
 
 #include "tools/cli/mesh.hpp"
 
 #include <catch2/catch.hpp>
 
-#include <Eigen/Eigenvalues>
-
 #include <sys/stat.h>
-#include <bit>
-#include <charconv>
 #include <cmath>
 #include <cstring>
 #include <limits>
@@ -25,129 +21,9 @@
 
 using namespace mlsdeform;
 using namespace mlsdeform::cli;
+using namespace precision_test;
 using cli_test::ScratchDir;
 using cli_test::write_text;
-
-namespace {
-
-const std::string program = MLSDEFORM_CLI;
-
-template <class R>
-std::string shortest(R v) {
-  char buf[64];
-  const auto r = std::to_chars(buf, buf + sizeof buf, v);
-  return std::string(buf, r.ptr);
-}
-
-// The spacing of doubles at |x|.
-double ulp(double x) { return std::nextafter(std::abs(x), std::numeric_limits<double>::infinity()) - std::abs(x); }
-
-using Rows = Eigen::Matrix<double, Eigen::Dynamic, 3, Eigen::RowMajor>;
-
-// Three faces on 8 vertices (a triangle, a quad and a triangle sharing an edge with it).
-const std::vector<std::vector<int>> kFaces{{0, 1, 2}, {3, 4, 5, 6}, {5, 6, 7}};
-
-std::string obj_text(const Rows& v) {
-  std::string s = "# test\n";
-  for (Eigen::Index i = 0; i < v.rows(); ++i)
-    s += "v " + shortest(v(i, 0)) + " " + shortest(v(i, 1)) + " " + shortest(v(i, 2)) + "\n";
-  for (const auto& f : kFaces) {
-    s += "f";
-    for (int c : f) s.append(" ").append(std::to_string(c + 1));
-    s += "\n";
-  }
-  return s;
-}
-
-std::string off_text(const Rows& v) {
-  std::string s = "OFF\n" + std::to_string(v.rows()) + " " + std::to_string(kFaces.size()) + " 0\n";
-  for (Eigen::Index i = 0; i < v.rows(); ++i)
-    s += shortest(v(i, 0)) + " " + shortest(v(i, 1)) + " " + shortest(v(i, 2)) + "\n";
-  for (const auto& f : kFaces) {
-    s += std::to_string(f.size());
-    for (int c : f) s.append(" ").append(std::to_string(c));
-    s += "\n";
-  }
-  return s;
-}
-
-// A PLY file with `type` ("float" or "double") x, y, z, written by hand (not by the program's writer).
-std::string ply_text(const Rows& v, bool binary, const std::string& type) {
-  std::string s = "ply\nformat " + std::string(binary ? "binary_little_endian" : "ascii") + " 1.0\nelement vertex " +
-                  std::to_string(v.rows()) + "\nproperty " + type + " x\nproperty " + type + " y\nproperty " + type +
-                  " z\nelement face " + std::to_string(kFaces.size()) +
-                  "\nproperty list uchar int vertex_indices\nend_header\n";
-  static_assert(std::endian::native == std::endian::little);
-  for (Eigen::Index i = 0; i < v.rows(); ++i)
-    for (int k = 0; k < 3; ++k) {
-      if (binary && type == "double") {
-        s.append(reinterpret_cast<const char*>(&v(i, k)), 8);
-      } else if (binary) {
-        const float f = float(v(i, k));
-        s.append(reinterpret_cast<const char*>(&f), 4);
-      } else {
-        s.append(k ? " " : "").append(type == "double" ? shortest(v(i, k)) : shortest(float(v(i, k))));
-        if (k == 2) s += "\n";
-      }
-    }
-  for (const auto& f : kFaces) {
-    if (binary) {
-      s.push_back(char(f.size()));
-      for (int c : f) s.append(reinterpret_cast<const char*>(&c), 4);
-    } else {
-      s += std::to_string(f.size());
-      for (int c : f) s.append(" ").append(std::to_string(c));
-      s += "\n";
-    }
-  }
-  return s;
-}
-
-// Every vertex a point handle that stays at rest.
-std::string all_handles(Eigen::Index n) {
-  std::string s = R"({"points": [)";
-  for (Eigen::Index i = 0; i < n; ++i) s += (i ? ", " : "") + std::string(R"({"vertex": )") + std::to_string(i) + "}";
-  return s + "]}";
-}
-
-// 8 coordinates triples with full 53-bit mantissas and random signs, of magnitude about 10^e.
-Rows random_points(std::mt19937_64& rng, int e) {
-  Rows v(8, 3);
-  std::uniform_real_distribution<double> mantissa(1.0, 10.0);
-  for (Eigen::Index i = 0; i < v.rows(); ++i)
-    for (int k = 0; k < 3; ++k) v(i, k) = (rng() & 1 ? -1 : 1) * mantissa(rng) * std::pow(10.0, e);
-  return v;
-}
-
-// The `v` lines of an OBJ text.
-std::vector<std::string> v_lines(const std::string& obj) {
-  std::vector<std::string> lines;
-  std::size_t i = 0;
-  while (i < obj.size()) {
-    const std::size_t j = std::min(obj.find('\n', i), obj.size());
-    if (obj.compare(i, 2, "v ") == 0) lines.push_back(obj.substr(i, j - i));
-    i = j + 1;
-  }
-  return lines;
-}
-
-void require_bitwise(const Rows& expected, const PointsRowMajor<double>& actual) {
-  REQUIRE(actual.rows() == expected.rows());
-  for (Eigen::Index i = 0; i < expected.rows(); ++i)
-    for (int k = 0; k < 3; ++k) {
-      INFO("vertex " << i << " coordinate " << k << ": expected " << shortest(expected(i, k)) << ", got "
-                     << shortest(actual(i, k)));
-      REQUIRE(std::bit_cast<std::uint64_t>(actual(i, k)) == std::bit_cast<std::uint64_t>(expected(i, k)));
-    }
-}
-
-cli_test::Result deform(const std::vector<std::string>& args) {
-  std::vector<std::string> all{"deform", "-q", "--force"};
-  all.insert(all.end(), args.begin(), args.end());
-  return cli_test::run(program, all);
-}
-
-}  // namespace
 
 TEST_CASE("double precision: coordinates from 1e-300 to 1e300 go through the program bit for bit", "[cli][precision]") {
   ScratchDir dir;
@@ -275,87 +151,6 @@ TEST_CASE("a survey-grade OBJ: double keeps every digit and float rounds as it a
       CHECK(f.vertices(i, k) == nearest);
     }
   CHECK(double(f.vertices(0, 0)) == 5000000.0);
-}
-
-TEST_CASE("a survey-grade lattice moved by nothing: handles exact and the rest within the rounding bound",
-          "[cli][precision]") {
-  // A 5 x 5 x 5 lattice near (5e6, 4e6, 100) with its 8 corners as handles at rest: the exact MLS result is
-  // every vertex where it was (q_j = p_j: q* = p*, and R = I maximises trace(R^T H) for H = sum w phat phat^T,
-  // symmetric positive semi-definite). The computed one differs by
-  //   - the rotation's angle error, at most tol_angle(kappa) (tests/support/accuracy_bounds.hpp; kappa =
-  //     s1 / (s2 + s3) of this H), which moves the vertex by at most that times |v - p*|;
-  //   - q* = sum_j omega_j q_j summed in world coordinates: k products and k - 1 additions of terms up to
-  //     max_j |q_j| (omega_j >= 0, sum 1), plus the rounding of omega_j itself (a few eps each): at most
-  //     (k + 8) eps max_j |q_j,c| per coordinate c, and a half ulp for q* + R vhat;
-  //   - vhat and p* in the deformer's local frame (coordinates up to the bounding-box diagonal): 16 eps diag.
-  // Float precision, for scale: floats near 5e6 are 0.5 apart, 10^8 times this bound.
-  ScratchDir dir;
-  Rows v(125, 3);
-  std::mt19937_64 rng(7);
-  std::uniform_real_distribution<double> jitter(-0.5, 0.5);
-  for (int i = 0; i < 5; ++i)
-    for (int j = 0; j < 5; ++j)
-      for (int k = 0; k < 5; ++k)
-        v.row(25 * i + 5 * j + k) << std::round((5000000 + 2.5 * i + jitter(rng)) * 1000) / 1000,
-            std::round((4000000 + 2.5 * j + jitter(rng)) * 1000) / 1000,
-            std::round((100 + 0.75 * k + 0.2 * jitter(rng)) * 1000) / 1000;
-  std::string obj;
-  for (Eigen::Index i = 0; i < v.rows(); ++i)
-    obj += "v " + shortest(v(i, 0)) + " " + shortest(v(i, 1)) + " " + shortest(v(i, 2)) + "\n";
-  write_text(dir / "lattice.obj", obj);
-  std::vector<int> corners;
-  std::string json = R"({"points": [)";
-  for (int i : {0, 4})
-    for (int j : {0, 4})
-      for (int k : {0, 4}) {
-        corners.push_back(25 * i + 5 * j + k);
-        json += (corners.size() > 1 ? ", " : "") + std::string(R"({"vertex": )") + std::to_string(corners.back()) + "}";
-      }
-  write_text(dir / "h.json", json + "]}");
-  const auto r =
-      deform({"-m", dir / "lattice.obj", "-H", dir / "h.json", "-o", dir / "out.obj", "--precision", "double"});
-  INFO(r.err);
-  REQUIRE(r.exit_code == 0);
-  const auto out = read_mesh<double>(dir / "out.obj").vertices;
-
-  constexpr double eps = std::numeric_limits<double>::epsilon();
-  const double k = double(corners.size());
-  const Eigen::RowVector3d lo = v.colwise().minCoeff(), hi = v.colwise().maxCoeff();
-  const double diag = (hi - lo).norm();
-  Eigen::RowVector3d q_max = Eigen::RowVector3d::Zero();
-  for (int c : corners) q_max = q_max.cwiseMax(v.row(c).cwiseAbs());
-  for (Eigen::Index i = 0; i < v.rows(); ++i) {
-    INFO("vertex " << i);
-    if (std::find(corners.begin(), corners.end(), int(i)) != corners.end()) {
-      CHECK(out.row(i) == v.row(i));  // put exactly on its target
-      continue;
-    }
-    // The weights w_j = |p_j - v|^-2 (u = 2), p*, and H's singular values (its eigenvalues: H is PSD).
-    Eigen::RowVector3d p_star = Eigen::RowVector3d::Zero();
-    double w_sum = 0;
-    std::vector<double> w;
-    for (int c : corners) {
-      w.push_back(1 / (v.row(c) - v.row(i)).squaredNorm());
-      w_sum += w.back();
-      p_star += w.back() * v.row(c);
-    }
-    p_star /= w_sum;
-    Eigen::Matrix3d H = Eigen::Matrix3d::Zero();
-    for (std::size_t j = 0; j < corners.size(); ++j) {
-      const Eigen::Vector3d ph = (v.row(corners[j]) - p_star).transpose();
-      H += w[j] * ph * ph.transpose();
-    }
-    const Eigen::Vector3d s = Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(H).eigenvalues();  // ascending
-    const double kappa = s[2] / (s[1] + s[0]);
-    const double angle = double(testing::tol_angle<double>(kappa, testing::c_b_uniform));
-    for (int c = 0; c < 3; ++c) {
-      const double bound =
-          angle * (v.row(i) - p_star).norm() + (k + 8) * eps * q_max[c] + 0.5 * ulp(v(i, c)) + 16 * eps * diag;
-      const double error = std::abs(out(i, c) - v(i, c));
-      INFO("coordinate " << c << ": error " << error << ", bound " << bound << ", kappa " << kappa);
-      CHECK(error <= bound);
-    }
-  }
 }
 
 TEST_CASE("the output's coordinate type follows the input PLY unless --output-type chooses", "[cli][precision]") {

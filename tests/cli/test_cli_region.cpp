@@ -4,7 +4,7 @@
 #include "tests/cli/cli_test_util.hpp"
 
 #include "tools/cli/mesh.hpp"
-#include "tools/cli/scenes.hpp"
+#include "tools/cli/primitives.hpp"
 
 #include <catch2/catch.hpp>
 
@@ -14,12 +14,11 @@
 
 using namespace mlsdeform;
 using namespace mlsdeform::cli;
+using cli_test::program;
 using cli_test::ScratchDir;
 using cli_test::write_text;
 
 namespace {
-
-const std::string program = MLSDEFORM_CLI;
 
 // A 0.5 x 3 x 0.5 bar of quads; the region is its top half (y > 1.5), moved by its four top corners.
 struct RegionCase {
@@ -46,9 +45,7 @@ struct RegionCase {
   cli_test::Result deform(const std::string& json, const std::string& out,
                           const std::vector<std::string>& extra = {}) const {
     write_text(dir / "h.json", json);
-    std::vector<std::string> args{"deform", "-m", mesh, "-H", dir / "h.json", "-o", out};
-    args.insert(args.end(), extra.begin(), extra.end());
-    return cli_test::run(program, args);
+    return cli_test::deform(mesh, dir / "h.json", out, extra);
   }
 };
 

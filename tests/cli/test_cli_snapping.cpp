@@ -12,11 +12,10 @@
 #include <set>
 
 using namespace mlsdeform::cli;
+using cli_test::program;
 using cli_test::ScratchDir;
 
 namespace {
-
-const std::string program = MLSDEFORM_CLI;
 
 // data/human_bend.json's handles in its final pose, without the animation frames.
 const char* human_pose_json = R"({

@@ -1,4 +1,4 @@
-// libFuzzer target for the handles-file reader of the command-line tool (tools/cli/handles_file.cpp).
+// libFuzzer target for the handles-file reader of the command-line tool (tools/cli/handles/).
 //
 // Any input must either parse, and then resolve or fail to resolve against a small mesh, or be rejected with
 // InputError: a one-line message that names the file. Anything else (another exception, a crash, a sanitizer

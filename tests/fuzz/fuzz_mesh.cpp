@@ -1,4 +1,4 @@
-// libFuzzer targets for the mesh readers of the command-line tool (tools/cli/mesh_read.cpp): one binary, four
+// libFuzzer targets for the mesh readers of the command-line tool (tools/cli/formats/): one binary, four
 // targets chosen by the environment variable FUZZ_MESH_FORMAT: "obj", "off" or "ply" (the input is the file's
 // bytes), or "gz" (the input is gzip data; its decompressed bytes are read as PLY, OFF or OBJ by their first
 // bytes). One binary because each build of it takes CI half a minute.

@@ -1,7 +1,7 @@
 // See mls_reference.hpp.
 #include "tests/support/mls_reference.hpp"
 
-#include "tests/support/scenes.hpp"  // scene_size
+#include "tests/support/deform_cases.hpp"  // scene_size
 
 #include <Eigen/Eigenvalues>
 #include <Eigen/LU>

@@ -11,7 +11,7 @@
 //     over its neighbours is. A deformed triangle of zero area (n' = 0) is not counted.
 //   dihedral-angle change of an interior edge (one of exactly two triangles): |theta' - theta| in degrees,
 //     theta the angle between the two triangles' unit normals at rest, theta' deformed: the smoothness measure
-//     of Fig. 8 (tools/cli/cmd_figures.cpp's dihedral_change, which the program keeps for itself); a kink
+//     of Fig. 8 (tools/cli/figures/measures.cpp's dihedral_change, which the program keeps for itself); a kink
 //     shows as a tail of large values along a line of edges.
 #pragma once
 

@@ -52,7 +52,7 @@ template <class T>
 Triangles fan_triangles(const BasicMesh<T>& mesh, const std::string& path);
 
 /// Formats by file name: .obj, .off, .ply (ASCII, binary little- or big-endian), each optionally
-/// gzip-compressed (.gz). Read by the strict parsers of mesh_read.cpp and written here, with numbers as the
+/// gzip-compressed (.gz). Read by the strict parsers of tools/cli/formats/ and written here, with numbers as the
 /// shortest decimal text that reads back to the same float or double (std::to_chars / std::from_chars), so
 /// that files round-trip bit for bit.
 ///   read: the vertex order is the file's (for OBJ: the order of its `v` lines, counted from 0), every vertex

@@ -1,185 +1,19 @@
-// Mesh writing (OBJ, OFF, PLY) and the geometry helpers writers and renderers need, keeping the vertex order
-// and writing numbers that read back exactly.
+// Mesh writing (OBJ, OFF, PLY: one writer per format in tools/cli/formats/, chosen here by the file's
+// extension) and the geometry helpers writers and renderers need, keeping the vertex order and writing numbers
+// that read back exactly.
 #include "tools/cli/error.hpp"
 #include "tools/cli/file_io.hpp"
+#include "tools/cli/formats/writer.hpp"
 #include "tools/cli/mesh.hpp"
 
-#include <mlsdeform/version.hpp>
-
-#include <algorithm>
-#include <bit>
-#include <charconv>
 #include <cmath>
-#include <cstring>
 #include <limits>
 
 namespace mlsdeform::cli {
-namespace {
 
-struct TextOut {
-  std::string s;
-  // The shortest decimal text that reads back to v (correctly rounded, as the readers parse): at most 17
-  // significant digits for a double, 9 for a float.
-  void num(float v) { real(v); }
-  void num(double v) { real(v); }
-  template <class R>
-  void real(R v) {
-    char buf[64];
-    const auto r = std::to_chars(buf, buf + sizeof buf, v);
-    s.append(buf, r.ptr);
-  }
-  void num(std::uint64_t v) {
-    char buf[24];
-    const auto r = std::to_chars(buf, buf + sizeof buf, v);
-    s.append(buf, r.ptr);
-  }
-  TextOut& operator<<(std::string_view t) {
-    s.append(t);
-    return *this;
-  }
-  TextOut& operator<<(char c) {
-    s.push_back(c);
-    return *this;
-  }
-};
-
-template <class T>
-void put_le(std::string& s, T v) {
-  static_assert(std::endian::native == std::endian::little || std::endian::native == std::endian::big);
-  char b[sizeof(T)];
-  std::memcpy(b, &v, sizeof(T));
-  if constexpr (std::endian::native == std::endian::big) std::reverse(b, b + sizeof(T));
-  s.append(b, sizeof(T));
-}
-
-std::string comment() {
-  return "written by mlsdeform " + std::to_string(MLSDEFORM_VERSION_MAJOR) + "." +
-         std::to_string(MLSDEFORM_VERSION_MINOR) + "." + std::to_string(MLSDEFORM_VERSION_PATCH);
-}
-
-// O: the type written (WriteOptions::coordinates); T's values are converted to it (exactly, or rounded once).
-template <class O, class T>
-std::string encode_obj(const BasicMesh<T>& m, const PointsRowMajor<T>* normals) {
-  TextOut o;
-  o.s.reserve(std::size_t(m.vertex_count()) * (normals ? 70 : 35) + m.face_indices.size() * 16);
-  o << "# " << comment() << '\n';
-  for (Eigen::Index i = 0; i < m.vertex_count(); ++i) {
-    o << "v ";
-    o.num(O(m.vertices(i, 0)));
-    o << ' ';
-    o.num(O(m.vertices(i, 1)));
-    o << ' ';
-    o.num(O(m.vertices(i, 2)));
-    o << '\n';
-  }
-  if (normals)
-    for (Eigen::Index i = 0; i < normals->rows(); ++i) {
-      o << "vn ";
-      o.num(O((*normals)(i, 0)));
-      o << ' ';
-      o.num(O((*normals)(i, 1)));
-      o << ' ';
-      o.num(O((*normals)(i, 2)));
-      o << '\n';
-    }
-  for (std::size_t f = 0; f < m.face_count(); ++f) {
-    o << 'f';
-    for (auto c = m.face_start[f]; c < m.face_start[f + 1]; ++c) {
-      const std::uint64_t k = std::uint64_t(m.face_indices[c]) + 1;  // OBJ counts from 1
-      o << ' ';
-      o.num(k);
-      if (normals) {
-        o << "//";
-        o.num(k);
-      }
-    }
-    o << '\n';
-  }
-  return std::move(o.s);
-}
-
-template <class O, class T>
-std::string encode_off(const BasicMesh<T>& m) {
-  TextOut o;
-  o.s.reserve(std::size_t(m.vertex_count()) * 35 + m.face_indices.size() * 8);
-  o << "OFF\n# " << comment() << '\n';
-  o.num(std::uint64_t(m.vertex_count()));
-  o << ' ';
-  o.num(std::uint64_t(m.face_count()));
-  o << " 0\n";
-  for (Eigen::Index i = 0; i < m.vertex_count(); ++i) {
-    o.num(O(m.vertices(i, 0)));
-    o << ' ';
-    o.num(O(m.vertices(i, 1)));
-    o << ' ';
-    o.num(O(m.vertices(i, 2)));
-    o << '\n';
-  }
-  for (std::size_t f = 0; f < m.face_count(); ++f) {
-    o.num(std::uint64_t(m.face_start[f + 1] - m.face_start[f]));
-    for (auto c = m.face_start[f]; c < m.face_start[f + 1]; ++c) {
-      o << ' ';
-      o.num(std::uint64_t(m.face_indices[c]));
-    }
-    o << '\n';
-  }
-  return std::move(o.s);
-}
-
-template <class O, class T>
-std::string encode_ply(const BasicMesh<T>& m, const PointsRowMajor<T>* normals, PlyEncoding encoding) {
-  std::size_t largest_face = 0;
-  for (std::size_t f = 0; f < m.face_count(); ++f)
-    largest_face = std::max<std::size_t>(largest_face, m.face_start[f + 1] - m.face_start[f]);
-  const bool uchar_counts = largest_face <= 255;
-
-  TextOut o;
-  const bool binary = encoding == PlyEncoding::binary;
-  o.s.reserve(256 + std::size_t(m.vertex_count()) * (binary ? 6 * sizeof(O) : 70) +
-              m.face_indices.size() * (binary ? 5 : 8));
-  const std::string_view type = std::is_same_v<O, float> ? "float" : "double";
-  o << "ply\nformat " << (binary ? "binary_little_endian" : "ascii") << " 1.0\ncomment " << comment()
-    << "\nelement vertex ";
-  o.num(std::uint64_t(m.vertex_count()));
-  o << '\n';
-  for (const char* name : {"x", "y", "z", "nx", "ny", "nz"})
-    if (name[0] != 'n' || normals) o << "property " << type << ' ' << name << '\n';
-  o << "element face ";
-  o.num(std::uint64_t(m.face_count()));
-  o << "\nproperty list " << (uchar_counts ? "uchar" : "uint") << " int vertex_indices\nend_header\n";
-  for (Eigen::Index i = 0; i < m.vertex_count(); ++i) {
-    for (int k = 0; k < 3 + (normals ? 3 : 0); ++k) {
-      const O v = O(k < 3 ? m.vertices(i, k) : (*normals)(i, k - 3));
-      if (binary) {
-        put_le(o.s, v);
-      } else {
-        if (k) o << ' ';
-        o.num(v);
-      }
-    }
-    if (!binary) o << '\n';
-  }
-  for (std::size_t f = 0; f < m.face_count(); ++f) {
-    const auto n = m.face_start[f + 1] - m.face_start[f];
-    if (binary) {
-      if (uchar_counts)
-        put_le(o.s, std::uint8_t(n));
-      else
-        put_le(o.s, std::uint32_t(n));
-      for (auto c = m.face_start[f]; c < m.face_start[f + 1]; ++c) put_le(o.s, std::int32_t(m.face_indices[c]));
-    } else {
-      o.num(std::uint64_t(n));
-      for (auto c = m.face_start[f]; c < m.face_start[f + 1]; ++c) {
-        o << ' ';
-        o.num(std::uint64_t(m.face_indices[c]));
-      }
-      o << '\n';
-    }
-  }
-  return std::move(o.s);
-}
-
-}  // namespace
+using formats::encode_obj;
+using formats::encode_off;
+using formats::encode_ply;
 
 template <class T>
 PointsRowMajor<T> vertex_normals(const BasicMesh<T>& mesh) {

@@ -1,35 +1,18 @@
+// See scenes.hpp.
 #include "tools/cli/scenes.hpp"
 
 #include <Eigen/Geometry>
-#include <Eigen/QR>
 
-#include <algorithm>
-#include <chrono>
 #include <cmath>
+#include <cstdio>
 #include <numbers>
-#include <numeric>
 #include <stdexcept>
 
 namespace mlsdeform::cli {
 namespace {
 
-using Clock = std::chrono::steady_clock;
-double seconds_since(Clock::time_point t) { return std::chrono::duration<double>(Clock::now() - t).count(); }
-
 constexpr double kPi = std::numbers::pi;
 double radians(double degrees) { return degrees * kPi / 180.0; }
-
-// Adds quad a b c d, flipped if needed so that its normal points away from `inside`.
-void add_quad(Mesh& m, std::uint32_t a, std::uint32_t b, std::uint32_t c, std::uint32_t d,
-              const Eigen::Vector3d& inside) {
-  const Eigen::Vector3d pa = m.vertices.row(a).cast<double>(), pb = m.vertices.row(b).cast<double>(),
-                        pc = m.vertices.row(c).cast<double>();
-  const Eigen::Vector3d n = (pb - pa).cross(pc - pa);
-  if (n.dot(pa - inside) >= 0)
-    m.add_face({a, b, c, d});
-  else
-    m.add_face({d, c, b, a});
-}
 
 // Moves the rows of `p` by x -> R (x - pivot) + pivot + shift.
 Points<double> moved(const Points<double>& p, const Eigen::Matrix3d& R, const Eigen::Vector3d& pivot,
@@ -54,87 +37,7 @@ Handles<double> points_only(Points<double> p) {
   return h;
 }
 
-template <class T>
-Handles<T> cast(const Handles<double>& h) {
-  Handles<T> c;
-  c.points = h.points.cast<T>();
-  c.segment_a = h.segment_a.cast<T>();
-  c.segment_b = h.segment_b.cast<T>();
-  return c;
-}
-
 }  // namespace
-
-Points<double> to_points(const Mesh& mesh) { return mesh.vertices.cast<double>(); }
-
-Mesh with_vertices(const Mesh& mesh, const Points<double>& vertices) {
-  Mesh m = mesh;
-  m.vertices = vertices.cast<float>();
-  return m;
-}
-
-Mesh make_bar(int nx, int ny, int nz, double width, double height) {
-  Mesh m;
-  const double dx = width / nx, dy = height / ny, dz = width / nz;
-  std::vector<std::int64_t> id(std::size_t(nx + 1) * (ny + 1) * (nz + 1), -1);
-  auto at = [&](int i, int j, int k) -> std::int64_t& { return id[(std::size_t(j) * (nz + 1) + k) * (nx + 1) + i]; };
-  std::vector<Eigen::Vector3f> v;
-  for (int j = 0; j <= ny; ++j)
-    for (int k = 0; k <= nz; ++k)
-      for (int i = 0; i <= nx; ++i)
-        if (i == 0 || i == nx || j == 0 || j == ny || k == 0 || k == nz) {
-          at(i, j, k) = std::int64_t(v.size());
-          v.emplace_back(float(-width / 2 + i * dx), float(j * dy), float(-width / 2 + k * dz));
-        }
-  m.vertices.resize(Eigen::Index(v.size()), 3);
-  for (std::size_t i = 0; i < v.size(); ++i) m.vertices.row(Eigen::Index(i)) = v[i].transpose();
-  const Eigen::Vector3d centre(0, height / 2, 0);
-  auto q = [&](int i0, int j0, int k0, int i1, int j1, int k1, int i2, int j2, int k2, int i3, int j3, int k3) {
-    add_quad(m, std::uint32_t(at(i0, j0, k0)), std::uint32_t(at(i1, j1, k1)), std::uint32_t(at(i2, j2, k2)),
-             std::uint32_t(at(i3, j3, k3)), centre);
-  };
-  for (int s : {0, 1}) {
-    const int i = s ? nx : 0, j = s ? ny : 0, k = s ? nz : 0;
-    for (int a = 0; a < ny; ++a)
-      for (int b = 0; b < nz; ++b) q(i, a, b, i, a, b + 1, i, a + 1, b + 1, i, a + 1, b);
-    for (int a = 0; a < nx; ++a)
-      for (int b = 0; b < nz; ++b) q(a, j, b, a + 1, j, b, a + 1, j, b + 1, a, j, b + 1);
-    for (int a = 0; a < nx; ++a)
-      for (int b = 0; b < ny; ++b) q(a, b, k, a + 1, b, k, a + 1, b + 1, k, a, b + 1, k);
-  }
-  return m;
-}
-
-Mesh make_plane(int nx, int nz, double sx, double sz) {
-  Mesh m;
-  m.vertices.resize(Eigen::Index(nx + 1) * (nz + 1), 3);
-  for (int k = 0; k <= nz; ++k)
-    for (int i = 0; i <= nx; ++i)
-      m.vertices.row(Eigen::Index(k) * (nx + 1) + i) << float(-sx / 2 + sx * i / nx), 0.0f,
-          float(-sz / 2 + sz * k / nz);
-  const auto at = [&](int i, int k) { return std::uint32_t(k * (nx + 1) + i); };
-  for (int k = 0; k < nz; ++k)
-    for (int i = 0; i < nx; ++i) add_quad(m, at(i, k), at(i + 1, k), at(i + 1, k + 1), at(i, k + 1), {0, -1, 0});
-  return m;
-}
-
-Mesh make_tube(int around, int rings, double radius, double height) {
-  Mesh m;
-  m.vertices.resize(Eigen::Index(around) * rings, 3);
-  for (int r = 0; r < rings; ++r)
-    for (int a = 0; a < around; ++a) {
-      const double t = 2 * kPi * a / around;
-      m.vertices.row(Eigen::Index(r) * around + a) << float(radius * std::cos(t)), float(height * r / (rings - 1)),
-          float(radius * std::sin(t));
-    }
-  for (int r = 0; r + 1 < rings; ++r)
-    for (int a = 0; a < around; ++a) {
-      const auto i = [&](int rr, int aa) { return std::uint32_t(rr * around + (aa % around)); };
-      add_quad(m, i(r, a), i(r, a + 1), i(r + 1, a + 1), i(r + 1, a),
-               Eigen::Vector3d(0, height * (r + 0.5) / (rings - 1), 0));
-    }
-  return m;
-}
 
 Scene human_bend_scene(const Mesh& human, int frames, double degrees, Transform transform) {
   Scene s;
@@ -455,106 +358,5 @@ Scene plane_row_scene(Centroids centroids) {
   s.description = "plane (Table 2: 1089 vertices): a row of 5 handles raised, the side columns fixed";
   return s;
 }
-
-Points<double> weighted_centroids(const Points<double>& vertices, const Handles<double>& rest,
-                                  const Handles<double>& moved_h, double u) {
-  Points<double> out(vertices.rows(), 3);
-  for (Eigen::Index i = 0; i < vertices.rows(); ++i) {
-    const Eigen::Vector3d v = vertices.row(i).transpose();
-    Eigen::Vector3d sum = Eigen::Vector3d::Zero();
-    double wsum = 0;
-    bool exact = false;
-    for (Eigen::Index k = 0; k < rest.point_count() && !exact; ++k) {
-      const double d = (rest.points.row(k).transpose() - v).norm();
-      if (d == 0) {
-        out.row(i) = moved_h.points.row(k);
-        exact = true;
-        break;
-      }
-      const double w = std::pow(d, -u);
-      sum += w * moved_h.points.row(k).transpose();
-      wsum += w;
-    }
-    for (Eigen::Index k = 0; k < rest.segment_count() && !exact; ++k) {
-      const Eigen::Vector3d a = rest.segment_a.row(k).transpose(), b = rest.segment_b.row(k).transpose();
-      const double t = std::clamp((v - a).dot(b - a) / (b - a).squaredNorm(), 0.0, 1.0);
-      const double d = (a + t * (b - a) - v).norm();
-      const Eigen::Vector3d mid = (moved_h.segment_a.row(k) + moved_h.segment_b.row(k)).transpose() / 2;  // Sec. 6.2
-      if (d == 0) {
-        out.row(i) = mid.transpose();
-        exact = true;
-        break;
-      }
-      const double w = std::pow(d, -u);
-      sum += w * mid;
-      wsum += w;
-    }
-    if (!exact) out.row(i) = (sum / wsum).transpose();
-  }
-  return out;
-}
-
-Points<double> rbf_centroids(const Points<double>& vertices, const Handles<double>& rest,
-                             const Handles<double>& moved_h, double u) {
-  const Eigen::Index m = rest.point_count();
-  const auto phi = [](double r) { return r; };
-  Eigen::MatrixXd M = Eigen::MatrixXd::Zero(m + 4, m + 4), rhs = Eigen::MatrixXd::Zero(m + 4, 3);
-  for (Eigen::Index i = 0; i < m; ++i) {
-    for (Eigen::Index j = 0; j < m; ++j) M(i, j) = phi((rest.points.row(i) - rest.points.row(j)).norm());
-    M(i, m) = M(m, i) = 1;
-    for (int c = 0; c < 3; ++c) M(i, m + 1 + c) = M(m + 1 + c, i) = rest.points(i, c);
-    rhs.row(i) = moved_h.points.row(i);
-  }
-  const Eigen::MatrixXd coef = M.completeOrthogonalDecomposition().solve(rhs);
-  const Points<double> p_star = weighted_centroids(vertices, rest, rest, u);
-  Points<double> out(vertices.rows(), 3);
-  for (Eigen::Index v = 0; v < vertices.rows(); ++v) {
-    Eigen::RowVector3d g = coef.row(m) + p_star.row(v) * coef.bottomRows(3);
-    for (Eigen::Index j = 0; j < m; ++j) g += phi((p_star.row(v) - rest.points.row(j)).norm()) * coef.row(j);
-    out.row(v) = g;
-  }
-  return out;
-}
-
-double SceneRun::frames_per_second() const {
-  const double total = std::accumulate(frame_seconds.begin(), frame_seconds.end(), 0.0);
-  return total > 0 ? double(frame_seconds.size()) / total : 0.0;
-}
-
-template <class T>
-SceneRun run_scene(const Scene& scene, Backend backend, int threads) {
-  SceneRun run;
-  Options options = scene.options;
-  options.backend = backend;
-  options.threads = threads;
-  std::vector<Handles<T>> frames;
-  frames.reserve(scene.frames.size());
-  for (const auto& f : scene.frames) frames.push_back(cast<T>(f));
-
-  Points<T> previous = to_points(scene.mesh).cast<T>(), out(previous.rows(), 3);
-  auto t0 = Clock::now();
-  Deformer<T> deformer = options.arap_iterations > 0 ? Deformer<T>(previous, fan_triangles(scene.mesh, scene.name),
-                                                                   cast<T>(scene.rest), options)
-                                                     : Deformer<T>(previous, cast<T>(scene.rest), options);
-  run.setup_seconds = seconds_since(t0);
-  // One untimed frame first: the first call pays for page faults on `out` and for starting TBB's workers.
-  if (!frames.empty()) deformer.deform(frames[0], out);
-  for (std::size_t f = 0; f < frames.size(); ++f) {
-    if (scene.successive && f > 0) {
-      previous.swap(out);
-      t0 = Clock::now();
-      deformer.reset_rest_pose(previous, frames[f - 1]);
-      run.setup_seconds += seconds_since(t0);
-    }
-    t0 = Clock::now();
-    deformer.deform(frames[f], out);
-    run.frame_seconds.push_back(seconds_since(t0));
-  }
-  run.result = frames.empty() ? previous.template cast<double>() : out.template cast<double>();
-  return run;
-}
-
-template SceneRun run_scene<float>(const Scene&, Backend, int);
-template SceneRun run_scene<double>(const Scene&, Backend, int);
 
 }  // namespace mlsdeform::cli

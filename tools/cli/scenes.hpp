@@ -1,9 +1,10 @@
-// mlsdeform CLI: the paper's test scenes, shared by `demo` and `figures`: the generated primitives of Sec. 5
-// (Table 2's Plane, Bar and Cylinder, with its vertex and constraint counts), the handle sets of Fig. 1 to 8,
-// and a runner that times Deformer::deform per frame.
+// mlsdeform CLI: the paper's test scenes, shared by `demo`, `figures` and the tests: a mesh (a bundled model or
+// one of Sec. 5's generated primitives, primitives.hpp) with the handle sets of Fig. 1 to 8 and their targets
+// frame by frame (scenes.cpp), and a runner that times Deformer::deform per frame (scene_run.cpp).
 #pragma once
 
 #include "tools/cli/mesh.hpp"
+#include "tools/cli/primitives.hpp"
 
 #include <mlsdeform/deformer.hpp>
 
@@ -12,16 +13,7 @@
 
 namespace mlsdeform::cli {
 
-/// The surface of an axis-aligned box [-w/2, w/2] x [0, h] x [-w/2, w/2] on an nx x ny x nz grid of quads, y up.
-/// Vertex count 2 (nx ny + ny nz + nz nx) + 2: 16 x 88 x 16 gives Table 2's 6146-vertex bar.
-Mesh make_bar(int nx, int ny, int nz, double width, double height);
-/// A flat sheet in the xz plane (y = 0, normals +y) of nx x nz quads, [-sx/2, sx/2] x [-sz/2, sz/2]. 32 x 32
-/// gives Table 2's 1089-vertex plane.
-Mesh make_plane(int nx, int nz, double sx, double sz);
-/// An open tube of `around` x `rings` vertices (quads), radius r, from y = 0 to y = h. 23 x 46 gives Table 2's
-/// 1058-vertex cylinder.
-Mesh make_tube(int around, int rings, double radius, double height);
-
+/// A scene: a mesh, handles at rest and their targets frame by frame, and the options to deform it with.
 struct Scene {
   std::string name;         ///< file-name stem
   std::string description;  ///< one line for the demo's table
@@ -67,17 +59,6 @@ Scene bar_far_scene();
 /// centroids.
 Scene plane_row_scene(Centroids centroids);
 
-/// The weighted centroids q* = sum_i w_i q_i / sum_i w_i of eq. (2) (Sec. 6.2's midpoint rule for segments,
-/// w = d^-u with d the distance to the rest handle), per vertex: what Fig. 5's lower row draws.
-Points<double> weighted_centroids(const Points<double>& vertices, const Handles<double>& rest,
-                                  const Handles<double>& moved, double u);
-/// Centroids::rbf's q* = g(p*) per vertex (point handles only): p* as above over the rest handles, g the
-/// biharmonic interpolant (r plus a linear polynomial, the library's kernel) of rest -> moved. Solved here
-/// by a minimum-norm least-squares solve, for drawing: on coplanar handles the polynomial's normal part is
-/// free but p* lies in their plane, so g(p*) is the library's.
-Points<double> rbf_centroids(const Points<double>& vertices, const Handles<double>& rest, const Handles<double>& moved,
-                             double u);
-
 struct SceneRun {
   Points<double> result;              ///< the last frame
   std::vector<double> frame_seconds;  ///< Deformer::deform only
@@ -89,8 +70,5 @@ struct SceneRun {
 /// `scene.options.arap_iterations` > 0 the deformer gets the mesh's faces (fanned into triangles).
 template <class T>
 SceneRun run_scene(const Scene& scene, Backend backend, int threads = 0);
-
-Mesh with_vertices(const Mesh& mesh, const Points<double>& vertices);
-Points<double> to_points(const Mesh& mesh);
 
 }  // namespace mlsdeform::cli

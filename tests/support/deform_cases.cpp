@@ -1,5 +1,5 @@
-// See scenes.hpp.
-#include "tests/support/scenes.hpp"
+// See deform_cases.hpp.
+#include "tests/support/deform_cases.hpp"
 
 #include "tests/support/meshes.hpp"
 
@@ -26,9 +26,9 @@ Points<double> twist(const Points<double>& rest_vertices, const Points<double>& 
   return q;
 }
 
-Scene<double> twisted_mesh_scene(std::string name, Points<double> vertices, Eigen::Index handle_count,
-                                 std::uint64_t seed) {
-  Scene<double> s;
+DeformCase<double> twisted_mesh_case(std::string name, Points<double> vertices, Eigen::Index handle_count,
+                                     std::uint64_t seed) {
+  DeformCase<double> s;
   s.name = std::move(name);
   s.rest.points = random_subset(vertices, handle_count, seed);
   s.moved.points = twist(vertices, s.rest.points);

@@ -1,10 +1,12 @@
-// Deformation scenes of the tests and benchmarks: rest vertices, rest handles and (where the generator moves
-// them) moved handles, with the generators that make them and small helpers on points and handles.
-//   random_scene        vertices and handles uniform in [-1, 1]^3 (std::mt19937_64; the deformer tests)
-//   twisted_cube_scene  vertices in [-1, 1]^3, handles among them, moved by a twist about z (the SIMD and
-//                       on-the-fly tests)
-//   twisted_mesh_scene  handles picked among a mesh's vertices, twisted and bent about its long axis (the
-//                       deformation benchmarks)
+// Deformation cases of the tests and benchmarks: rest vertices, rest handles and (where the generator moves
+// them) moved handles, with the generators that make them and small helpers on points and handles. A case is
+// one deformation of a point set; a scene (tools/cli/scenes.hpp) is the program's: a mesh with its handles'
+// targets frame by frame.
+//   random_case        vertices and handles uniform in [-1, 1]^3 (std::mt19937_64; the deformer tests)
+//   twisted_cube_case  vertices in [-1, 1]^3, handles among them, moved by a twist about z (the SIMD and
+//                      on-the-fly tests)
+//   twisted_mesh_case  handles picked among a mesh's vertices, twisted and bent about its long axis (the
+//                      deformation benchmarks)
 #pragma once
 
 #include "tests/support/random.hpp"
@@ -23,7 +25,7 @@ namespace mlsdeform::testing {
 
 /// One deformation: `moved` is empty where the test moves the handles itself. `name` labels it in output.
 template <class T>
-struct Scene {
+struct DeformCase {
   Points<T> vertices;
   Handles<T> rest, moved;
   std::string name;
@@ -32,8 +34,8 @@ struct Scene {
 /// n vertices, k point handles and s segments, all uniform in [-1, 1]^3 (drawn in that order); no moved
 /// handles.
 template <class T>
-Scene<T> random_scene(std::mt19937_64& g, Eigen::Index n, Eigen::Index k, Eigen::Index s = 0) {
-  Scene<T> sc;
+DeformCase<T> random_case(std::mt19937_64& g, Eigen::Index n, Eigen::Index k, Eigen::Index s = 0) {
+  DeformCase<T> sc;
   sc.vertices = random_points<T>(g, n);
   sc.rest.points = random_points<T>(g, k);
   sc.rest.segment_a = random_points<T>(g, s);
@@ -46,11 +48,11 @@ Scene<T> random_scene(std::mt19937_64& g, Eigen::Index n, Eigen::Index k, Eigen:
 /// about z of angle * (z + 1) / 2, plus `noise` times a vector in the cube per moved point (no draw when
 /// noise is 0). std::mt19937_64(seed), uniform in [-1, 1): a pure function of its arguments.
 template <class T>
-Scene<T> twisted_cube_scene(Eigen::Index n, int k, int s, bool collinear, double angle, double noise,
-                            std::uint64_t seed) {
+DeformCase<T> twisted_cube_case(Eigen::Index n, int k, int s, bool collinear, double angle, double noise,
+                                std::uint64_t seed) {
   std::mt19937_64 rng(seed);
   std::uniform_real_distribution<double> u(-1, 1);
-  Scene<T> sc;
+  DeformCase<T> sc;
   sc.vertices.resize(n, 3);
   for (Eigen::Index i = 0; i < n; ++i)
     for (int c = 0; c < 3; ++c) sc.vertices(i, c) = T(u(rng));
@@ -90,8 +92,8 @@ Points<double> twist(const Points<double>& rest_vertices, const Points<double>& 
 
 /// `count` distinct vertices as point handles (random_subset with `seed`), moved by twist(): what a user
 /// clicking on the mesh and dragging produces.
-Scene<double> twisted_mesh_scene(std::string name, Points<double> vertices, Eigen::Index handle_count,
-                                 std::uint64_t seed);
+DeformCase<double> twisted_mesh_case(std::string name, Points<double> vertices, Eigen::Index handle_count,
+                                     std::uint64_t seed);
 
 /// The same handles in another precision (each coordinate rounded once).
 template <class T, class U>
