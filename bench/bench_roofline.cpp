@@ -28,8 +28,8 @@
 
 #include "core/src/rotation/axis_angle.hpp"  // the scalar reference, instantiated on bench::Counted for the count
 
-#include <mlsdeform/batch.hpp>
 #include <mlsdeform/deformer.hpp>
+#include <mlsdeform/fit_rotations.hpp>
 
 #include <immintrin.h>
 #include <tbb/blocked_range.h>

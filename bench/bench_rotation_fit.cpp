@@ -23,7 +23,7 @@
 #include "bench/qcp.hpp"
 #include "bench/reference.hpp"
 
-#include <mlsdeform/batch.hpp>
+#include <mlsdeform/fit_rotations.hpp>
 #include <mlsdeform/rotation.hpp>
 
 #include <tbb/blocked_range.h>
@@ -204,7 +204,7 @@ void register_scalar(Set set) {
 
 // ---------------------------------------------------------------------------------------------------------
 // Batched: mlsdeform::fit_rotations over the same set in the 3 x 3 x n structure-of-arrays layout
-// (<mlsdeform/batch.hpp>), for each ISA this CPU runs (forced with set_isa) and each method the kernels put
+// (<mlsdeform/fit_rotations.hpp>), for each ISA this CPU runs (forced with set_isa) and each method the kernels put
 // in SIMD lanes. "fit" streams the 10^6 matrices from memory (72 bytes in and out per fit in float, 144 in
 // double); "fit_hot" repeats the first 4096 (a 295 KB / 590 KB working set, in L2), which is what the
 // deformer sees, since it builds each H in registers.

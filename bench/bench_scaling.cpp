@@ -15,8 +15,8 @@
 // frame against the reference in double (tests/support/mls_reference.hpp).
 #include "bench/deform_common.hpp"
 
-#include <mlsdeform/batch.hpp>
 #include <mlsdeform/deformer.hpp>
+#include <mlsdeform/dispatch.hpp>
 
 #include <map>
 #include <memory>

@@ -23,8 +23,8 @@
 // model's long axis and bends them (tests/support/scenes.hpp: twisted_mesh_scene).
 #include "bench/deform_common.hpp"
 
-#include <mlsdeform/batch.hpp>
 #include <mlsdeform/deformer.hpp>
+#include <mlsdeform/dispatch.hpp>
 
 #include <exception>
 #include <map>

@@ -1,7 +1,8 @@
-// Run-time ISA selection (core/, baseline flags). See <mlsdeform/batch.hpp> for the public side.
+// Run-time ISA selection (core/, baseline flags). See <mlsdeform/dispatch.hpp> for the public side.
 #pragma once
 
-#include <mlsdeform/batch.hpp>
+#include <mlsdeform/dispatch.hpp>
+#include <mlsdeform/enums.hpp>
 
 #include "kernels/kernel_table.hpp"
 

@@ -11,7 +11,7 @@
 #include "tests/support/isa_guard.hpp"
 #include "tools/cli/scenes.hpp"
 
-#include <mlsdeform/batch.hpp>
+#include <mlsdeform/dispatch.hpp>
 
 #include <catch2/catch.hpp>
 

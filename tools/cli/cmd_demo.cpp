@@ -8,7 +8,7 @@
 #include "tools/cli/render.hpp"
 #include "tools/cli/scenes.hpp"
 
-#include <mlsdeform/batch.hpp>
+#include <mlsdeform/dispatch.hpp>
 
 #include <cstdio>
 #include <cstdlib>

@@ -1,4 +1,4 @@
-// mlsdeform: what the batched rotation fit reports (fit_rotations in batch.hpp); a header of its own so that
+// mlsdeform: what the batched rotation fit reports (fit_rotations in fit_rotations.hpp); a header of its own so that
 // the per-ISA kernels (kernels/kernel_table.hpp) fill the same struct without seeing Eigen.
 #pragma once
 

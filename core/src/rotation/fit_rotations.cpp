@@ -2,7 +2,7 @@
 #include "core/src/dispatch.hpp"
 #include "core/src/parallel.hpp"
 
-#include <mlsdeform/batch.hpp>
+#include <mlsdeform/fit_rotations.hpp>
 
 #include <atomic>
 #include <cmath>
