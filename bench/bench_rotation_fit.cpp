@@ -312,7 +312,7 @@ void run_batched(benchmark::State& state, Set set, mlsdeform::Isa isa, RotationM
   state.counters["ns_per_fit"] = bench::ns_per(static_cast<double>(m));
   state.counters["worst_err_over_tol"] = worst;
   state.counters["lanes_near_double"] = static_cast<double>(stats.near_double);
-  state.counters["lanes"] = static_cast<double>(mlsdeform::simd_lanes(std::is_same_v<T, double>));
+  state.counters["lanes"] = static_cast<double>(mlsdeform::simd_lanes<T>());
 }
 
 template <class T>

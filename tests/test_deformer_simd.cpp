@@ -48,7 +48,7 @@ TEMPLATE_TEST_CASE("SIMD deformation agrees with the scalar reference", "[deform
   const IsaGuard guard;  // restores the ISA in force, also when a check throws
   for (Isa isa : supported_isas()) {
     set_isa(isa);
-    const Eigen::Index W = Eigen::Index(simd_lanes(std::is_same_v<T, double>));
+    const Eigen::Index W = Eigen::Index(simd_lanes<T>());
     for (Transform tr : {Transform::rigid, Transform::similarity, Transform::affine})
       for (Eigen::Index n :
            {Eigen::Index(1), W - 1, W, W + 1, 3 * W + 2, Eigen::Index(16), Eigen::Index(17), Eigen::Index(2000)}) {

@@ -4,6 +4,7 @@
 #include <cstdlib>
 #include <stdexcept>
 #include <string>
+#include <type_traits>
 
 namespace mlsdeform {
 
@@ -68,10 +69,14 @@ void set_isa(Isa isa) {
   current().store(static_cast<int>(isa), std::memory_order_relaxed);
 }
 
-std::size_t simd_lanes(bool double_precision) {
+template <class T>
+std::size_t simd_lanes() {
   const kernels::KernelTable& k = detail::active_kernels();
-  return double_precision ? k.lanes_double : k.lanes_float;
+  return std::is_same_v<T, double> ? k.lanes_double : k.lanes_float;
 }
+
+template std::size_t simd_lanes<float>();
+template std::size_t simd_lanes<double>();
 
 namespace detail {
 

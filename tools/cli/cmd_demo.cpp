@@ -51,7 +51,7 @@ int demo(const DemoArgs& a) {
   if (ec || !fs::is_directory(out_dir)) throw InputError(a.out_dir, "cannot create the output folder: " + ec.message());
   std::printf("mlsdeform demo: results go to %s/\n", out_dir.string().c_str());
   std::printf("SIMD backend: %s, %zu lanes of %s\n", std::string(to_string(checked_active_isa())).c_str(),
-              simd_lanes(std::is_same_v<T, double>), std::is_same_v<T, float> ? "float" : "double");
+              simd_lanes<T>(), std::is_same_v<T, float> ? "float" : "double");
   std::printf("precision %s, %s; frames/s count Deformer::deform only (set-up excluded)\n\n",
               std::is_same_v<T, float> ? "float" : "double",
               a.threads > 0 ? (std::to_string(a.threads) + " threads").c_str()

@@ -22,7 +22,11 @@ std::vector<Isa> supported_isas();
 Isa active_isa();
 /// Force one (throws std::invalid_argument if this CPU cannot run it). Not thread-safe against running fits.
 void set_isa(Isa isa);
-/// SIMD lanes of the active ISA for float or double (1 for scalar).
-std::size_t simd_lanes(bool double_precision);
+/// SIMD lanes of the active ISA for T = float or double (1 for scalar).
+template <class T>
+std::size_t simd_lanes();
+
+extern template std::size_t simd_lanes<float>();
+extern template std::size_t simd_lanes<double>();
 
 }  // namespace mlsdeform
