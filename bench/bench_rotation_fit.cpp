@@ -311,7 +311,7 @@ void run_batched(benchmark::State& state, Set set, mlsdeform::Isa isa, RotationM
   state.SetItemsProcessed(static_cast<int64_t>(state.iterations() * m));
   state.counters["ns_per_fit"] = bench::ns_per(static_cast<double>(m));
   state.counters["worst_err_over_tol"] = worst;
-  state.counters["lanes_near_double"] = static_cast<double>(stats.near_double);
+  state.counters["lanes_careful"] = static_cast<double>(stats.careful_lanes);
   state.counters["lanes"] = static_cast<double>(mlsdeform::simd_lanes<T>());
 }
 

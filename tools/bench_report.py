@@ -328,7 +328,7 @@ def main():
         md.append("`scalar` here is the batched API looping over `fit_rotation` (MLSDEFORM_ISA=scalar). "
                   "Lanes of the batched axis/angle fit that its fast path left to the careful path (Jacobi on K, "
                   "in the lanes), out of " + count(rot.context.get('cases')) + " per set: " + "; ".join(
-                      f"{label} {t} {fmt(rot.get(f'{kind}/{t}/axis_angle/batch:{best_isa}', 'lanes_near_double'))}"
+                      f"{label} {t} {fmt(rot.get(f'{kind}/{t}/axis_angle/batch:{best_isa}', 'lanes_careful'))}"
                       for kind, label in [("fit", "points"), ("gauss", "Gaussian")] for t in ["float", "double"]) + ".\n")
         # Speed-ups
         rows = []

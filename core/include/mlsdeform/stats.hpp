@@ -10,7 +10,7 @@ namespace mlsdeform {
 struct BatchStats {
   /// axis_angle: lanes its fast path could not settle (a nearly multiple root of (13), a gap s2 + d s3 below
   /// cbrt(eps) s1), solved on the careful path, still in the lanes (the top eigenvector of K by Jacobi).
-  std::size_t near_double = 0;
+  std::size_t careful_lanes = 0;
 };
 
 }  // namespace mlsdeform

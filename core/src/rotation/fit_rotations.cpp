@@ -58,13 +58,13 @@ void fit_rotations(const T* H, T* R, std::size_t n, RotationMethod method, int t
     detail::fit_rotations_reference(H, R, n, begin, end, method);
   };
   const auto arena = detail::make_arena(threads);
-  std::atomic<std::size_t> near_double{0};
+  std::atomic<std::size_t> careful_lanes{0};
   detail::parallel_ranges((n + kChunk - 1) / kChunk, threads, arena.get(), [&](std::size_t c0, std::size_t c1) {
     BatchStats st;
     range(c0 * kChunk, std::min(n, c1 * kChunk), &st);
-    near_double += st.near_double;
+    careful_lanes += st.careful_lanes;
   });
-  if (stats) stats->near_double += near_double;
+  if (stats) stats->careful_lanes += careful_lanes;
 }
 
 template void fit_rotations<float>(const float*, float*, std::size_t, RotationMethod, int, BatchStats*);
