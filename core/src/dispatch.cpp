@@ -80,8 +80,10 @@ template std::size_t simd_lanes<double>();
 
 namespace detail {
 
-const kernels::KernelTable& active_kernels() {
-  switch (active_isa()) {
+const kernels::KernelTable& active_kernels() { return kernels_for(active_isa()); }
+
+const kernels::KernelTable& kernels_for(Isa isa) {
+  switch (isa) {
     case Isa::scalar:
       return kernels::kernel_table_scalar();
     case Isa::sse4_2:

@@ -8,7 +8,9 @@
 
 namespace mlsdeform::detail {
 
-/// The kernels of the active ISA (for Isa::scalar, the scalar reference's table).
+/// The kernels of `isa` (for Isa::scalar, the scalar reference's table); the caller checks that the CPU runs it.
+const kernels::KernelTable& kernels_for(Isa isa);
+/// kernels_for(active_isa()).
 const kernels::KernelTable& active_kernels();
 
 /// Matrices [begin, end) of a 3 x 3 x n layout fitted one at a time by fit_rotation (every method; the

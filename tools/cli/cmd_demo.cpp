@@ -76,8 +76,8 @@ int demo(const DemoArgs& a) {
   Points<double> human_mls;  // the human's SIMD result, to compare with MLS + ARAP below
   for (const auto& ds : scenes) {
     const Scene& s = ds.scene;
-    const SceneRun scalar = run_scene<T>(s, Backend::scalar, a.threads);
-    const SceneRun simd = run_scene<T>(s, Backend::simd, a.threads);
+    const SceneRun scalar = run_scene<T>(s, Isa::scalar, a.threads);
+    const SceneRun simd = run_scene<T>(s, std::nullopt, a.threads);
     const double diff = (scalar.result - simd.result).cwiseAbs().maxCoeff();
     const auto handles = s.rest.point_count() + s.rest.segment_count();
     std::printf("%-24s %8lld %8lld %6zu %11.1f %11.1f %7.2fx %12.2e\n", s.name.c_str(),
@@ -97,7 +97,7 @@ int demo(const DemoArgs& a) {
   if (has_human) {
     Scene s = scenes.front().scene;
     s.options.arap_iterations = kDemoArapIterations;
-    const SceneRun run = run_scene<T>(s, Backend::simd, a.threads);
+    const SceneRun run = run_scene<T>(s, std::nullopt, a.threads);
     human_arap = run.result;
     std::printf("human + %d ARAP iterations (deform --arap %d): %.1f f/s simd, moves vertices up to %.3f from MLS\n\n",
                 kDemoArapIterations, kDemoArapIterations, run.frames_per_second(),
@@ -115,7 +115,7 @@ int demo(const DemoArgs& a) {
     for (const auto& ds : scenes) {
       const Scene& s = ds.scene;
       // Redo the simd run for the picture (cheap next to rendering) rather than keep every result around.
-      const SceneRun run = run_scene<T>(s, Backend::simd, a.threads);
+      const SceneRun run = run_scene<T>(s, std::nullopt, a.threads);
       Figure fig;
       fig.title = s.description;
       fig.cols = 2;

@@ -27,7 +27,7 @@ namespace {
 
 namespace fs = std::filesystem;
 
-Mesh deformed(const Scene& s) { return with_vertices(s.mesh, run_scene<double>(s, Backend::simd).result); }
+Mesh deformed(const Scene& s) { return with_vertices(s.mesh, run_scene<double>(s).result); }
 
 // The shared meshes (../shared/data/meshes beside the source tree, or $MLSDEFORM_MESHES): fish.obj for Fig. 2.
 // Absent in a checkout of the repository alone.
@@ -239,7 +239,7 @@ double deviation_from_straight(const Points<double>& x, const std::vector<Eigen:
 Figure figure_6() {
   Figure fig;
   Scene s = plane_translate_scene();
-  const Points<double> x = run_scene<double>(s, Backend::simd).result;
+  const Points<double> x = run_scene<double>(s).result;
   // The grid's lines: along z (the move) at each x, and along x at each z.
   constexpr int n = 32;
   double along = 0, across = 0;
@@ -325,8 +325,7 @@ Figure figure_8() {
   fig.panel_height = 2.9;
   const Scene mls = plane_row_scene(Centroids::mls), rbf = plane_row_scene(Centroids::rbf);
   const Points<double> rest = to_points(mls.mesh);
-  const Points<double> x_mls = run_scene<double>(mls, Backend::simd).result,
-                       x_rbf = run_scene<double>(rbf, Backend::simd).result;
+  const Points<double> x_mls = run_scene<double>(mls).result, x_rbf = run_scene<double>(rbf).result;
   const Triangles t = fan_triangles(mls.mesh, mls.name);
   const std::vector<double> d_mls = dihedral_change(t, rest, x_mls), d_rbf = dihedral_change(t, rest, x_rbf);
   const double u = mls.options.weight_exponent;
@@ -409,7 +408,7 @@ Figure figure_arap(const Mesh& human) {
   const ArapRefiner<double> energy(rest, fan_triangles(s.mesh, s.name), pinned);
   for (const int iterations : {0, 2, 10}) {
     s.options.arap_iterations = iterations;
-    const Points<double> x = run_scene<double>(s, Backend::simd).result;
+    const Points<double> x = run_scene<double>(s).result;
     char title[96];
     if (iterations == 0)
       std::snprintf(title, sizeof title, "MLS, E = %.4f", energy.energy(x));

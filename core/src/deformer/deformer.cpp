@@ -105,13 +105,14 @@ struct Deformer<T>::Impl {
       for (std::size_t c = 0; c < 3; ++c) out[c * cstride + v * vstride] = arap->mls(Eigen::Index(v), Eigen::Index(c));
   }
 
-  /// The kernel for this session's settings: the active ISA's, or the scalar reference's for Backend::scalar,
-  /// Isa::scalar, or a rotation method without a SIMD kernel (kanatani, horn_matrix, svd).
+  /// The kernel for this session's settings: options.isa's or else the active ISA's, and the scalar
+  /// reference's for a rotation method without a SIMD kernel (kanatani, horn_matrix, svd).
   kernels::DeformBlocksFn<T> kernel() const {
     const bool in_lanes = data.transform == Transform::affine || options.method == RotationMethod::axis_angle ||
                           options.method == RotationMethod::horn_quaternion;
-    const kernels::KernelTable& k =
-        options.backend == Backend::simd && in_lanes ? detail::active_kernels() : kernels::kernel_table_scalar();
+    const kernels::KernelTable& k = !in_lanes     ? kernels::kernel_table_scalar()
+                                    : options.isa ? detail::kernels_for(*options.isa)
+                                                  : detail::active_kernels();
     if constexpr (std::is_same_v<T, float>)
       return k.deform_f;
     else
