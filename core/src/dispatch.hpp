@@ -16,7 +16,7 @@ const kernels::KernelTable& active_kernels();
 /// Matrices [begin, end) of a 3 x 3 x n layout fitted one at a time by fit_rotation (every method; the
 /// scalar table's fit entries, and fit_rotations' path for the methods without a SIMD kernel).
 template <class T>
-void fit_rotations_reference(const T* H, T* R, std::size_t stride, std::size_t begin, std::size_t end,
-                             RotationMethod method);
+void fit_rotations_one_at_a_time(const T* H, T* R, std::size_t stride, std::size_t begin, std::size_t end,
+                                 RotationMethod method);
 
 }  // namespace mlsdeform::detail

@@ -55,7 +55,7 @@ void fit_rotations(const T* H, T* R, std::size_t n, RotationMethod method, int t
   const kernels::FitRotationsFn<T> kernel = lane_kernel<T>(method);
   auto range = [&](std::size_t begin, std::size_t end, BatchStats* st) {
     if (kernel) return kernel(H, R, n, begin, end, st);
-    detail::fit_rotations_reference(H, R, n, begin, end, method);
+    detail::fit_rotations_one_at_a_time(H, R, n, begin, end, method);
   };
   const auto arena = detail::make_arena(threads);
   std::atomic<std::size_t> careful_lanes{0};
