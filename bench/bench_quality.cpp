@@ -56,8 +56,8 @@
 #include "core/src/deformer/rbf_centroids.hpp"
 
 #include <mlsdeform/arap.hpp>
-#include <mlsdeform/batch.hpp>
 #include <mlsdeform/deformer.hpp>
+#include <mlsdeform/dispatch.hpp>
 
 #include <Eigen/Geometry>
 #include <Eigen/SVD>

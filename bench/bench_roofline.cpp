@@ -14,7 +14,7 @@
 //        flops per fit: counted by running the scalar reference (core/src/rotation/axis_angle.hpp) on an instrumented
 //        scalar type over the same matrices (bench/flop_count.hpp); the SIMD lanes run the same stages, so
 //        this is the useful work (masked lanes and selects are not counted). Bytes: 36 in + 36 out per fit.
-//   kernel/deform/<scene>/<storage>   one frame of the Deformer (Backend::simd, all cores). Flops: nominal
+//   kernel/deform/<scene>/<storage>   one frame of the Deformer (Options::isa unset, all cores). Flops: nominal
 //        counts of the algorithm, per vertex and handle 24 when precomputed (H += A_i q_i^T: 9 FMA;
 //        q* += w_i q_i: 3 FMA) and 40 on the fly (d = v - p_i, |d|^2, w = 1/|d|^2, then sums of w, w p_i,
 //        w q_i and w q_i p_i^T), plus per vertex the fit's counted flops and 21 to apply R (v - p*) + q*.
@@ -28,8 +28,8 @@
 
 #include "core/src/rotation/axis_angle.hpp"  // the scalar reference, instantiated on bench::Counted for the count
 
-#include <mlsdeform/batch.hpp>
 #include <mlsdeform/deformer.hpp>
+#include <mlsdeform/fit_rotations.hpp>
 
 #include <immintrin.h>
 #include <tbb/blocked_range.h>
@@ -280,8 +280,7 @@ const Prepared& scene(const std::string& name) {
 
 void bm_deform(benchmark::State& state, const std::string& name, mlsdeform::WeightStorage storage) {
   const Prepared& p = scene(name);
-  bench::run_deformer<float>(state, p.scene, p.ref, p.rows,
-                             bench::deformer_options(mlsdeform::Backend::simd, 0, storage));
+  bench::run_deformer<float>(state, p.scene, p.ref, p.rows, bench::deformer_options(std::nullopt, 0, storage));
   if (state.error_occurred()) return;
   const double n = static_cast<double>(p.scene.vertices.rows()), k = static_cast<double>(p.scene.rest.points.rows());
   const bool pre = storage == mlsdeform::WeightStorage::precomputed;

@@ -25,7 +25,7 @@
 #include "bench/rotation_error_sweep.hpp"
 #include "bench/rotation_fit_sets.hpp"
 
-#include <mlsdeform/batch.hpp>
+#include <mlsdeform/fit_rotations.hpp>
 #include <mlsdeform/rotation.hpp>
 
 #include <algorithm>
@@ -92,7 +92,7 @@ void register_scalar(Set set) {
 
 // ---------------------------------------------------------------------------------------------------------
 // Batched: mlsdeform::fit_rotations over the same set in the 3 x 3 x n structure-of-arrays layout
-// (<mlsdeform/batch.hpp>), for each ISA this CPU runs (forced with set_isa) and each method the kernels put
+// (<mlsdeform/fit_rotations.hpp>), for each ISA this CPU runs (forced with set_isa) and each method the kernels put
 // in SIMD lanes. "fit" streams the 10^6 matrices from memory (72 bytes in and out per fit in float, 144 in
 // double); "fit_hot" repeats the first 4096 (a 295 KB / 590 KB working set, in L2), which is what the
 // deformer sees, since it builds each H in registers.
@@ -180,8 +180,8 @@ void run_batched(benchmark::State& state, Set set, mlsdeform::Isa isa, RotationM
   state.SetItemsProcessed(static_cast<int64_t>(state.iterations() * m));
   state.counters["ns_per_fit"] = bench::ns_per(static_cast<double>(m));
   state.counters["worst_err_over_tol"] = worst;
-  state.counters["lanes_near_double"] = static_cast<double>(stats.near_double);
-  state.counters["lanes"] = static_cast<double>(mlsdeform::simd_lanes(std::is_same_v<T, double>));
+  state.counters["lanes_careful"] = static_cast<double>(stats.careful_lanes);
+  state.counters["lanes"] = static_cast<double>(mlsdeform::simd_lanes<T>());
 }
 
 template <class T>

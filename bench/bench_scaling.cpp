@@ -1,4 +1,4 @@
-// Scaling laws of rigid MLS deformation (float, Backend::simd), for both weight storages
+// Scaling laws of rigid MLS deformation (float, Options::isa unset), for both weight storages
 // (WeightStorage::precomputed: stream A_i = w_i phat_i, 16 bytes per vertex and handle; on_the_fly:
 // recompute the weights from the distances every frame):
 //   scaling/vertices/<storage>/n:<n>       time per frame vs vertex count, 10 handles, all cores;
@@ -15,8 +15,8 @@
 // frame against the reference in double (tests/support/mls_reference.hpp).
 #include "bench/deform_common.hpp"
 
-#include <mlsdeform/batch.hpp>
 #include <mlsdeform/deformer.hpp>
+#include <mlsdeform/dispatch.hpp>
 
 #include <map>
 #include <memory>
@@ -61,7 +61,7 @@ const char* storage_name(WeightStorage s) { return s == WeightStorage::precomput
 void bm(benchmark::State& state, const std::string& key, Eigen::Index n, Eigen::Index k, WeightStorage storage,
         int threads, mlsdeform::Centroids centroids) {
   const Prepared& p = prepared(key, n, k);
-  mlsdeform::Options o = bench::deformer_options(mlsdeform::Backend::simd, threads, storage);
+  mlsdeform::Options o = bench::deformer_options(std::nullopt, threads, storage);
   o.centroids = centroids;
   bench::run_deformer<T>(state, p.scene, centroids == mlsdeform::Centroids::rbf ? p.rbf_ref : p.ref, p.rows, o);
   const double pairs = static_cast<double>(p.scene.vertices.rows()) * static_cast<double>(k);
@@ -100,7 +100,8 @@ int main(int argc, char** argv) {
     for (auto [c, cn] : {std::pair{mlsdeform::Centroids::mls, "mls"}, std::pair{mlsdeform::Centroids::rbf, "rbf"}})
       add(std::string("scaling/centroids/") + cn + "/n:" + std::to_string(n), "box" + std::to_string(n), n, 10,
           WeightStorage::precomputed, 0, c);
-  bench::add_context(std::string(mlsdeform::to_string(mlsdeform::active_isa())) + " (Deformer, Backend::simd; float)",
-                     "all (" + std::to_string(all) + ") unless the name ends threads:N");
+  bench::add_context(
+      std::string(mlsdeform::to_string(mlsdeform::active_isa())) + " (Deformer, Options::isa unset; float)",
+      "all (" + std::to_string(all) + ") unless the name ends threads:N");
   return bench::run_benchmarks(argc, argv);
 }

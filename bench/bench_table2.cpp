@@ -1,8 +1,8 @@
 // The paper's Table 2: frames per second for rigid MLS deformation of its six models, float, for
 //   naive        a per-vertex loop with Eigen::JacobiSVD, written from the paper (bench/naive_mls.hpp), 1 core
-//   scalar       Deformer, Backend::scalar (the project's scalar reference path), 1 thread
-//   simd_1t      Deformer, Backend::simd, 1 thread
-//   simd_all     Deformer, Backend::simd, all cores
+//   scalar       Deformer, Isa::scalar (the project's scalar reference path), 1 thread
+//   simd_1t      Deformer, Options::isa unset, 1 thread
+//   simd_all     Deformer, Options::isa unset, all cores
 // Each carries the paper's figure as the counter paper_fps (Pentium 4 at 3.2 GHz, 2009, including OpenGL
 // rendering at 600 x 600), and every variant, the naive loop included, is first checked on every vertex
 // against the same reference in double (tests/support/mls_reference.hpp: deform_tolerance), so all variants
@@ -23,8 +23,8 @@
 // model's long axis and bends them (tests/support/deform_cases.hpp: twisted_mesh_case).
 #include "bench/deform_common.hpp"
 
-#include <mlsdeform/batch.hpp>
 #include <mlsdeform/deformer.hpp>
+#include <mlsdeform/dispatch.hpp>
 
 #include <exception>
 #include <map>
@@ -119,7 +119,7 @@ void bm_naive(benchmark::State& state, const Config& c) {
   {
     mlsdeform::Points<T> lib;
     mlsdeform::Deformer<T>(v, bench::point_handles<T>(p.scene.rest.points),
-                           bench::deformer_options(mlsdeform::Backend::scalar, 1))
+                           bench::deformer_options(mlsdeform::Isa::scalar, 1))
         .deform(bench::point_handles<T>(p.scene.moved.points), lib);
     for (std::size_t s = 0; s < p.rows.size(); ++s) {
       const double d = (out.row(p.rows[s]) - lib.row(p.rows[s])).template cast<double>().norm();
@@ -139,11 +139,11 @@ void bm_naive(benchmark::State& state, const Config& c) {
   add_common_counters(state, c);
 }
 
-void bm_deformer(benchmark::State& state, const Config& c, mlsdeform::Backend backend, int threads) {
+void bm_deformer(benchmark::State& state, const Config& c, std::optional<mlsdeform::Isa> isa, int threads) {
   const Prepared* pp = prepared_or_skip(state, c);
   if (!pp) return;
   const Prepared& p = *pp;
-  bench::run_deformer<T>(state, p.scene, p.ref, p.rows, bench::deformer_options(backend, threads));
+  bench::run_deformer<T>(state, p.scene, p.ref, p.rows, bench::deformer_options(isa, threads));
   add_common_counters(state, c);
 }
 
@@ -159,18 +159,19 @@ int main(int argc, char** argv) {
       bm_naive(s, c);
     })->Unit(benchmark::kMillisecond);
     benchmark::RegisterBenchmark((base + "scalar").c_str(), [&c](benchmark::State& s) {
-      bm_deformer(s, c, mlsdeform::Backend::scalar, 1);
+      bm_deformer(s, c, mlsdeform::Isa::scalar, 1);
     })->Unit(benchmark::kMillisecond);
     benchmark::RegisterBenchmark((base + "simd_1t").c_str(), [&c](benchmark::State& s) {
-      bm_deformer(s, c, mlsdeform::Backend::simd, 1);
+      bm_deformer(s, c, std::nullopt, 1);
     })->Unit(benchmark::kMillisecond);
     benchmark::RegisterBenchmark((base + "simd_all").c_str(),
-                                 [&c](benchmark::State& s) { bm_deformer(s, c, mlsdeform::Backend::simd, 0); })
+                                 [&c](benchmark::State& s) { bm_deformer(s, c, std::nullopt, 0); })
         ->Unit(benchmark::kMillisecond)
         ->UseRealTime();
   }
-  bench::add_context(std::string(mlsdeform::to_string(mlsdeform::active_isa())) + " (Deformer, Backend::simd; float)",
-                     "naive, scalar, simd_1t: 1; simd_all: " + std::to_string(bench::hardware_threads()));
+  bench::add_context(
+      std::string(mlsdeform::to_string(mlsdeform::active_isa())) + " (Deformer, Options::isa unset; float)",
+      "naive, scalar, simd_1t: 1; simd_all: " + std::to_string(bench::hardware_threads()));
   benchmark::AddCustomContext("meshes", mlsdeform::testing::mesh_dir());
   return bench::run_benchmarks(argc, argv);
 }

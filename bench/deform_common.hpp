@@ -15,6 +15,7 @@
 #include <algorithm>
 #include <limits>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -64,10 +65,10 @@ std::string check_deformation(const mlsdeform::Points<T>& out, const SampledRefe
 }
 
 /// Deformer options of a variant.
-inline mlsdeform::Options deformer_options(mlsdeform::Backend backend, int threads,
+inline mlsdeform::Options deformer_options(std::optional<mlsdeform::Isa> isa, int threads,
                                            mlsdeform::WeightStorage storage = mlsdeform::WeightStorage::automatic) {
   mlsdeform::Options o;
-  o.backend = backend;
+  o.isa = isa;
   o.threads = threads;
   o.weight_storage = storage;
   return o;

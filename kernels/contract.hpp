@@ -55,7 +55,7 @@ static constexpr T kCarefulTau = sizeof(T) == 4 ? T(0.5 * 4.92156660e-3) : T(0.5
 enum class WeightSource { table, on_the_fly };
 
 /// One frame of the MLS deformation over the session data of core/src/deformer/data.hpp. Filled by the
-/// session (core/src/deformer/session.cpp) and read by every entry of the kernel table, the scalar reference
+/// session (core/src/deformer/deformer.cpp) and read by every entry of the kernel table, the scalar reference
 /// included. Targets come straight from the caller's handles: point j at (points[j], points[k + j],
 /// points[2k + j]) (column-major k x 3), then for each segment i its ends seg_a and seg_b (column-major s x 3).
 /// The kernels work in the session's local frame (data.hpp, Units): a target q enters as q * local_scale, and

@@ -15,7 +15,7 @@ namespace mlsdeform::kernels {
 
 /// Batched rotation fit over matrices [begin, end) of a 3 x 3 x n structure-of-arrays layout:
 /// entry (r, c) of matrix i is H[(3 r + c) * stride + i], likewise R. H must be finite. Adds to
-/// stats->near_double (when stats is not null) the lanes that took the careful path.
+/// stats->careful_lanes (when stats is not null) the lanes that took the careful path.
 template <class T>
 using FitRotationsFn = void (*)(const T* H, T* R, std::size_t stride, std::size_t begin, std::size_t end,
                                 BatchStats* stats);

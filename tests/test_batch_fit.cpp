@@ -112,7 +112,7 @@ TEMPLATE_TEST_CASE("fit_rotations agrees with the scalar fit on every ISA and si
   const IsaGuard guard;  // restores the ISA in force, also when a check throws
   for (Isa isa : supported_isas()) {
     set_isa(isa);
-    const std::size_t W = simd_lanes(std::is_same_v<TestType, double>);
+    const std::size_t W = simd_lanes<TestType>();
     for (RotationMethod method : {RotationMethod::axis_angle, RotationMethod::horn_quaternion})
       // W and 2W: the axis/angle kernel steps one batch of W lanes, Horn-Jacobi two interleaved ones.
       for (std::size_t n : {std::size_t(1), W - 1, W, W + 1, 2 * W - 1, 2 * W, 2 * W + 1, 3 * W + 2, std::size_t(5000)})

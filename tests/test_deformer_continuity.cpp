@@ -113,16 +113,16 @@ TEMPLATE_TEST_CASE("the map is continuous at every handle", "[deformer][continui
   for (Transform tr : all_transforms)
     for (SegmentWeight sw : {SegmentWeight::paper_constant, SegmentWeight::exact_integral})
       for (double u : {2.0, 3.0})
-        for (Backend be : {Backend::scalar, Backend::simd}) {
+        for (const std::optional<Isa> be : {std::optional<Isa>(Isa::scalar), std::optional<Isa>()}) {
           Options o;
           o.transform = tr;
           o.segment_weight = sw;
           o.weight_exponent = u;
-          o.backend = be;
+          o.isa = be;
           char label[160];
           std::snprintf(label, sizeof label, "%s, %s, u = %g, %s", name(tr),
                         sw == SegmentWeight::paper_constant ? "paper_constant" : "exact_integral", u,
-                        be == Backend::scalar ? "scalar" : "simd");
+                        be ? "scalar" : "simd");
           check_walks(rest, moved, walks, o, label);
         }
 }

@@ -2,7 +2,9 @@
 // untouched (bitwise, size included).
 #include "tests/test_deformer_common.hpp"
 
+#include <algorithm>
 #include <limits>
+#include <vector>
 
 using namespace deformer_test;
 
@@ -129,6 +131,19 @@ TEMPLATE_TEST_CASE("bad rest input is rejected with a message naming the problem
     o.threads = 0;
     o.method = static_cast<RotationMethod>(99);
     expect_ctor_error(sc.vertices, sc.rest, o, "unknown RotationMethod");
+    o.method = RotationMethod::axis_angle;
+    o.isa = static_cast<Isa>(99);
+    expect_ctor_error(sc.vertices, sc.rest, o, "unknown Isa value 99");
+    // An instruction set this CPU lacks is refused at construction, not when a frame would run it.
+    o.isa = std::nullopt;
+    const std::vector<Isa> runs = supported_isas();
+    for (const Isa isa : {Isa::scalar, Isa::sse4_2, Isa::avx2, Isa::avx512}) {
+      o.isa = isa;
+      if (std::find(runs.begin(), runs.end(), isa) == runs.end())
+        expect_ctor_error(sc.vertices, sc.rest, o, "this CPU cannot run it");
+      else
+        CHECK_NOTHROW(Deformer<T>(sc.vertices, sc.rest, o));
+    }
   }
   SECTION("reset_rest_pose validates too and keeps the session on error") {
     Deformer<T> def(sc.vertices, sc.rest, o);

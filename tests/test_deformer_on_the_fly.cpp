@@ -28,12 +28,12 @@ TEMPLATE_TEST_CASE("on-the-fly weights agree with the precomputed table", "[defo
   constexpr T eps = std::numeric_limits<T>::epsilon();
   const DeformCase<T> s = scene<T>(3000, 10, 2.5, 11);
   for (Transform tr : {Transform::rigid, Transform::similarity})
-    for (Backend backend : {Backend::scalar, Backend::simd})
+    for (const std::optional<Isa> isa : {std::optional<Isa>(Isa::scalar), std::optional<Isa>()})
       for (double u : {2.0, 3.0}) {
-        INFO("transform " << int(tr) << " backend " << int(backend) << " u " << u);
+        INFO("transform " << int(tr) << " isa " << (isa ? to_string(*isa) : "active") << " u " << u);
         Options o;
         o.transform = tr;
-        o.backend = backend;
+        o.isa = isa;
         o.weight_exponent = u;
         o.weight_storage = WeightStorage::precomputed;
         const Deformer<T> pre(s.vertices, s.rest, o);

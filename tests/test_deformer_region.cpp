@@ -136,14 +136,14 @@ TEMPLATE_TEST_CASE("region: outside vertices stay bitwise, the region is its own
   double worst_folded = 0;
   for (Isa isa : supported_isas()) {
     set_isa(isa);
-    for (Backend backend : {Backend::simd, Backend::scalar})
+    for (const std::optional<Isa> session_isa : {std::optional<Isa>(), std::optional<Isa>(Isa::scalar)})
       for (Transform tr : {Transform::rigid, Transform::similarity, Transform::affine})
         for (WeightStorage ws : {WeightStorage::precomputed, WeightStorage::on_the_fly}) {
           if (tr == Transform::affine && ws == WeightStorage::on_the_fly) continue;
-          INFO("isa " << to_string(isa) << " backend " << int(backend) << " transform " << int(tr) << " storage "
-                      << int(ws));
+          INFO("isa " << to_string(isa) << " session isa " << (session_isa ? to_string(*session_isa) : "active")
+                      << " transform " << int(tr) << " storage " << int(ws));
           Options o;
-          o.backend = backend;
+          o.isa = session_isa;
           o.transform = tr;
           o.weight_storage = ws;
           Options o_region = o;

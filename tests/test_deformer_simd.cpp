@@ -1,4 +1,4 @@
-// The SIMD deformation (Backend::simd) against the scalar reference (Backend::scalar), on every ISA this CPU
+// The SIMD deformation (Options::isa unset) against the scalar reference (Isa::scalar), on every ISA this CPU
 // runs, on vertex counts around the lane width, for the three transforms, point and segment handles, with
 // degenerate configurations (collinear handles, vertices on handles, half-turns); thread-count invariance.
 #include "tests/support/deform_cases.hpp"
@@ -48,7 +48,7 @@ TEMPLATE_TEST_CASE("SIMD deformation agrees with the scalar reference", "[deform
   const IsaGuard guard;  // restores the ISA in force, also when a check throws
   for (Isa isa : supported_isas()) {
     set_isa(isa);
-    const Eigen::Index W = Eigen::Index(simd_lanes(std::is_same_v<T, double>));
+    const Eigen::Index W = Eigen::Index(simd_lanes<T>());
     for (Transform tr : {Transform::rigid, Transform::similarity, Transform::affine})
       for (Eigen::Index n :
            {Eigen::Index(1), W - 1, W, W + 1, 3 * W + 2, Eigen::Index(16), Eigen::Index(17), Eigen::Index(2000)}) {
@@ -61,10 +61,10 @@ TEMPLATE_TEST_CASE("SIMD deformation agrees with the scalar reference", "[deform
           INFO("isa " << to_string(isa) << " transform " << int(tr) << " n " << n << " config " << config);
           Options o;
           o.transform = tr;
-          o.backend = Backend::scalar;
+          o.isa = Isa::scalar;
           o.threads = 1;
           const Deformer<T> scalar(sc.vertices, sc.rest, o);
-          o.backend = Backend::simd;
+          o.isa = std::nullopt;
           const Deformer<T> simd(sc.vertices, sc.rest, o);
           Points<T> out_scalar, out_simd;
           scalar.deform(sc.moved, out_scalar);

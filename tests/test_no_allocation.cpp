@@ -80,12 +80,12 @@ TEMPLATE_TEST_CASE("deform and fit_rotations allocate nothing in steady state", 
   for (Eigen::Index i = 0; i < rest.points.size(); ++i) rest.points.data()[i] = u(rng);
   moved = rest;
   moved.points.col(0).array() += T(0.3);
-  for (Backend backend : {Backend::simd, Backend::scalar})
+  for (const std::optional<Isa> isa : {std::optional<Isa>(), std::optional<Isa>(Isa::scalar)})
     for (WeightStorage storage : {WeightStorage::precomputed, WeightStorage::on_the_fly})
       for (Transform tr : {Transform::rigid, Transform::similarity}) {
-        INFO("backend " << int(backend) << " storage " << int(storage) << " transform " << int(tr));
+        INFO("isa " << (isa ? to_string(*isa) : "active") << " storage " << int(storage) << " transform " << int(tr));
         Options o;
-        o.backend = backend;
+        o.isa = isa;
         o.weight_storage = storage;
         o.transform = tr;
         o.threads = 1;  // with more threads TBB's task allocation is its own (scalable allocator, not new)
@@ -99,9 +99,9 @@ TEMPLATE_TEST_CASE("deform and fit_rotations allocate nothing in steady state", 
       }
   // A region (Options::region): the kernels' output and the targets with the ring's fixed handles are the
   // session's scratch, sized at construction.
-  for (Backend backend : {Backend::simd, Backend::scalar}) {
+  for (const std::optional<Isa> isa : {std::optional<Isa>(), std::optional<Isa>(Isa::scalar)}) {
     Options o;
-    o.backend = backend;
+    o.isa = isa;
     o.threads = 1;
     for (Eigen::Index i = 0; i < v.rows(); i += 3) o.region.push_back(i);
     Deformer<T> d(v, rest, o);

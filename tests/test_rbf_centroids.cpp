@@ -134,10 +134,10 @@ TEMPLATE_TEST_CASE("RBF centroids: SIMD agrees with scalar, threads bitwise, on-
   moved.points.row(0).array() += T(0.8);  // a large move: where RBF and MLS centroids differ most
   Options o;
   o.centroids = Centroids::rbf;
-  o.backend = Backend::scalar;
+  o.isa = Isa::scalar;
   Points<T> scalar, simd, mls, two;
   Deformer<T>(sc.vertices, sc.rest, o).deform(moved, scalar);
-  o.backend = Backend::simd;
+  o.isa = std::nullopt;
   o.threads = 1;
   Deformer<T>(sc.vertices, sc.rest, o).deform(moved, simd);
   o.threads = 2;

@@ -168,7 +168,7 @@ TEMPLATE_TEST_CASE("scale: the deformer with every option scales with the scene,
     for (const Transform tr : {Transform::rigid, Transform::similarity, Transform::affine})
       for (const SegmentWeight sw : {SegmentWeight::paper_constant, SegmentWeight::exact_integral})
         for (const WeightStorage ws : {WeightStorage::precomputed, WeightStorage::on_the_fly})
-          for (const Backend be : {Backend::simd, Backend::scalar})
+          for (const std::optional<Isa> be : {std::optional<Isa>(), std::optional<Isa>(Isa::scalar)})
             for (const Centroids ce : {Centroids::mls, Centroids::rbf})
               for (const double u : {1.0, 2.0, 9.5, 300.0}) {
                 if (!with_segments && sw == SegmentWeight::exact_integral) continue;
@@ -179,14 +179,14 @@ TEMPLATE_TEST_CASE("scale: the deformer with every option scales with the scene,
                 o.transform = tr;
                 o.segment_weight = sw;
                 o.weight_storage = ws;
-                o.backend = be;
+                o.isa = be;
                 o.centroids = ce;
                 o.weight_exponent = u;
                 INFO(name(tr) << (with_segments ? ", segments " : ", points only ")
                               << (sw == SegmentWeight::exact_integral ? "exact_integral" : "paper_constant")
                               << (ws == WeightStorage::on_the_fly ? ", on the fly" : ", precomputed")
-                              << (be == Backend::simd ? ", simd" : ", scalar")
-                              << (ce == Centroids::rbf ? ", rbf" : ", mls") << ", u = " << u);
+                              << (be ? ", scalar" : ", simd") << (ce == Centroids::rbf ? ", rbf" : ", mls")
+                              << ", u = " << u);
                 Points<T> out0;
                 Deformer<T>(sc.vertices, sc.rest, o).deform(sc.moved, out0);
                 REQUIRE(out0.allFinite());

@@ -15,7 +15,7 @@
 #include "core/src/dispatch.hpp"
 #include "core/src/rotation/axis_angle.hpp"
 
-#include <mlsdeform/batch.hpp>
+#include <mlsdeform/dispatch.hpp>
 
 #include <Eigen/Geometry>
 #include <catch2/catch.hpp>

@@ -2,7 +2,8 @@
 # The README's two commands:
 #   tools/dev.sh demo   install what is missing, build (Release), run `mlsdeform demo`
 #   tools/dev.sh test   install what is missing, build, run the whole test suite through ctest, then the
-#                       same suite again under AddressSanitizer + UndefinedBehaviorSanitizer
+#                       same suite again under AddressSanitizer + UndefinedBehaviorSanitizer, then the C++ tests
+#                       in a Debug build (assertions on)
 #   tools/dev.sh python install what is missing, build (Release), install the Python package into the venv .venv/
 #                       (made if missing; editable: it loads the module of build/, so a rebuild is picked up)
 #                       and run the Python tests against it
@@ -63,6 +64,14 @@ case "${1:-}" in
     build build-asan -DMLSDEFORM_SANITIZE=ON -DMLSDEFORM_BUILD_BENCH=OFF -DMLSDEFORM_WERROR=ON -DMLSDEFORM_CHOLMOD=OFF
     ASAN_OPTIONS=detect_leaks=1 UBSAN_OPTIONS=print_stacktrace=1 \
       ctest --test-dir build-asan --output-on-failure -j "$jobs" -LE no_sanitizer
+    # Debug: the C++ tests with every assertion on (assert, Eigen's eigen_assert, TBB_USE_DEBUG, libstdc++'s
+    # _GLIBCXX_ASSERTIONS). -O1 drops no assertion and keeps Eigen's and xsimd's inline templates from running
+    # as calls. No benchmarks, program or Python module: their tests drive the same library through its public
+    # API, which the C++ tests cover, and run in the Release build above.
+    build build-debug -DCMAKE_BUILD_TYPE=Debug "-DCMAKE_CXX_FLAGS_DEBUG=-O1 -D_GLIBCXX_ASSERTIONS" \
+      -DMLSDEFORM_BUILD_BENCH=OFF -DMLSDEFORM_BUILD_TOOLS=OFF -DMLSDEFORM_BUILD_PYTHON=OFF -DMLSDEFORM_WERROR=ON \
+      -DMLSDEFORM_CHOLMOD=OFF
+    ctest --test-dir build-debug --output-on-failure -j "$jobs" -LE no_sanitizer
     ;;
   *)
     echo "usage: tools/dev.sh demo [demo options] | test | python | blender | format" >&2

@@ -4,6 +4,7 @@
 #include <cstdlib>
 #include <stdexcept>
 #include <string>
+#include <type_traits>
 
 namespace mlsdeform {
 
@@ -68,15 +69,21 @@ void set_isa(Isa isa) {
   current().store(static_cast<int>(isa), std::memory_order_relaxed);
 }
 
-std::size_t simd_lanes(bool double_precision) {
+template <class T>
+std::size_t simd_lanes() {
   const kernels::KernelTable& k = detail::active_kernels();
-  return double_precision ? k.lanes_double : k.lanes_float;
+  return std::is_same_v<T, double> ? k.lanes_double : k.lanes_float;
 }
+
+template std::size_t simd_lanes<float>();
+template std::size_t simd_lanes<double>();
 
 namespace detail {
 
-const kernels::KernelTable& active_kernels() {
-  switch (active_isa()) {
+const kernels::KernelTable& active_kernels() { return kernels_for(active_isa()); }
+
+const kernels::KernelTable& kernels_for(Isa isa) {
+  switch (isa) {
     case Isa::scalar:
       return kernels::kernel_table_scalar();
     case Isa::sse4_2:

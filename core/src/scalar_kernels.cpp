@@ -15,8 +15,8 @@ namespace detail {
 
 /// Matrices [begin, end) of a 3 x 3 x n layout, one at a time. BatchStats are for lanes: nothing to add.
 template <class T>
-void fit_rotations_reference(const T* H, T* R, std::size_t stride, std::size_t begin, std::size_t end,
-                             RotationMethod method) {
+void fit_rotations_one_at_a_time(const T* H, T* R, std::size_t stride, std::size_t begin, std::size_t end,
+                                 RotationMethod method) {
   for (std::size_t i = begin; i < end; ++i) {
     Matrix3<T> Hi;
     for (std::size_t e = 0; e < 9; ++e) Hi(e / 3, e % 3) = H[e * stride + i];
@@ -25,16 +25,16 @@ void fit_rotations_reference(const T* H, T* R, std::size_t stride, std::size_t b
   }
 }
 
-template void fit_rotations_reference<float>(const float*, float*, std::size_t, std::size_t, std::size_t,
-                                             RotationMethod);
-template void fit_rotations_reference<double>(const double*, double*, std::size_t, std::size_t, std::size_t,
-                                              RotationMethod);
+template void fit_rotations_one_at_a_time<float>(const float*, float*, std::size_t, std::size_t, std::size_t,
+                                                 RotationMethod);
+template void fit_rotations_one_at_a_time<double>(const double*, double*, std::size_t, std::size_t, std::size_t,
+                                                  RotationMethod);
 
 namespace {
 
 template <class T, RotationMethod method>
 void fit_entry(const T* H, T* R, std::size_t stride, std::size_t begin, std::size_t end, BatchStats*) {
-  fit_rotations_reference(H, R, stride, begin, end, method);
+  fit_rotations_one_at_a_time(H, R, stride, begin, end, method);
 }
 
 /// The StageFn entry: one stage on n lanes, one lane at a time (layouts: enum Stage in contract.hpp).

@@ -106,7 +106,7 @@ void fit_range(const scalar_of<V>* H, scalar_of<V>* R, std::size_t stride, std::
                                            Fit::fit(h, r, careful);
                                            for (std::size_t i = 0; i < 9; ++i) r[i].store_unaligned(dst + i * st + off);
                                          });
-  if (stats) stats->near_double += careful;
+  if (stats) stats->careful_lanes += careful;
 }
 
 struct AxisAngleFit {

@@ -83,7 +83,7 @@ class PyDeformer {
                                                  {{"automatic", WeightStorage::automatic},
                                                   {"precomputed", WeightStorage::precomputed},
                                                   {"on_the_fly", WeightStorage::on_the_fly}});
-    o.backend = parse_enum<Backend>(backend, "backend", {{"simd", Backend::simd}, {"scalar", Backend::scalar}});
+    o.isa = parse_enum<std::optional<Isa>>(backend, "backend", {{"simd", std::nullopt}, {"scalar", Isa::scalar}});
     o.precompute_budget_bytes = budget_bytes;
     o.arap_iterations = arap_iterations;
     o.centroids = parse_enum<Centroids>(centroids, "centroids", {{"mls", Centroids::mls}, {"rbf", Centroids::rbf}});

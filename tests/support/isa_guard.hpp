@@ -2,7 +2,7 @@
 // REQUIRE must not leave an ISA forced for the tests that follow).
 #pragma once
 
-#include <mlsdeform/batch.hpp>
+#include <mlsdeform/dispatch.hpp>
 
 namespace mlsdeform::testing {
 

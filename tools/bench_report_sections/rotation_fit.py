@@ -75,7 +75,7 @@ def write(md, inputs):
             + count(rot.context.get("cases"))
             + " per set: "
             + "; ".join(
-                f"{label} {t} {fmt(rot.get(f'{kind}/{t}/axis_angle/batch:{best_isa}', 'lanes_near_double'))}"
+                f"{label} {t} {fmt(rot.get(f'{kind}/{t}/axis_angle/batch:{best_isa}', 'lanes_careful'))}"
                 for kind, label in [("fit", "points"), ("gauss", "Gaussian")]
                 for t in ["float", "double"]
             )

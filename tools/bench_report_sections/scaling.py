@@ -11,7 +11,7 @@ def write(md, inputs):
     plots, sc = inputs.plots, inputs.sc
     md.append("## Scaling\n")
     md.append(
-        "`bench/bench_scaling.cpp`: float, `Backend::simd`, all cores unless stated, for both weight "
+        "`bench/bench_scaling.cpp`: float, `Options::isa` unset, all cores unless stated, for both weight "
         "storages (`precomputed`: stream A_i = w_i phat_i; `on_the_fly`: recompute the weights from the "
         "distances). `memory` is `Deformer::memory_bytes()`, the precomputation's footprint. "
         "`precomputed?` is what the deformer actually did (the request may not be honoured yet).\n"

@@ -12,7 +12,7 @@ def write(md, inputs):
         "`bench/bench_table2.cpp`: rigid MLS, float, weight exponent 2, handles at random vertices twisted "
         "by up to 90 degrees about the long axis plus a bend. `naive`: per-vertex loop with "
         "`Eigen::JacobiSVD` written from the paper (`bench/naive_mls.hpp`), 1 core; `scalar`: `Deformer` "
-        "with `Backend::scalar`, 1 thread; `simd 1t` / `simd all`: `Backend::simd`, 1 thread / all "
+        "with `Options::isa = Isa::scalar`, 1 thread; `simd 1t` / `simd all`: `Options::isa` unset, 1 thread / all "
         f"{ctx.get('hardware_threads', '?')} threads. The paper's figures are from a Pentium 4 at 3.2 GHz "
         "(2009) and include OpenGL rendering. Single-thread variants are timed by the thread's CPU time, "
         "`simd all` by wall-clock time (see Timing below).\n"

@@ -78,8 +78,8 @@ int deform(const DeformArgs& a) {
     std::printf("deformer: %s, u = %g, %s, %s, %s backend, %s%s; set-up %.2f ms, %.1f MiB\n", name(a.options.transform),
                 a.options.weight_exponent, std::string(to_string(a.options.method)).c_str(),
                 std::is_same_v<T, float> ? "float" : "double",
-                a.options.backend == Backend::simd ? ("simd (" + std::string(to_string(isa)) + ")").c_str() : "scalar",
-                threads, then_arap.c_str(), setup_ms, double(deformer->memory_bytes()) / (1 << 20));
+                !a.options.isa ? ("simd (" + std::string(to_string(isa)) + ")").c_str() : "scalar", threads,
+                then_arap.c_str(), setup_ms, double(deformer->memory_bytes()) / (1 << 20));
     std::fflush(stdout);  // seen before a long first frame, also through a pipe
   }
 

@@ -8,7 +8,7 @@
 #include "tools/cli/render.hpp"
 #include "tools/cli/scenes.hpp"
 
-#include <mlsdeform/batch.hpp>
+#include <mlsdeform/dispatch.hpp>
 
 #include <cstdio>
 #include <cstdlib>
@@ -51,7 +51,7 @@ int demo(const DemoArgs& a) {
   if (ec || !fs::is_directory(out_dir)) throw InputError(a.out_dir, "cannot create the output folder: " + ec.message());
   std::printf("mlsdeform demo: results go to %s/\n", out_dir.string().c_str());
   std::printf("SIMD backend: %s, %zu lanes of %s\n", std::string(to_string(checked_active_isa())).c_str(),
-              simd_lanes(std::is_same_v<T, double>), std::is_same_v<T, float> ? "float" : "double");
+              simd_lanes<T>(), std::is_same_v<T, float> ? "float" : "double");
   std::printf("precision %s, %s; frames/s count Deformer::deform only (set-up excluded)\n\n",
               std::is_same_v<T, float> ? "float" : "double",
               a.threads > 0 ? (std::to_string(a.threads) + " threads").c_str()
@@ -76,8 +76,8 @@ int demo(const DemoArgs& a) {
   Points<double> human_mls;  // the human's SIMD result, to compare with MLS + ARAP below
   for (const auto& ds : scenes) {
     const Scene& s = ds.scene;
-    const SceneRun scalar = run_scene<T>(s, Backend::scalar, a.threads);
-    const SceneRun simd = run_scene<T>(s, Backend::simd, a.threads);
+    const SceneRun scalar = run_scene<T>(s, Isa::scalar, a.threads);
+    const SceneRun simd = run_scene<T>(s, std::nullopt, a.threads);
     const double diff = (scalar.result - simd.result).cwiseAbs().maxCoeff();
     const auto handles = s.rest.point_count() + s.rest.segment_count();
     std::printf("%-24s %8lld %8lld %6zu %11.1f %11.1f %7.2fx %12.2e\n", s.name.c_str(),
@@ -97,7 +97,7 @@ int demo(const DemoArgs& a) {
   if (has_human) {
     Scene s = scenes.front().scene;
     s.options.arap_iterations = kDemoArapIterations;
-    const SceneRun run = run_scene<T>(s, Backend::simd, a.threads);
+    const SceneRun run = run_scene<T>(s, std::nullopt, a.threads);
     human_arap = run.result;
     std::printf("human + %d ARAP iterations (deform --arap %d): %.1f f/s simd, moves vertices up to %.3f from MLS\n\n",
                 kDemoArapIterations, kDemoArapIterations, run.frames_per_second(),
@@ -115,7 +115,7 @@ int demo(const DemoArgs& a) {
     for (const auto& ds : scenes) {
       const Scene& s = ds.scene;
       // Redo the simd run for the picture (cheap next to rendering) rather than keep every result around.
-      const SceneRun run = run_scene<T>(s, Backend::simd, a.threads);
+      const SceneRun run = run_scene<T>(s, std::nullopt, a.threads);
       Figure fig;
       fig.title = s.description;
       fig.cols = 2;

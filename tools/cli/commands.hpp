@@ -4,8 +4,8 @@
 
 #include "tools/cli/mesh.hpp"
 
-#include <mlsdeform/batch.hpp>
 #include <mlsdeform/deformer.hpp>
+#include <mlsdeform/dispatch.hpp>
 
 #include <optional>
 #include <string>

@@ -94,8 +94,8 @@ void add_common_deformer_options(CLI::App* c, Options& o, Precision& precision) 
   c->add_option("--threads,-j", o.threads, "worker threads; 0: all cores")
       ->check(CLI::NonNegativeNumber)
       ->default_str("0");
-  add_choice<Backend>(c, "--backend", o.backend, {{"simd", Backend::simd}, {"scalar", Backend::scalar}},
-                      "simd: the SIMD kernels (best ISA at run time); scalar: the reference");
+  add_choice<std::optional<Isa>>(c, "--backend", o.isa, {{"simd", std::nullopt}, {"scalar", Isa::scalar}},
+                                 "simd: the SIMD kernels (best ISA at run time); scalar: the reference");
   c->add_option_function<double>(
        "--weight-budget", [&o](double mib) { o.precompute_budget_bytes = static_cast<std::size_t>(mib * 1048576.0); },
        "MiB that the precomputed weight table may take (automatic storage); beyond it, on-the-fly weights or an error")

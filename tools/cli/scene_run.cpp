@@ -27,10 +27,10 @@ double SceneRun::frames_per_second() const {
 }
 
 template <class T>
-SceneRun run_scene(const Scene& scene, Backend backend, int threads) {
+SceneRun run_scene(const Scene& scene, std::optional<Isa> isa, int threads) {
   SceneRun run;
   Options options = scene.options;
-  options.backend = backend;
+  options.isa = isa;
   options.threads = threads;
   std::vector<Handles<T>> frames;
   frames.reserve(scene.frames.size());
@@ -59,7 +59,7 @@ SceneRun run_scene(const Scene& scene, Backend backend, int threads) {
   return run;
 }
 
-template SceneRun run_scene<float>(const Scene&, Backend, int);
-template SceneRun run_scene<double>(const Scene&, Backend, int);
+template SceneRun run_scene<float>(const Scene&, std::optional<Isa>, int);
+template SceneRun run_scene<double>(const Scene&, std::optional<Isa>, int);
 
 }  // namespace mlsdeform::cli

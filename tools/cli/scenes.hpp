@@ -8,6 +8,7 @@
 
 #include <mlsdeform/deformer.hpp>
 
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -69,6 +70,6 @@ struct SceneRun {
 /// Runs every frame of `scene` with precision T and the given backend and thread count (0: all cores). With
 /// `scene.options.arap_iterations` > 0 the deformer gets the mesh's faces (fanned into triangles).
 template <class T>
-SceneRun run_scene(const Scene& scene, Backend backend, int threads = 0);
+SceneRun run_scene(const Scene& scene, std::optional<Isa> isa = std::nullopt, int threads = 0);
 
 }  // namespace mlsdeform::cli

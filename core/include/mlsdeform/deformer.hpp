@@ -4,11 +4,13 @@
 
 #include <mlsdeform/arap.hpp>
 #include <mlsdeform/cancel.hpp>
+#include <mlsdeform/dispatch.hpp>
 #include <mlsdeform/rotation.hpp>
 #include <mlsdeform/types.hpp>
 
 #include <cstddef>
 #include <memory>
+#include <optional>
 #include <span>
 #include <string_view>
 #include <vector>
@@ -23,12 +25,6 @@ enum class SegmentWeight {
   /// The exact integral of |p(t) - v|^-u along the segment (adaptive Gauss-Legendre quadrature; beyond
   /// u = 64 in a variable that makes its cost independent of u: docs/api.md, "Segments").
   exact_integral,
-};
-
-/// Which implementation runs deform().
-enum class Backend {
-  simd,    ///< structure-of-arrays kernels, one vertex per SIMD lane, best ISA at run time (default)
-  scalar,  ///< the scalar reference, one vertex at a time
 };
 
 /// Where the per-vertex, per-handle weights come from each frame.
@@ -74,7 +70,11 @@ struct Options {
   double weight_exponent = 2.0;
   RotationMethod method = RotationMethod::axis_angle;
   SegmentWeight segment_weight = SegmentWeight::paper_constant;
-  Backend backend = Backend::simd;
+  /// The instruction set of deform()'s MLS pass: unset (default), the active one (active_isa(), chosen per
+  /// frame); Isa::scalar, the scalar reference, one vertex at a time; another, that one for this session only
+  /// (std::invalid_argument if this CPU cannot run it). Rotation methods without a SIMD kernel (horn_matrix,
+  /// kanatani, svd) run the scalar reference whatever is set.
+  std::optional<Isa> isa;
   /// Worker threads for deform(); 0 means all cores.
   int threads = 0;
   WeightStorage weight_storage = WeightStorage::automatic;

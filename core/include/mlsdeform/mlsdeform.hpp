@@ -3,9 +3,10 @@
 #pragma once
 
 #include <mlsdeform/arap.hpp>
-#include <mlsdeform/batch.hpp>
 #include <mlsdeform/cancel.hpp>
 #include <mlsdeform/deformer.hpp>
+#include <mlsdeform/dispatch.hpp>
+#include <mlsdeform/fit_rotations.hpp>
 #include <mlsdeform/point_fit.hpp>
 #include <mlsdeform/rotation.hpp>
 #include <mlsdeform/types.hpp>

@@ -18,7 +18,7 @@
 #include "core/src/pow2.hpp"
 
 #include <mlsdeform/arap.hpp>
-#include <mlsdeform/batch.hpp>
+#include <mlsdeform/fit_rotations.hpp>
 
 #include "kernels/kernel_table.hpp"
 

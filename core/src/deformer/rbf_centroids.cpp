@@ -14,7 +14,7 @@
 namespace mlsdeform::detail {
 
 namespace {
-// phi(r) = r rather than r^3, by `bench_quality --centroids` (the tables: docs/design.md, "The RBF kernel"):
+// phi(r) = r rather than r^3, by `bench_quality --centroids` (the tables: docs/notes/rbf_centroids.md):
 // - conditioning: kappa(M) is 3.3e3 against 6.4e6 on Fig. 8's plane, 91 against 4.2e3 on the human, 6.7e4
 //   against 1.4e9 on the bar's 578 cap handles, and grows faster with r^3 as handles crowd (halving the
 //   caps' spacing: x7 with r, x30 with r^3). The weights' error bound (J + 4) eps kappa(M) is 9e-9 against

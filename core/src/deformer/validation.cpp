@@ -31,8 +31,15 @@ void check_options(const Options& o) {
   if (o.segment_weight != SegmentWeight::paper_constant && o.segment_weight != SegmentWeight::exact_integral)
     throw std::invalid_argument("Deformer: unknown SegmentWeight value " +
                                 std::to_string(static_cast<int>(o.segment_weight)));
-  if (o.backend != Backend::simd && o.backend != Backend::scalar)
-    throw std::invalid_argument("Deformer: unknown Backend value " + std::to_string(static_cast<int>(o.backend)));
+  if (o.isa) {
+    const int isa = static_cast<int>(*o.isa);
+    if (isa < static_cast<int>(Isa::scalar) || isa > static_cast<int>(Isa::avx512))
+      throw std::invalid_argument("Deformer: unknown Isa value " + std::to_string(isa));
+    const std::vector<Isa> runs = supported_isas();
+    if (std::find(runs.begin(), runs.end(), *o.isa) == runs.end())
+      throw std::invalid_argument("Deformer: Options::isa = " + std::string(to_string(*o.isa)) +
+                                  ": this CPU cannot run it");
+  }
   if (o.weight_storage != WeightStorage::automatic && o.weight_storage != WeightStorage::precomputed &&
       o.weight_storage != WeightStorage::on_the_fly)
     throw std::invalid_argument("Deformer: unknown WeightStorage value " +

@@ -107,6 +107,31 @@ struct SegmentMoments {
   double J1 = 0, J2 = 0;
 };
 
+/// One side's quadrature sums of the moments (segment_moments_exact and _peaked): nodes at arc length x from
+/// the closest point tc on `side` (+1 towards t = 1, -1 towards t = 0), then added to the moments scaled.
+struct SideSums {
+  double s0 = 0, s1 = 0, s2 = 0, c1 = 0, c2 = 0;
+
+  void add(const SegmentGeometry& g, int side, double x, double w) {
+    // t and 1 - t, each as a difference from the closest point (no cancellation at either end).
+    const double dt = x / g.L;
+    const double t = side > 0 ? g.tc + dt : g.tc - dt;
+    const double omt = side > 0 ? (1.0 - g.tc) - dt : (1.0 - g.tc) + dt;
+    s0 += w * omt * omt;
+    s1 += w * t * omt;
+    s2 += w * t * t;
+    c1 += w * dt;  // times side below: t - tc = side dt
+    c2 += w * dt * dt;
+  }
+  void add_to(SegmentMoments& m, int side, double scale) const {
+    m.I0 += scale * s0;
+    m.I1 += scale * s1;
+    m.I2 += scale * s2;
+    m.J1 += side * scale * c1;
+    m.J2 += scale * c2;
+  }
+};
+
 /// The moments of the constant weight w on [0, 1], closest point tc.
 inline SegmentMoments segment_moments_of_constant(double w, double tc) {
   const double a = 1 - tc;
@@ -168,7 +193,7 @@ inline SegmentMoments segment_moments_peaked(const SegmentGeometry& g, double d_
     if (!(len_t > 0)) continue;
     const double len = len_t * g.L;
     const double sigma_end = std::min(8.0, std::sqrt(0.5 * u * std::log1p(len * (2 * g.off + len) / (g.d * g.d))));
-    double s0 = 0, s1 = 0, s2 = 0, c1 = 0, c2 = 0;
+    SideSums sums;
     for (double a = 0; a < sigma_end;) {
       const double b = std::min(a == 0 ? first : a < 1 ? std::min(2 * a, 1.0) : a + 1, sigma_end);
       const double mid = 0.5 * (a + b), half = 0.5 * (b - a);
@@ -178,24 +203,11 @@ inline SegmentMoments segment_moments_peaked(const SegmentGeometry& g, double d_
         const double r_d = std::hypot(rho, tau * std::sqrt(E));
         const double x = g.d * (tau * (tau * E / (r_d + rho)));
         const double dx = g.d * root * std::exp(y) * (tau / r_d);
-        const double w = half * rule.w[k] * std::exp(-sigma * sigma) * dx;
-        const double dt = x / g.L;
-        const double t = side > 0 ? g.tc + dt : g.tc - dt;
-        const double omt = side > 0 ? (1.0 - g.tc) - dt : (1.0 - g.tc) + dt;
-        s0 += w * omt * omt;
-        s1 += w * t * omt;
-        s2 += w * t * t;
-        c1 += w * dt;
-        c2 += w * dt * dt;
+        sums.add(g, side, x, half * rule.w[k] * std::exp(-sigma * sigma) * dx);
       }
       a = b;
     }
-    const double scale = relative_weight(d_min / g.d, u) / g.L;
-    m.I0 += scale * s0;
-    m.I1 += scale * s1;
-    m.I2 += scale * s2;
-    m.J1 += side * scale * c1;
-    m.J2 += scale * c2;
+    sums.add_to(m, side, relative_weight(d_min / g.d, u) / g.L);
   }
   return m;
 }
@@ -226,29 +238,14 @@ inline SegmentMoments segment_moments_exact(const SegmentGeometry& g, double d_m
     while (x0 < len) {
       const double x1 = std::min(x0 == 0 ? kappa * g.d : (1 + kappa) * x0, len);
       const double mid = 0.5 * (x0 + x1), half = 0.5 * (x1 - x0);
-      double s0 = 0, s1 = 0, s2 = 0, c1 = 0, c2 = 0;
+      SideSums sums;
       for (int k = 0; k < kSegmentQuadratureNodes; ++k) {
         const double x = mid + half * rule.x[k];
         const double r = g.off + x;
         const double dist = std::sqrt(g.h * g.h + r * r);
-        const double w = rule.w[k] * relative_weight(d_min / dist, u);
-        // t and 1 - t, each as a difference from the closest point (no cancellation at either end).
-        const double dt = x / g.L;
-        const double t = side > 0 ? g.tc + dt : g.tc - dt;
-        const double omt = side > 0 ? (1.0 - g.tc) - dt : (1.0 - g.tc) + dt;
-        s0 += w * omt * omt;
-        s1 += w * t * omt;
-        s2 += w * t * t;
-        c1 += w * dt;  // times side below: t - tc = side dt
-        c2 += w * dt * dt;
+        sums.add(g, side, x, rule.w[k] * relative_weight(d_min / dist, u));
       }
-      // dt = dx / L.
-      const double scale = half / g.L;
-      m.I0 += scale * s0;
-      m.I1 += scale * s1;
-      m.I2 += scale * s2;
-      m.J1 += side * scale * c1;
-      m.J2 += scale * c2;
+      sums.add_to(m, side, half / g.L);  // dt = dx / L
       x0 = x1;
     }
   }

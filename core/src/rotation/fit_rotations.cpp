@@ -2,7 +2,7 @@
 #include "core/src/dispatch.hpp"
 #include "core/src/parallel.hpp"
 
-#include <mlsdeform/batch.hpp>
+#include <mlsdeform/fit_rotations.hpp>
 
 #include <atomic>
 #include <cmath>
@@ -55,16 +55,16 @@ void fit_rotations(const T* H, T* R, std::size_t n, RotationMethod method, int t
   const kernels::FitRotationsFn<T> kernel = lane_kernel<T>(method);
   auto range = [&](std::size_t begin, std::size_t end, BatchStats* st) {
     if (kernel) return kernel(H, R, n, begin, end, st);
-    detail::fit_rotations_reference(H, R, n, begin, end, method);
+    detail::fit_rotations_one_at_a_time(H, R, n, begin, end, method);
   };
   const auto arena = detail::make_arena(threads);
-  std::atomic<std::size_t> near_double{0};
+  std::atomic<std::size_t> careful_lanes{0};
   detail::parallel_ranges((n + kChunk - 1) / kChunk, threads, arena.get(), [&](std::size_t c0, std::size_t c1) {
     BatchStats st;
     range(c0 * kChunk, std::min(n, c1 * kChunk), &st);
-    near_double += st.near_double;
+    careful_lanes += st.careful_lanes;
   });
-  if (stats) stats->near_double += near_double;
+  if (stats) stats->careful_lanes += careful_lanes;
 }
 
 template void fit_rotations<float>(const float*, float*, std::size_t, RotationMethod, int, BatchStats*);

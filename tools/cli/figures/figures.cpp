@@ -148,7 +148,7 @@ Figure figure_arap(const Mesh& human) {
   std::vector<Panel> panels;
   for (const int iterations : {0, 2, 10}) {
     s.options.arap_iterations = iterations;
-    const Points<double> x = run_scene<double>(s, Backend::simd).result;
+    const Points<double> x = run_scene<double>(s).result;
     char title[96];
     if (iterations == 0)
       std::snprintf(title, sizeof title, "MLS, E = %.4f", energy.energy(x));

@@ -26,7 +26,7 @@ std::vector<Panel> two_rows(std::vector<Panel> top, const std::vector<Panel>& bo
   return top;
 }
 
-Mesh deformed(const Scene& scene) { return with_vertices(scene.mesh, run_scene<double>(scene, Backend::simd).result); }
+Mesh deformed(const Scene& scene) { return with_vertices(scene.mesh, run_scene<double>(scene).result); }
 
 Panel rest_panel(const Scene& scene, const std::string& title) { return mesh_panel(title, scene.mesh, scene.rest); }
 

@@ -68,7 +68,7 @@ double deviation_from_straight(const Points<double>& x, const std::vector<Eigen:
 // Fig. 6: handles only translated (Sec. 7): the grid lines along the move stay straight.
 Figure figure_6() {
   const Scene s = plane_translate_scene();
-  const Points<double> x = run_scene<double>(s, Backend::simd).result;
+  const Points<double> x = run_scene<double>(s).result;
   // The grid's lines: along z (the move) at each x, and along x at each z.
   constexpr int n = 32;
   double along = 0, across = 0;
@@ -104,8 +104,7 @@ Figure figure_6() {
 Figure figure_8() {
   const Scene mls = plane_row_scene(Centroids::mls), rbf = plane_row_scene(Centroids::rbf);
   const Points<double> rest = to_points(mls.mesh);
-  const Points<double> x_mls = run_scene<double>(mls, Backend::simd).result,
-                       x_rbf = run_scene<double>(rbf, Backend::simd).result;
+  const Points<double> x_mls = run_scene<double>(mls).result, x_rbf = run_scene<double>(rbf).result;
   const Triangles t = fan_triangles(mls.mesh, mls.name);
   const std::vector<double> d_mls = dihedral_change(t, rest, x_mls), d_rbf = dihedral_change(t, rest, x_rbf);
   const double u = mls.options.weight_exponent;

@@ -1,13 +1,14 @@
-// The Deformer session (deformer.hpp): construction (precompute.hpp), targets, and the per-frame driver that
-// hands a DeformFrame (kernels/contract.hpp) to the kernel table over blocks of kLanes vertices.
+// The Deformer session (deformer.hpp): construction (precompute.hpp), the per-frame driver that hands a
+// DeformFrame (kernels/contract.hpp) to the kernel table over blocks of kLanes vertices, and the ARAP
+// refinement after it (arap_stage.hpp); the moved handles are targets.hpp's.
 #include "core/src/all_finite.hpp"
 #include "core/src/deformer/arap_stage.hpp"
 #include "core/src/deformer/precompute.hpp"
 #include "core/src/deformer/region.hpp"
+#include "core/src/deformer/targets.hpp"
 #include "core/src/deformer/validation.hpp"
 #include "core/src/dispatch.hpp"
 #include "core/src/parallel.hpp"
-#include "core/src/pow2.hpp"
 
 #include <mlsdeform/deformer.hpp>
 
@@ -24,52 +25,6 @@
 namespace mlsdeform {
 
 namespace detail {
-
-/// The centring point c of the correlation matrix, in the local frame: the mean of the targets q_j 2^-e
-/// (`local_scale` = 2^-e), summed in pseudo-handle order in T, each term also divided by 2^m >= J so that
-/// the sum cannot overflow (in the normal range those scalings are exact: the same bits as the plain mean of
-/// the q_j, times 2^-e). Throws std::invalid_argument for a target beyond `limit` (data.hpp, Units).
-template <class T>
-Vector3<T> local_target_centre(const Handles<T>& q, T local_scale, T limit) {
-  const std::size_t J = std::size_t(q.points.rows() + 2 * q.segment_a.rows());
-  if (J == 0) return Vector3<T>::Zero();
-  const int m = std::ilogb(T(J)) + 1;
-  const T down = std::ldexp(T(1), -m);
-  T sx = 0, sy = 0, sz = 0;
-  auto check = [&](const Points<T>& p, Eigen::Index i, const char* what) {
-    for (int c = 0; c < 3; ++c)
-      if (!(std::abs(p(i, c)) <= limit))
-        throw std::invalid_argument(
-            std::string("Deformer: coordinate too large in moved handles ") + what + " (row " + std::to_string(i) +
-            ": " + num(double(p(i, c))) + ", limit " + num(double(limit)) + " = max/64 times the scene's size 2^" +
-            std::to_string(std::ilogb(1 / local_scale)) + ": the deformer computes relative to the scene, and " +
-            (sizeof(T) == 4 ? "float" : "double") + " holds no more)");
-  };
-  auto add = [&](const Points<T>& p, Eigen::Index i) {
-    sx += p(i, 0) * local_scale * down, sy += p(i, 1) * local_scale * down, sz += p(i, 2) * local_scale * down;
-  };
-  for (Eigen::Index i = 0; i < q.points.rows(); ++i) check(q.points, i, "points"), add(q.points, i);
-  for (Eigen::Index i = 0; i < q.segment_a.rows(); ++i) {
-    check(q.segment_a, i, "segment_a"), check(q.segment_b, i, "segment_b");
-    add(q.segment_a, i), add(q.segment_b, i);
-  }
-  const T inv = T(1) / T(J) / down;
-  return Vector3<T>(sx * inv, sy * inv, sz * inv);
-}
-
-/// The image of x under x -> R (x - pivot) + pivot + t, in T and in the order deformer.hpp documents
-/// (transform_handles), on the coordinates scaled by 2^-g (exact powers of two), so that no product
-/// underflows at any scale of the scene: the image of a scene scaled by 2^k is the image times 2^k, rounded
-/// once. In the normal range the scalings are exact, and so is the expression in the caller's units.
-template <class T>
-Vector3<T> rigid_image(const Vector3<T>& x, const Matrix3<T>& R, const Vector3<T>& t, const Vector3<T>& pivot, int g) {
-  const auto down = [g](T v) { return std::ldexp(v, -g); };
-  const Vector3<T> d(down(x[0]) - down(pivot[0]), down(x[1]) - down(pivot[1]), down(x[2]) - down(pivot[2]));
-  Vector3<T> y;
-  for (int i = 0; i < 3; ++i)
-    y[i] = std::ldexp((((R(i, 0) * d[0] + R(i, 1) * d[1]) + R(i, 2) * d[2]) + down(pivot[i])) + down(t[i]), g);
-  return y;
-}
 
 /// Throws std::invalid_argument unless every one of the 3n coordinates at out (n vertices, interleaved or by
 /// coordinate: `interleaved`) is finite: the moved handles may map a vertex beyond the range of T
@@ -132,13 +87,32 @@ struct Deformer<T>::Impl {
     region->scatter(out, vstride, cstride);
   }
 
-  /// The kernel for this session's settings: the active ISA's, or the scalar reference's for Backend::scalar,
-  /// Isa::scalar, or a rotation method without a SIMD kernel (kanatani, horn_matrix, svd).
+  /// One frame for validated `moved` into `out` (vertices() rows; `interleaved` xyz, or by coordinate), with
+  /// the ARAP refinement when the session has one, and the check that every coordinate is finite.
+  void deform(const Handles<T>& moved, T* out, bool interleaved, const CancelCheck& cancel) const {
+    const std::size_t n = vertices(), vstride = interleaved ? 3 : 1, cstride = interleaved ? 1 : n;
+    if (!arap) {
+      frame(moved, out, vstride, cstride, cancel);
+      return detail::check_result(out, n, interleaved);
+    }
+    const std::lock_guard<std::mutex> lock(arap->mutex);
+    // MLS's result in the local frame, handed to the refinement as it is (no rounding to the caller's units in
+    // between: the two stages together scale with the scene to the bit). out untouched on a throw.
+    run(moved, arap->mls.data(), 1, n, true, cancel);
+    detail::check_result(arap->mls.data(), n, false);
+    arap->run(arap->mls, options.arap_iterations, std::ilogb(data.scale), cancel);
+    for (std::size_t v = 0; v < n; ++v)
+      for (std::size_t c = 0; c < 3; ++c) out[c * cstride + v * vstride] = arap->mls(Eigen::Index(v), Eigen::Index(c));
+  }
+
+  /// The kernel for this session's settings: options.isa's or else the active ISA's, and the scalar
+  /// reference's for a rotation method without a SIMD kernel (kanatani, horn_matrix, svd).
   kernels::DeformBlocksFn<T> kernel() const {
     const bool in_lanes = data.transform == Transform::affine || options.method == RotationMethod::axis_angle ||
                           options.method == RotationMethod::horn_quaternion;
-    const kernels::KernelTable& k =
-        options.backend == Backend::simd && in_lanes ? detail::active_kernels() : kernels::kernel_table_scalar();
+    const kernels::KernelTable& k = !in_lanes     ? kernels::kernel_table_scalar()
+                                    : options.isa ? detail::kernels_for(*options.isa)
+                                                  : detail::active_kernels();
     if constexpr (std::is_same_v<T, float>)
       return k.deform_f;
     else
@@ -243,18 +217,7 @@ void Deformer<T>::deform(const Handles<T>& moved_handles, Points<T>& out, const 
   detail::check_coincident(moved_handles, impl().coincident);
   const auto n = static_cast<Eigen::Index>(impl().vertices());
   if (out.rows() != n) out.resize(n, 3);
-  if (!impl().arap) {
-    impl().frame(moved_handles, out.data(), 1, static_cast<std::size_t>(n), cancel);
-    return detail::check_result(out.data(), static_cast<std::size_t>(n), false);
-  }
-  detail::ArapStage<T>& arap = *impl().arap;
-  const std::lock_guard<std::mutex> lock(arap.mutex);
-  // MLS's result in the local frame, handed to the refinement as it is (no rounding to the caller's units in
-  // between: the two stages together scale with the scene to the bit). out untouched on a throw.
-  impl().run(moved_handles, arap.mls.data(), 1, static_cast<std::size_t>(n), true, cancel);
-  detail::check_result(arap.mls.data(), static_cast<std::size_t>(n), false);
-  arap.run(arap.mls, impl().options.arap_iterations, std::ilogb(impl().data.scale), cancel);
-  out = arap.mls;
+  impl().deform(moved_handles, out.data(), false, cancel);
 }
 
 template <class T>
@@ -264,77 +227,24 @@ void Deformer<T>::deform(const Handles<T>& moved_handles, InterleavedView<T> out
   if (out.rows() != static_cast<Eigen::Index>(impl().vertices()))
     throw std::invalid_argument("Deformer: the interleaved output has " + std::to_string(out.rows()) +
                                 " rows but the model has " + std::to_string(impl().vertices()) + " vertices");
-  if (!impl().arap) {
-    impl().frame(moved_handles, out.data(), 3, 1, cancel);
-    return detail::check_result(out.data(), impl().vertices(), true);
-  }
-  detail::ArapStage<T>& arap = *impl().arap;
-  const std::lock_guard<std::mutex> lock(arap.mutex);
-  impl().run(moved_handles, arap.mls.data(), 1, static_cast<std::size_t>(impl().data.n), true, cancel);
-  detail::check_result(arap.mls.data(), impl().data.n, false);
-  arap.run(arap.mls, impl().options.arap_iterations, std::ilogb(impl().data.scale), cancel);
-  out = arap.mls;
+  impl().deform(moved_handles, out.data(), true, cancel);
 }
 
 template <class T>
 void Deformer<T>::set_point_target(Eigen::Index i, const Vector3<T>& target) {
-  if (i < 0 || i >= impl().targets.points.rows())
-    throw std::out_of_range("Deformer::set_point_target: index " + std::to_string(i) + " but " +
-                            std::to_string(impl().targets.points.rows()) + " point handles");
-  if (!target.allFinite() || target.cwiseAbs().maxCoeff() > detail::coordinate_limit<T>())
-    throw std::invalid_argument("Deformer::set_point_target: non-finite or too large coordinate");
-  impl().targets.points.row(i) = target.transpose();
+  detail::set_point_target(impl().targets, i, target);
 }
 
 template <class T>
 void Deformer<T>::set_segment_target(Eigen::Index i, const Vector3<T>& a, const Vector3<T>& b) {
-  if (i < 0 || i >= impl().targets.segment_a.rows())
-    throw std::out_of_range("Deformer::set_segment_target: index " + std::to_string(i) + " but " +
-                            std::to_string(impl().targets.segment_a.rows()) + " segment handles");
-  if (!a.allFinite() || !b.allFinite() || a.cwiseAbs().maxCoeff() > detail::coordinate_limit<T>() ||
-      b.cwiseAbs().maxCoeff() > detail::coordinate_limit<T>())
-    throw std::invalid_argument("Deformer::set_segment_target: non-finite or too large coordinate");
-  impl().targets.segment_a.row(i) = a.transpose();
-  impl().targets.segment_b.row(i) = b.transpose();
+  detail::set_segment_target(impl().targets, i, a, b);
 }
 
 template <class T>
 void Deformer<T>::transform_handles(std::span<const Eigen::Index> point_indices,
                                     std::span<const Eigen::Index> segment_indices, const Matrix3<T>& R,
                                     const Vector3<T>& t, const Vector3<T>& pivot) {
-  static constexpr const char* what = "Deformer::transform_handles";
-  Handles<T>& q = impl().targets;
-  const Handles<T>& p = impl().rest;
-  const auto check_index = [](Eigen::Index i, Eigen::Index count, const char* kind) {
-    if (i < 0 || i >= count)
-      throw std::out_of_range(std::string(what) + ": " + kind + " index " + std::to_string(i) + " but " +
-                              std::to_string(count) + " " + kind + " handles");
-  };
-  for (const Eigen::Index i : point_indices) check_index(i, p.points.rows(), "point");
-  for (const Eigen::Index i : segment_indices) check_index(i, p.segment_a.rows(), "segment");
-  detail::check_rigid_motion(R, t, pivot, what);
-  // The frame of rigid_image: g, the exponent of the largest coordinate involved.
-  T largest = std::max(t.cwiseAbs().maxCoeff(), pivot.cwiseAbs().maxCoeff());
-  for (const Eigen::Index i : point_indices) largest = std::max(largest, p.points.row(i).cwiseAbs().maxCoeff());
-  for (const Eigen::Index i : segment_indices)
-    largest = std::max({largest, p.segment_a.row(i).cwiseAbs().maxCoeff(), p.segment_b.row(i).cwiseAbs().maxCoeff()});
-  const int g = detail::exponent_of(largest);
-  const auto image = [&](const Points<T>& m, Eigen::Index i) {
-    const Vector3<T> y = detail::rigid_image<T>(m.row(i).transpose(), R, t, pivot, g);
-    if (!y.allFinite() || y.cwiseAbs().maxCoeff() > detail::coordinate_limit<T>())
-      throw std::invalid_argument(std::string(what) + ": the image of " + (&m == &p.points ? "point" : "segment") +
-                                  " handle " + std::to_string(i) + " has a non-finite or too large coordinate");
-    return y;
-  };
-  // Every image is checked before any target changes (strong guarantee), then computed again to be stored:
-  // the same operations give the same bits, and nothing is allocated.
-  for (const Eigen::Index i : point_indices) image(p.points, i);
-  for (const Eigen::Index i : segment_indices) image(p.segment_a, i), image(p.segment_b, i);
-  for (const Eigen::Index i : point_indices) q.points.row(i) = image(p.points, i).transpose();
-  for (const Eigen::Index i : segment_indices) {
-    q.segment_a.row(i) = image(p.segment_a, i).transpose();
-    q.segment_b.row(i) = image(p.segment_b, i).transpose();
-  }
+  detail::transform_targets(impl().targets, impl().rest, point_indices, segment_indices, R, t, pivot);
 }
 
 template <class T>

@@ -1,31 +1,14 @@
-// mlsdeform: batched rotation fits in SIMD lanes, and the run-time choice of instruction set.
+// mlsdeform: batched rotation fits in SIMD lanes (core/src/rotation/fit_rotations.cpp), on the instruction set
+// dispatch.hpp picks.
 #pragma once
 
+#include <mlsdeform/dispatch.hpp>
 #include <mlsdeform/rotation.hpp>
 #include <mlsdeform/stats.hpp>
 
 #include <cstddef>
-#include <string_view>
-#include <vector>
 
 namespace mlsdeform {
-
-/// Instruction sets the kernels are built for. The library is compiled once for generic x86-64 and picks
-/// the best one the CPU runs; the environment variable MLSDEFORM_ISA=scalar|sse4_2|avx2|avx512 forces one
-/// (read once, at the first call that needs it; an unknown or unsupported value throws).
-/// The tests run every ISA the CPU reports (avx512 wherever it has AVX-512F); set_isa or MLSDEFORM_ISA=avx2
-/// reproduces an AVX2-only machine.
-enum class Isa { scalar, sse4_2, avx2, avx512 };
-
-std::string_view to_string(Isa isa);
-/// The instruction sets this CPU can run, best last (scalar is always there).
-std::vector<Isa> supported_isas();
-/// The one in use.
-Isa active_isa();
-/// Force one (throws std::invalid_argument if this CPU cannot run it). Not thread-safe against running fits.
-void set_isa(Isa isa);
-/// SIMD lanes of the active ISA for float or double (1 for scalar).
-std::size_t simd_lanes(bool double_precision);
 
 /// n rotation fits at once. Layout (3 x 3 x n, structure of arrays): entry (r, c) of matrix i is
 /// H[(3 r + c) * n + i]; R is written the same way. Each result equals fit_rotation(H_i, method) to within
