@@ -95,6 +95,22 @@ struct DeformFrame {
   std::size_t out_vertex_stride, out_coord_stride;
 };
 
+/// Calls f(j, x, y, z) for the target q_j of every pseudo-handle j = 0, 1, ..., J-1 in order (the point
+/// targets, then each segment's two ends), in the local frame: the one order in which every deformation
+/// kernel, the scalar reference included, visits the pseudo-handles, so that a vertex's sums see the same
+/// terms in the same order whatever the width, thread or block schedule.
+template <class T, class F>
+static void for_each_target(const DeformFrame<T>& fr, F&& f) {
+  const T ls = fr.local_scale;
+  std::size_t j = 0;
+  for (std::size_t i = 0; i < fr.k; ++i, ++j)
+    f(j, fr.points[i] * ls, fr.points[fr.k + i] * ls, fr.points[2 * fr.k + i] * ls);
+  for (std::size_t i = 0; i < fr.s; ++i) {
+    f(j++, fr.seg_a[i] * ls, fr.seg_a[fr.s + i] * ls, fr.seg_a[2 * fr.s + i] * ls);
+    f(j++, fr.seg_b[i] * ls, fr.seg_b[fr.s + i] * ls, fr.seg_b[2 * fr.s + i] * ls);
+  }
+}
+
 // ---------------------------------------------------------------------------------------------------------
 // The stages one at a time (the stage test, tests/test_stages.cpp, holds each SIMD stage against its scalar twin)
 // ---------------------------------------------------------------------------------------------------------

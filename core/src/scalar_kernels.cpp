@@ -2,7 +2,6 @@
 // fits one matrix at a time (fit_rotation) and the deformer's reference (deformer/reference.hpp), over the
 // same layouts and the same DeformFrame as the SIMD kernels. Compiled with the baseline flags.
 #include "core/src/deformer/reference.hpp"
-#include "core/src/deformer/stages.hpp"
 #include "core/src/rotation/axis_angle.hpp"
 
 #include "kernels/kernel_table.hpp"
@@ -86,29 +85,29 @@ void run_stage(kernels::Stage stage, const T* in, const T* shared, std::size_t J
       case Stage::weighted_centroid: {
         T qs[3] = {0, 0, 0};
         for (std::size_t j = 0; j < J; ++j)
-          weighted_centroid(qs, x(j), {shared[3 * j], shared[3 * j + 1], shared[3 * j + 2]});
+          kernels::weighted_centroid(qs, x(j), {shared[3 * j], shared[3 * j + 1], shared[3 * j + 2]});
         for (std::size_t k = 0; k < 3; ++k) put(k, qs[k]);
         break;
       }
       case Stage::correlation_matrix: {
         T h[9] = {0, 0, 0, 0, 0, 0, 0, 0, 0};
         for (std::size_t j = 0; j < J; ++j)
-          correlation_matrix(h, {shared[3 * j], shared[3 * j + 1], shared[3 * j + 2]},
-                             {x(3 * j), x(3 * j + 1), x(3 * j + 2)});
+          kernels::correlation_matrix(h, {shared[3 * j], shared[3 * j + 1], shared[3 * j + 2]},
+                                      {x(3 * j), x(3 * j + 1), x(3 * j + 2)});
         for (std::size_t k = 0; k < 9; ++k) put(k, h[k]);
         break;
       }
       case Stage::similarity_scale: {
         T r[9], h[9];
         for (std::size_t k = 0; k < 9; ++k) r[k] = x(k), h[k] = x(9 + k);
-        put(0, similarity_scale(r, h, x(18), x(19)));
+        put(0, kernels::similarity_scale(r, h, x(18), x(19)));
         break;
       }
       case Stage::apply: {
         T qs[3], r[9], vh[3], o[3];
         for (std::size_t k = 0; k < 3; ++k) qs[k] = x(k), vh[k] = x(13 + k);
         for (std::size_t k = 0; k < 9; ++k) r[k] = x(4 + k);
-        apply(qs, x(3), r, vh, o);
+        kernels::apply(qs, x(3), r, vh, o);
         for (std::size_t k = 0; k < 3; ++k) put(k, o[k]);
         break;
       }

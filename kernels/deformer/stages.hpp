@@ -1,13 +1,19 @@
-// The deformer's per-vertex stages in SIMD lanes (one vertex per lane), twins of core/src/deformer/stages.hpp
-// operation for operation (plain products and sums, no fusion: the kernels are compiled with
-// -ffp-contract=off, so each stage's result is bitwise the scalar one's):
+// The deformer's per-vertex stages, read beside the paper: one body each, a template on the lane type V
+// (kernels/lanes.hpp), which the scalar reference instantiates with V = T (one vertex) and the SIMD kernels
+// with a batch (one vertex per lane). Plain products and sums, no fusion (the kernels are compiled with
+// -ffp-contract=off, core/ with baseline flags that have no FMA), so each stage's result is bitwise the same
+// at every width; the stage test (tests/test_stages.cpp) checks it on every ISA.
 //   weighted_centroid   q* = sum_j omega_j q_j                         (eq. 2), one term per call
 //   correlation_matrix  H  = sum_j (q_j - c) A_j^T                     (eq. 6, Sec. 6.2), one term per call
 //   similarity_scale    mu = trace(R^T H) / D                          (Sec. 6.1)
 //   apply               v' = q* + mu R vhat                            (Algorithm 1 steps 8-10)
+// Error bounds: weighted_centroid and correlation_matrix over J pseudo-handles are 2J-step sums of products,
+// within gamma_2J = 2J eps / (1 - 2J eps) of the exact sum times the sum of the terms' absolute values
+// (Higham, Sec. 3.1); the whole frame's bound is tests/support/mls_reference.hpp's deform_tolerance. Valid
+// for every finite input; similarity_scale returns `otherwise` where D <= 0 (or is NaN).
 #pragma once
 
-#include "kernels/simd.hpp"
+#include "kernels/lanes.hpp"
 
 namespace mlsdeform::kernels {
 
