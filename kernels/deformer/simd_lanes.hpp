@@ -33,9 +33,9 @@ struct SimdLanes {
     for (int i = 0; i < 9; ++i) hn[i] = h[i];  // the fit normalises its argument in place
     std::size_t careful = 0;                   // not reported per frame
     if (method == RotationMethod::horn_quaternion)
-      fit_rotation_horn_jacobi(hn, r);
+      fit_rotation<HornJacobiFit>(hn, r, careful);
     else
-      fit_rotation_axis_angle(hn, r, careful);
+      fit_rotation<AxisAngleFit>(hn, r, careful);
   }
 };
 

@@ -4,6 +4,7 @@
 // one power step. The careful path is jacobi.hpp.
 #pragma once
 
+#include "kernels/rotation/invariants.hpp"
 #include "kernels/simd.hpp"
 
 namespace mlsdeform::kernels {
@@ -18,9 +19,13 @@ struct Vec4 {
   V v[4];
 };
 
+/// Davenport's symmetric K = [[E, z^T], [z, H + H^T - E I]] of the normalised H (h[3 r + c] = H(r, c)) and
+/// its invariants, so that trace(R(q)^T H) = q^T K q / |q|^2. Exact but for the rounding of H + H^T - E I:
+/// valid for every finite H.
 template <class V>
-MLSDEFORM_KERNEL_INLINE Mat4<V> davenport(const V (&h)[9], V E, V z0, V z1, V z2) {
+MLSDEFORM_KERNEL_INLINE Mat4<V> davenport(const V (&h)[9], const Invariants<V>& inv) {
   using T = scalar_of<V>;
+  const V E = inv.E, z0 = inv.z[0], z1 = inv.z[1], z2 = inv.z[2];
   Mat4<V> K;
   const V n01 = h[1] + h[3], n02 = h[2] + h[6], n12 = h[5] + h[7];
   const V d[4] = {E, V(T(2)) * h[0] - E, V(T(2)) * h[4] - E, V(T(2)) * h[8] - E};

@@ -29,24 +29,20 @@
 
 namespace mlsdeform::detail {
 
-/// The careful path, for H the fast one cannot settle (a (nearly) multiple root of the quartic, a gap below
-/// cbrt(eps) ||H||, a cluster of three eigenvalues of K): top_eigenvector.
-template <class T>
-Matrix3<T> fit_rotation_careful(const Matrix3<T>& H, const Invariants<T>& inv) {
-  return sin_cos(top_eigenvector(davenport(H, inv)));
-}
-
-/// The whole fit (Algorithm 1, steps 3-7) on a finite, normalised H (max |H_ij| in [1, 2), or H = 0).
+/// The whole fit (Algorithm 1, steps 3-7) on a finite, normalised H (max |H_ij| in [1, 2), or H = 0): the
+/// fast path, or for H it cannot settle (a (nearly) multiple root of the quartic, a gap below cbrt(eps) ||H||,
+/// a cluster of three eigenvalues of K) the careful one, top_eigenvector.
 template <class T>
 Matrix3<T> fit_rotation_axis_angle(const Matrix3<T>& H) {
   const Invariants<T> inv = invariants(H);
   bool converged;
   const T y = maximum_root(inv, converged);
+  const Matrix4<T> K = davenport(H, inv);
   T dk;
-  const Eigen::Matrix<T, 4, 1> q = rotation_axis(H, inv, y, dk);
+  const Vector4<T> q = rotation_axis(K, y, dk);
   const T n3 = inv.norm2 * inv.norm2 * inv.norm2;
   if (converged && dk * dk > kernels::kCarefulTau<T> * kernels::kCarefulTau<T> * n3) return sin_cos(q);
-  return fit_rotation_careful(H, inv);
+  return sin_cos(top_eigenvector(K, K.norm()));
 }
 
 }  // namespace mlsdeform::detail
