@@ -148,6 +148,13 @@ struct DeformKernel {
   }
 
   /// The kernel-table entry: blocks [block_begin, block_end), W vertices at a time.
+  ///   Lanes:       float, double (one vertex: the scalar table; an xsimd batch: each ISA's)
+  ///   Error:       per vertex, first order, the bound of tests/support/mls_reference.hpp (|dv'| from |dq*|,
+  ///                |dH|_F <= (J + 16) eps Habs, the fit's |dR|_F <= 2 (|dH|_F + 16 eps |H|_F) / gap, and mu),
+  ///                which compare_with_direct holds every deformer test to; for any thread count or block
+  ///                schedule the same bits (each vertex's sums run over the pseudo-handles in one order)
+  ///   Valid range: a frame the session built (finite targets, validated by the session; a vertex on a
+  ///                handle takes its target exactly)
   static void run(const DeformFrame<T>& fr, std::size_t block_begin, std::size_t block_end) {
     for (std::size_t b = block_begin; b < block_end; ++b)
       for (std::size_t g = 0; g < kLanes && b * kLanes + g < fr.n; g += W) {

@@ -28,6 +28,9 @@ namespace mlsdeform::kernels {
 /// far inside the range, and every stage is exact under a power-of-two scaling that neither underflows nor
 /// overflows, so one factor gives bitwise the result of max |h| in [1, 2) (test_batch_accuracy checks both
 /// precisions at every subnormal scale).
+///   Lanes:       float, double (an xsimd batch, or a Pair of them)
+///   Error:       none (products with powers of two)
+///   Valid range: every finite h, subnormal entries included; returns the lanes with H = 0
 template <class V>
 MLSDEFORM_KERNEL_INLINE mask_of<V> normalise(V (&h)[9]) {
   using T = scalar_of<V>;
@@ -72,7 +75,10 @@ std::size_t count_lanes(const mask_of<V>& m) {
 /// Error (tests/support/accuracy_bounds.hpp, c_b = 16, c_o = 64): the exact optimum of some H + dH with
 /// ||dH||_F <= 16 eps ||H||_F, so trace(R^T H) within (2 sqrt(3) 16 + 96) eps ||H||_F of the optimum, and
 /// where the optimum is unique an angle to it <= 2 sqrt(3) 16 eps kappa + 96 eps (kappa = s1 / (s2 + d s3));
-/// |(R^T R - I)_ij| <= 64 eps. Valid for every finite normalised H.
+/// |(R^T R - I)_ij| <= 64 eps.
+///   Lanes:       float, double (an xsimd batch, or a Pair of them)
+///   Error:       as above (tests/test_batch_accuracy.cpp holds every lane to it)
+///   Valid range: every finite normalised H
 template <class V>
 MLSDEFORM_KERNEL_INLINE void fit_rotation_axis_angle(const V (&h)[9], V (&r)[9], std::size_t& careful) {
   using T = scalar_of<V>;
@@ -98,6 +104,9 @@ MLSDEFORM_KERNEL_INLINE void fit_rotation_axis_angle(const V (&h)[9], V (&r)[9],
 
 /// Twin of the public fit_rotation (core/src/rotation/fit_rotation.cpp) for a fit `Fit::fit(h, r, careful)`
 /// on a normalised H: h normalised exactly in place (normalise), the fit, and the identity where H = 0.
+///   Lanes:       float, double (an xsimd batch, or a Pair of them)
+///   Error:       the fit's (normalise is exact); the identity exactly where H = 0
+///   Valid range: every finite H (the callers check: fit_rotations and the deformer's frames)
 template <class Fit, class V>
 MLSDEFORM_KERNEL_INLINE void fit_rotation(V (&h)[9], V (&r)[9], std::size_t& careful) {
   const mask_of<V> zero = normalise(h);
@@ -107,6 +116,9 @@ MLSDEFORM_KERNEL_INLINE void fit_rotation(V (&h)[9], V (&r)[9], std::size_t& car
 
 /// The kernel-table entry (FitRotationsFn) for a fit `Fit::fit(h, r, careful)` on vectors V: matrices
 /// [begin, end) of a 3 x 3 x n layout, batch by batch (a partial last batch through a zero-padded copy).
+///   Lanes:       float, double (an xsimd batch, or a Pair of them)
+///   Error:       each matrix as fit_rotation<Fit> (the padding lanes hold H = 0 and are not written)
+///   Valid range: finite H (fit_rotations checks); adds the careful lanes to stats->near_double
 template <class V, class Fit>
 void fit_range(const scalar_of<V>* H, scalar_of<V>* R, std::size_t stride, std::size_t begin, std::size_t end,
                BatchStats* stats) {

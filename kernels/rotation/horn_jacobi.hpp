@@ -10,7 +10,10 @@
 namespace mlsdeform::kernels {
 
 /// On a normalised H (as fit_rotation_axis_angle; fit_rotation<HornJacobiFit> normalises and gives H = 0 the
-/// identity).
+/// identity): R of K's eigenvector with the largest eigenvalue.
+///   Lanes:       float, double (an xsimd batch, or a Pair of them)
+///   Error:       the accuracy suite's bounds with c_b = 16, as axis_angle (tests/test_batch_accuracy.cpp)
+///   Valid range: every finite normalised H
 template <class V>
 MLSDEFORM_KERNEL_INLINE void fit_rotation_horn_jacobi(const V (&h)[9], V (&r)[9]) {
   using T = scalar_of<V>;

@@ -18,6 +18,13 @@ struct Invariants {
 };
 
 /// h[3 r + c] = H(r, c), normalised.
+///   Lanes:       float, double (an xsimd batch, or a Pair of them)
+///   Error:       a k-step sum of products, within gamma_k = k eps / (1 - k eps) of the exact value times the
+///                same sum over absolute values: E gamma_2, z gamma_1, ||H||^2 gamma_9, det H gamma_5 (2x2
+///                minors, then a 3-term dot product), c2 gamma_12 against sum m_i^2, m_i = |ab| + |cd| for
+///                the minor ab - cd (tests/test_stages.cpp)
+///   Valid range: finite H whose products of four entries stay normal: a normalised H (max |h_ij| in [1, 2),
+///                as fit_rotation leaves it), or H = 0
 template <class V>
 MLSDEFORM_KERNEL_INLINE Invariants<V> invariants(const V (&h)[9]) {
   Invariants<V> inv;

@@ -49,6 +49,11 @@ MLSDEFORM_KERNEL_INLINE void jacobi_rotate(V (&a)[4][4], V (&v)[4][4], int p, in
 
 /// Diagonalises the symmetric a (full storage) in place; v (columns) receives the eigenvectors.
 /// frobenius: ||a||_F (invariant under the rotations).
+///   Lanes:       float, double (an xsimd batch, or a Pair of them)
+///   Error:       backward stable: the eigenpairs of a + E, ||E||_F a small multiple of eps ||a||_F (each
+///                skipped rotation drops an entry <= eps ||a||_F; each applied one rounds at eps level), whatever
+///                the spectrum; every lane's off-diagonal below eps ||a||_F, or kMaxSweeps sweeps
+///   Valid range: finite symmetric a with ||a||_F normal (a = 0 returns v = I)
 template <class V>
 MLSDEFORM_KERNEL_INLINE void jacobi_eigen(V (&a)[4][4], V (&v)[4][4], V frobenius) {
   using T = scalar_of<V>;
@@ -76,6 +81,12 @@ MLSDEFORM_KERNEL_INLINE void jacobi_eigen(V (&a)[4][4], V (&v)[4][4], V frobeniu
 /// detail::top_eigenvector, with the same arguments: frobenius = ||K||_F, which the callers here take as
 /// 2 ||H||_F (an identity of Davenport's K: 2 operations from the invariants instead of 16 products) and
 /// the scalar ones as K.norm(); each side keeps its own rounding of it, and so its results to the bit.
+///   Lanes:       float, double (an xsimd batch, or a Pair of them)
+///   Error:       where the optimum is unique, the rotation of q within the accuracy suite's angle bound,
+///                2 sqrt(3) c_b eps kappa + (3/2) c_o eps (tests/test_stages.cpp holds it on every lane); where
+///                it is not, a vector of the top eigenspace, which attains the optimum trace to the backward
+///                error c_b eps ||H||_F (test_rotation_rank1). q is unnormalised
+///   Valid range: K of a finite normalised H
 template <class V>
 MLSDEFORM_KERNEL_INLINE Vec4<V> top_eigenvector(const Mat4<V>& K, V frobenius) {
   using T = scalar_of<V>;
