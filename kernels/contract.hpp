@@ -95,75 +95,20 @@ struct DeformFrame {
   std::size_t out_vertex_stride, out_coord_stride;
 };
 
-// ---------------------------------------------------------------------------------------------------------
-// The stages one at a time (the stage test, tests/test_stages.cpp, holds each SIMD stage against its scalar twin)
-// ---------------------------------------------------------------------------------------------------------
-
-/// Each paper stage of docs/design.md, with the per-lane inputs and outputs of its StageFn entry (SoA: value k
-/// of lane i at in[k * n + i], out[k * n + i]; `shared` holds per-pseudo-handle constants, the same in every
-/// lane). H is row-major (h[3 r + c]) and normalised (max |h| in [1, 2)).
-enum class Stage {
-  invariants,          ///< in h[9]                                   -> E, z0, z1, z2, ||H||^2, det H, c2
-  maximum_root,        ///< in E, z0, z1, z2, ||H||^2, det H, c2      -> y, converged (1 or 0)
-  rotation_axis,       ///< in h[9], y                                 -> q[4], dk (fast path)
-  top_eigenvector,     ///< in h[9]                                   -> q[4] (careful path)
-  sin_cos,             ///< in q[4]                                   -> r[9]
-  weighted_centroid,   ///< in omega_j (J values); shared q_j (3 J)    -> q*[3]
-  correlation_matrix,  ///< in A_j (3 J values, A_j's x, y, z at 3 j, 3 j + 1, 3 j + 2); shared d_j = q_j - c (3 J) ->
-                       ///< h[9]
-  similarity_scale,    ///< in r[9], h[9], D, otherwise              -> mu
-  apply,               ///< in q*[3], mu, r[9], vhat[3]              -> v'[3]
-};
-static constexpr Stage all_stages[] = {Stage::invariants,         Stage::maximum_root,     Stage::rotation_axis,
-                                       Stage::top_eigenvector,    Stage::sin_cos,          Stage::weighted_centroid,
-                                       Stage::correlation_matrix, Stage::similarity_scale, Stage::apply};
-
-/// Per-lane inputs and outputs of a stage (J pseudo-handles).
-static constexpr std::size_t stage_inputs(Stage s, std::size_t J) {
-  switch (s) {
-    case Stage::invariants:
-      return 9;
-    case Stage::maximum_root:
-      return 7;
-    case Stage::rotation_axis:
-      return 10;
-    case Stage::top_eigenvector:
-      return 9;
-    case Stage::sin_cos:
-      return 4;
-    case Stage::weighted_centroid:
-      return J;
-    case Stage::correlation_matrix:
-      return 3 * J;
-    case Stage::similarity_scale:
-      return 20;
-    case Stage::apply:
-      return 16;
+/// Calls f(j, x, y, z) for the target q_j of every pseudo-handle j = 0, 1, ..., J-1 in order (the point
+/// targets, then each segment's two ends), in the local frame: the one order in which every deformation
+/// kernel, the scalar reference included, visits the pseudo-handles, so that a vertex's sums see the same
+/// terms in the same order whatever the width, thread or block schedule.
+template <class T, class F>
+static void for_each_target(const DeformFrame<T>& fr, F&& f) {
+  const T ls = fr.local_scale;
+  std::size_t j = 0;
+  for (std::size_t i = 0; i < fr.k; ++i, ++j)
+    f(j, fr.points[i] * ls, fr.points[fr.k + i] * ls, fr.points[2 * fr.k + i] * ls);
+  for (std::size_t i = 0; i < fr.s; ++i) {
+    f(j++, fr.seg_a[i] * ls, fr.seg_a[fr.s + i] * ls, fr.seg_a[2 * fr.s + i] * ls);
+    f(j++, fr.seg_b[i] * ls, fr.seg_b[fr.s + i] * ls, fr.seg_b[2 * fr.s + i] * ls);
   }
-  return 0;
-}
-static constexpr std::size_t stage_outputs(Stage s) {
-  switch (s) {
-    case Stage::invariants:
-      return 7;
-    case Stage::maximum_root:
-      return 2;
-    case Stage::rotation_axis:
-      return 5;
-    case Stage::top_eigenvector:
-      return 4;
-    case Stage::sin_cos:
-      return 9;
-    case Stage::weighted_centroid:
-      return 3;
-    case Stage::correlation_matrix:
-      return 9;
-    case Stage::similarity_scale:
-      return 1;
-    case Stage::apply:
-      return 3;
-  }
-  return 0;
 }
 
 }  // namespace mlsdeform::kernels

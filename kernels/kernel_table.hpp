@@ -24,10 +24,6 @@ using FitRotationsFn = void (*)(const T* H, T* R, std::size_t stride, std::size_
 template <class T>
 using DeformBlocksFn = void (*)(const DeformFrame<T>& frame, std::size_t block_begin, std::size_t block_end);
 
-/// One stage on n lanes (layouts: enum Stage in contract.hpp), for the stage test.
-template <class T>
-using StageFn = void (*)(Stage stage, const T* in, const T* shared, std::size_t J, T* out, std::size_t n);
-
 struct KernelTable {
   const char* name;         ///< "scalar", "sse4_2", "avx2", "avx512"
   std::size_t lanes_float;  ///< SIMD lanes for float and double (1 for the scalar reference)
@@ -38,8 +34,6 @@ struct KernelTable {
   FitRotationsFn<double> fit_horn_d;
   DeformBlocksFn<float> deform_f;  ///< SIMD: the methods axis_angle and horn_quaternion; scalar: all
   DeformBlocksFn<double> deform_d;
-  StageFn<float> stage_f;
-  StageFn<double> stage_d;
 };
 
 /// Defined in kernels/isa_<name>.cpp and core/src/scalar_kernels.cpp; each returns its table.

@@ -1,7 +1,12 @@
-// Common definitions for the structure-of-arrays kernels: one matrix (or vertex) per SIMD lane.
-// Everything is a static member of a class template on the xsimd arch A, so each ISA translation unit gets
-// its own symbols (no weak symbol is shared between ISA objects; tests/scripts/check_weak_symbols.cmake checks).
+// Common definitions for the structure-of-arrays kernels: one matrix (or vertex) per SIMD lane. Every
+// function here is a template instantiated on types that name the xsimd arch (a batch<T, A>, a Pair of
+// them, Simd<T, A>, or a kernel's lambda over them), so an ISA object's instantiations are its own symbols,
+// never ones another ISA object or the baseline code defines too (tests/scripts/check_weak_symbols.cmake
+// checks the built library). The lane vocabulary shared with the width-1 scalar instantiation (scalar_of,
+// mask_of, select) is lanes.hpp.
 #pragma once
+
+#include "kernels/lanes.hpp"
 
 #include <xsimd/xsimd.hpp>
 
@@ -9,10 +14,6 @@
 #include <cstdint>
 #include <limits>
 #include <utility>
-
-/// Stage functions are inlined into the per-batch loop: called out of line, their batch arguments and results
-/// travel through memory (measured: ~1.5x slower on AVX2).
-#define MLSDEFORM_KERNEL_INLINE inline __attribute__((always_inline))
 
 namespace mlsdeform::kernels {
 
@@ -167,13 +168,6 @@ template <class BM>
 MLSDEFORM_KERNEL_INLINE bool none(const PairMask<BM>& m) {
   return xsimd::none(m.lo | m.hi);
 }
-
-/// The element type and the mask type of a vector type V (an xsimd batch or a Pair): the stage functions of
-/// kernels/rotation/ and kernels/deformer/ are templates on V, like their scalar twins on T.
-template <class V>
-using scalar_of = typename V::value_type;
-template <class V>
-using mask_of = decltype(std::declval<V>() < std::declval<V>());
 
 /// What every vector type shares: constants and the batch walk over a 3 x 3 x n layout.
 template <class T, std::size_t Width>

@@ -28,6 +28,9 @@ namespace mlsdeform::kernels {
 /// far inside the range, and every stage is exact under a power-of-two scaling that neither underflows nor
 /// overflows, so one factor gives bitwise the result of max |h| in [1, 2) (test_batch_accuracy checks both
 /// precisions at every subnormal scale).
+///   Lanes:       float, double (an xsimd batch, or a Pair of them)
+///   Error:       none (products with powers of two)
+///   Valid range: every finite h, subnormal entries included; returns the lanes with H = 0
 template <class V>
 MLSDEFORM_KERNEL_INLINE mask_of<V> normalise(V (&h)[9]) {
   using T = scalar_of<V>;
@@ -63,36 +66,59 @@ std::size_t count_lanes(const mask_of<V>& m) {
   return c;
 }
 
-/// h: 9 lanes of H (row-major entries), not yet normalised; r: the rotations. Lanes with H = 0 get the
-/// identity. Every lane takes the fast path (maximum_root, rotation_axis); the lanes it cannot settle
-/// (a multiple or unconverged root, or a gap below cbrt(eps)) take the careful path, the top eigenvector
-/// of K by Jacobi (run only when some lane needs it). Adds the careful lanes to `careful`.
+/// The whole fit (Algorithm 1, steps 3-7) on a normalised H (h: 9 lanes of its row-major entries, each lane
+/// max |h_ij| in [1, 2) or H = 0), as the scalar twin; r: the rotations. Every lane takes the fast path
+/// (maximum_root, rotation_axis); the lanes it cannot settle (a multiple or unconverged root, or a gap below
+/// cbrt(eps)) take the careful path, the top eigenvector of K by Jacobi (run only when some lane needs it),
+/// and are added to `careful`. Lanes with H = 0, which the scalar fit_rotation never passes here, are left
+/// out of the careful path (fit_rotation below gives them the identity).
+/// Error (tests/support/accuracy_bounds.hpp, c_b = 16, c_o = 64): the exact optimum of some H + dH with
+/// ||dH||_F <= 16 eps ||H||_F, so trace(R^T H) within (2 sqrt(3) 16 + 96) eps ||H||_F of the optimum, and
+/// where the optimum is unique an angle to it <= 2 sqrt(3) 16 eps kappa + 96 eps (kappa = s1 / (s2 + d s3));
+/// |(R^T R - I)_ij| <= 64 eps.
+///   Lanes:       float, double (an xsimd batch, or a Pair of them)
+///   Error:       as above (tests/test_batch_accuracy.cpp holds every lane to it)
+///   Valid range: every finite normalised H
 template <class V>
-MLSDEFORM_KERNEL_INLINE void fit_rotation_axis_angle(V (&h)[9], V (&r)[9], std::size_t& careful) {
+MLSDEFORM_KERNEL_INLINE void fit_rotation_axis_angle(const V (&h)[9], V (&r)[9], std::size_t& careful) {
   using T = scalar_of<V>;
   using M = mask_of<V>;
-  const M zero = normalise(h);
   const Invariants<V> inv = invariants(h);
+  const M zero = inv.norm2 == V(T(0));  // normalised: ||H||^2 >= 1 unless H = 0
   M converged;
   const V y = maximum_root(inv, converged);
-  const Mat4<V> K = davenport(h, inv.E, inv.z0, inv.z1, inv.z2);
+  const Mat4<V> K = davenport(h, inv);
   V dk;
   Vec4<V> q = rotation_axis(K, y, dk);
   const V n3 = inv.norm2 * inv.norm2 * inv.norm2;
   constexpr T tau2 = kCarefulTau<T> * kCarefulTau<T>;
   const M slow = ~zero & (~converged | ~(dk * dk > V(tau2) * n3));
   if (any(slow)) {
-    V q1[4];
-    top_eigenvector(K.k, sqrt(V(T(4)) * inv.norm2), q1);
-    for (int i = 0; i < 4; ++i) q.v[i] = select(slow, q1[i], q.v[i]);
+    // ||K||_F = 2 ||H||_F (Davenport's K: |E|^2 + 2 |z|^2 + ||H + H^T - E I||^2 = 4 ||H||^2).
+    const Vec4<V> q1 = top_eigenvector(K, sqrt(V(T(4)) * inv.norm2));
+    for (int i = 0; i < 4; ++i) q.v[i] = select(slow, q1.v[i], q.v[i]);
     careful += count_lanes<V>(slow);
   }
-  sin_cos(q.v[0], q.v[1], q.v[2], q.v[3], r);
+  sin_cos(q, r);
+}
+
+/// Twin of the public fit_rotation (core/src/rotation/fit_rotation.cpp) for a fit `Fit::fit(h, r, careful)`
+/// on a normalised H: h normalised exactly in place (normalise), the fit, and the identity where H = 0.
+///   Lanes:       float, double (an xsimd batch, or a Pair of them)
+///   Error:       the fit's (normalise is exact); the identity exactly where H = 0
+///   Valid range: every finite H (the callers check: fit_rotations and the deformer's frames)
+template <class Fit, class V>
+MLSDEFORM_KERNEL_INLINE void fit_rotation(V (&h)[9], V (&r)[9], std::size_t& careful) {
+  const mask_of<V> zero = normalise(h);
+  Fit::fit(h, r, careful);
   identity_where(zero, r);
 }
 
 /// The kernel-table entry (FitRotationsFn) for a fit `Fit::fit(h, r, careful)` on vectors V: matrices
 /// [begin, end) of a 3 x 3 x n layout, batch by batch (a partial last batch through a zero-padded copy).
+///   Lanes:       float, double (an xsimd batch, or a Pair of them)
+///   Error:       each matrix as fit_rotation<Fit> (the padding lanes hold H = 0 and are not written)
+///   Valid range: finite H (fit_rotations checks); adds the careful lanes to stats->careful_lanes
 template <class V, class Fit>
 void fit_range(const scalar_of<V>* H, scalar_of<V>* R, std::size_t stride, std::size_t begin, std::size_t end,
                BatchStats* stats) {
@@ -103,7 +129,7 @@ void fit_range(const scalar_of<V>* H, scalar_of<V>* R, std::size_t stride, std::
                                            V h[9], r[9];
                                            for (std::size_t i = 0; i < 9; ++i)
                                              h[i] = V::load_unaligned(src + i * st + off);
-                                           Fit::fit(h, r, careful);
+                                           fit_rotation<Fit>(h, r, careful);
                                            for (std::size_t i = 0; i < 9; ++i) r[i].store_unaligned(dst + i * st + off);
                                          });
   if (stats) stats->careful_lanes += careful;
@@ -111,7 +137,7 @@ void fit_range(const scalar_of<V>* H, scalar_of<V>* R, std::size_t stride, std::
 
 struct AxisAngleFit {
   template <class V>
-  MLSDEFORM_KERNEL_INLINE static void fit(V (&h)[9], V (&r)[9], std::size_t& careful) {
+  MLSDEFORM_KERNEL_INLINE static void fit(const V (&h)[9], V (&r)[9], std::size_t& careful) {
     fit_rotation_axis_angle(h, r, careful);
   }
 };

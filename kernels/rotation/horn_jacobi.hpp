@@ -9,13 +9,17 @@
 
 namespace mlsdeform::kernels {
 
+/// On a normalised H (as fit_rotation_axis_angle; fit_rotation<HornJacobiFit> normalises and gives H = 0 the
+/// identity): R of K's eigenvector with the largest eigenvalue.
+///   Lanes:       float, double (an xsimd batch, or a Pair of them)
+///   Error:       the accuracy suite's bounds with c_b = 16, as axis_angle (tests/test_batch_accuracy.cpp)
+///   Valid range: every finite normalised H
 template <class V>
-MLSDEFORM_KERNEL_INLINE void fit_rotation_horn_jacobi(V (&h)[9], V (&r)[9]) {
+MLSDEFORM_KERNEL_INLINE void fit_rotation_horn_jacobi(const V (&h)[9], V (&r)[9]) {
   using T = scalar_of<V>;
   using M = mask_of<V>;
-  const M zero = normalise(h);
   const Invariants<V> inv = invariants(h);
-  const Mat4<V> K = davenport(h, inv.E, inv.z0, inv.z1, inv.z2);
+  const Mat4<V> K = davenport(h, inv);
   V a[4][4], v[4][4];
   for (int i = 0; i < 4; ++i)
     for (int j = 0; j < 4; ++j) a[i][j] = K.k[4 * i + j];
@@ -32,13 +36,12 @@ MLSDEFORM_KERNEL_INLINE void fit_rotation_horn_jacobi(V (&h)[9], V (&r)[9]) {
     x1 = select(better, v[2][j], x1);
     x2 = select(better, v[3][j], x2);
   }
-  sin_cos(w, x0, x1, x2, r);
-  identity_where(zero, r);
+  sin_cos(Vec4<V>{{w, x0, x1, x2}}, r);
 }
 
 struct HornJacobiFit {
   template <class V>
-  MLSDEFORM_KERNEL_INLINE static void fit(V (&h)[9], V (&r)[9], std::size_t&) {
+  MLSDEFORM_KERNEL_INLINE static void fit(const V (&h)[9], V (&r)[9], std::size_t&) {
     fit_rotation_horn_jacobi(h, r);
   }
 };

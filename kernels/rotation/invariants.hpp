@@ -10,21 +10,28 @@ namespace mlsdeform::kernels {
 
 template <class V>
 struct Invariants {
-  V E;           // trace H
-  V z0, z1, z2;  // (H21 - H12, H02 - H20, H10 - H01) = -V of eq. (6)
-  V norm2;       // ||H||_F^2
-  V det;         // det H
-  V c2;          // sum_{i<j} |H_i x H_j|^2 over columns
+  V E;      // trace H
+  V z[3];   // (H21 - H12, H02 - H20, H10 - H01) = -V of eq. (6), 0-based indices
+  V norm2;  // ||H||_F^2
+  V det;    // det H
+  V c2;     // sum_{i<j} |H_i x H_j|^2 over columns
 };
 
 /// h[3 r + c] = H(r, c), normalised.
+///   Lanes:       float, double (an xsimd batch, or a Pair of them)
+///   Error:       a k-step sum of products, within gamma_k = k eps / (1 - k eps) of the exact value times the
+///                same sum over absolute values: E gamma_2, z gamma_1, ||H||^2 gamma_9, det H gamma_5 (2x2
+///                minors, then a 3-term dot product), c2 gamma_12 against sum m_i^2, m_i = |ab| + |cd| for
+///                the minor ab - cd (tests/test_stages.cpp)
+///   Valid range: finite H whose products of four entries stay normal: a normalised H (max |h_ij| in [1, 2),
+///                as fit_rotation leaves it), or H = 0
 template <class V>
 MLSDEFORM_KERNEL_INLINE Invariants<V> invariants(const V (&h)[9]) {
   Invariants<V> inv;
   inv.E = h[0] + h[4] + h[8];
-  inv.z0 = h[7] - h[5];
-  inv.z1 = h[2] - h[6];
-  inv.z2 = h[3] - h[1];
+  inv.z[0] = h[7] - h[5];
+  inv.z[1] = h[2] - h[6];
+  inv.z[2] = h[3] - h[1];
   V n = h[0] * h[0];
   for (int i = 1; i < 9; ++i) n = mul_add(h[i], h[i], n);
   inv.norm2 = n;

@@ -14,6 +14,7 @@
 #pragma once
 
 #include "kernels/contract.hpp"
+#include "kernels/rotation/rotation_axis.hpp"
 #include "kernels/simd.hpp"
 
 namespace mlsdeform::kernels {
@@ -48,6 +49,11 @@ MLSDEFORM_KERNEL_INLINE void jacobi_rotate(V (&a)[4][4], V (&v)[4][4], int p, in
 
 /// Diagonalises the symmetric a (full storage) in place; v (columns) receives the eigenvectors.
 /// frobenius: ||a||_F (invariant under the rotations).
+///   Lanes:       float, double (an xsimd batch, or a Pair of them)
+///   Error:       backward stable: the eigenpairs of a + E, ||E||_F a small multiple of eps ||a||_F (each
+///                skipped rotation drops an entry <= eps ||a||_F; each applied one rounds at eps level), whatever
+///                the spectrum; every lane's off-diagonal below eps ||a||_F, or kMaxSweeps sweeps
+///   Valid range: finite symmetric a with ||a||_F normal (a = 0 returns v = I)
 template <class V>
 MLSDEFORM_KERNEL_INLINE void jacobi_eigen(V (&a)[4][4], V (&v)[4][4], V frobenius) {
   using T = scalar_of<V>;
@@ -72,17 +78,25 @@ MLSDEFORM_KERNEL_INLINE void jacobi_eigen(V (&a)[4][4], V (&v)[4][4], V frobeniu
 /// nearly orthogonal to the eigenspace (its projection below a quarter of the largest), the axis e_m with
 /// the largest projection; so that neighbouring vertices of a deformation make the same choice. With a
 /// single top eigenvalue the same formula gives v_1 v_1(m), a non-zero multiple of v_1. Mirrors the scalar
-/// detail::top_eigenvector. frobenius: ||K||_F.
+/// detail::top_eigenvector, with the same arguments: frobenius = ||K||_F, which the callers here take as
+/// 2 ||H||_F (an identity of Davenport's K: 2 operations from the invariants instead of 16 products) and
+/// the scalar ones as K.norm(); each side keeps its own rounding of it, and so its results to the bit.
+///   Lanes:       float, double (an xsimd batch, or a Pair of them)
+///   Error:       where the optimum is unique, the rotation of q within the accuracy suite's angle bound,
+///                2 sqrt(3) c_b eps kappa + (3/2) c_o eps (tests/test_stages.cpp holds it on every lane); where
+///                it is not, a vector of the top eigenspace, which attains the optimum trace to the backward
+///                error c_b eps ||H||_F (test_rotation_rank1). q is unnormalised
+///   Valid range: K of a finite normalised H
 template <class V>
-MLSDEFORM_KERNEL_INLINE void top_eigenvector(const V (&k)[16], V frobenius, V (&q)[4]) {
+MLSDEFORM_KERNEL_INLINE Vec4<V> top_eigenvector(const Mat4<V>& K, V frobenius) {
   using T = scalar_of<V>;
   using M = mask_of<V>;
   constexpr T eps = std::numeric_limits<T>::epsilon();
   V a[4][4], v[4][4];
-  V amax = abs(k[0]);
+  V amax = abs(K.k[0]);
   for (int i = 0; i < 4; ++i)
     for (int j = 0; j < 4; ++j) {
-      a[i][j] = k[4 * i + j];
+      a[i][j] = K.k[4 * i + j];
       amax = max(amax, abs(a[i][j]));
     }
   jacobi_eigen(a, v, frobenius);
@@ -97,12 +111,14 @@ MLSDEFORM_KERNEL_INLINE void top_eigenvector(const V (&k)[16], V frobenius, V (&
   // m: 0 unless proj(0) < proj(m) / 4 for the largest proj(m) (first index on ties).
   const V pm = max(max(proj[0], proj[1]), max(proj[2], proj[3]));
   const M m0 = proj[0] >= V(T(0.25)) * pm, m1 = ~m0 & (proj[1] == pm), m2 = ~(m0 | m1) & (proj[2] == pm);
-  for (int i = 0; i < 4; ++i) q[i] = V(T(0));
+  Vec4<V> q;
+  for (int i = 0; i < 4; ++i) q.v[i] = V(T(0));
   for (int j = 0; j < 4; ++j) {
     const V vm = select(m0, v[0][j], select(m1, v[1][j], select(m2, v[2][j], v[3][j])));
     const V w = select(in[j], vm, V(T(0)));
-    for (int i = 0; i < 4; ++i) q[i] = mul_add(v[i][j], w, q[i]);
+    for (int i = 0; i < 4; ++i) q.v[i] = mul_add(v[i][j], w, q.v[i]);
   }
+  return q;
 }
 
 }  // namespace mlsdeform::kernels

@@ -18,6 +18,11 @@ namespace mlsdeform::kernels {
 /// stops unconverged where P' sinks to its own rounding (64 eps y^3: P and P' are then noise, a (nearly)
 /// multiple root), where a step fails to shrink, or after kMaxNewton steps. `converged` returns the lanes
 /// whose y is the root to rounding; the others take the careful path (axis_angle.hpp).
+///   Lanes:       float, double (an xsimd batch, or a Pair of them)
+///   Error:       a converged y within 2 gamma_8 Pabs(y) / P'(y) + (3/16) (kappa + 1) eps y of the root
+///                (Pabs: P with every coefficient's absolute value; kappa = s1 / (s2 + d s3)): the rounding of
+///                P over its slope, and the truncation of the last Newton step (tests/test_stages.cpp)
+///   Valid range: the invariants of a finite normalised H; y = 0 and converged where H = 0
 template <class V, class M = mask_of<V>>
 MLSDEFORM_KERNEL_INLINE V maximum_root(const Invariants<V>& inv, M& converged) {
   using T = scalar_of<V>;

@@ -4,6 +4,7 @@
 // one power step. The careful path is jacobi.hpp.
 #pragma once
 
+#include "kernels/rotation/invariants.hpp"
 #include "kernels/simd.hpp"
 
 namespace mlsdeform::kernels {
@@ -18,9 +19,16 @@ struct Vec4 {
   V v[4];
 };
 
+/// Davenport's symmetric K = [[E, z^T], [z, H + H^T - E I]] of the normalised H (h[3 r + c] = H(r, c)) and
+/// its invariants, so that trace(R(q)^T H) = q^T K q / |q|^2.
+///   Lanes:       float, double (an xsimd batch, or a Pair of them)
+///   Error:       one rounding in each entry of H + H^T - E I (2 h_ii is exact): |dK_ij| <= eps |K_ij|, with
+///                E and z as invariants leaves them
+///   Valid range: every finite H
 template <class V>
-MLSDEFORM_KERNEL_INLINE Mat4<V> davenport(const V (&h)[9], V E, V z0, V z1, V z2) {
+MLSDEFORM_KERNEL_INLINE Mat4<V> davenport(const V (&h)[9], const Invariants<V>& inv) {
   using T = scalar_of<V>;
+  const V E = inv.E, z0 = inv.z[0], z1 = inv.z[1], z2 = inv.z[2];
   Mat4<V> K;
   const V n01 = h[1] + h[3], n02 = h[2] + h[6], n12 = h[5] + h[7];
   const V d[4] = {E, V(T(2)) * h[0] - E, V(T(2)) * h[4] - E, V(T(2)) * h[8] - E};
@@ -35,6 +43,12 @@ MLSDEFORM_KERNEL_INLINE Mat4<V> davenport(const V (&h)[9], V E, V z0, V z1, V z2
 /// distinct entries come from 11 of the 12 complementary 2x2 minors of the row pairs (0, 1) and (2, 3) (the
 /// upper triangle needs no c0), sums of products fused. `dk` returns the largest |diagonal entry| (the
 /// careful path's trigger).
+///   Lanes:       float, double (an xsimd batch, or a Pair of them)
+///   Error:       where the fit takes this path (y converged, dk^2 > kCarefulTau^2 ||H||^6), the rotation of q
+///                within the accuracy suite's angle bound of the optimum, 2 sqrt(3) c_b eps kappa + (3/2) c_o eps
+///                (c_b = 16, c_o = 64: tests/support/accuracy_bounds.hpp; kappa <= eps^(-1/3) there); q is
+///                unnormalised. Elsewhere q means nothing: the careful path replaces it
+///   Valid range: K of a finite normalised H, y from maximum_root
 template <class V>
 MLSDEFORM_KERNEL_INLINE Vec4<V> rotation_axis(const Mat4<V>& K, V y, V& dk) {
   using M = mask_of<V>;

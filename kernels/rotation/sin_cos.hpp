@@ -3,14 +3,21 @@
 // sin a e = 2 w x / n, so R = ((w^2 - |x|^2) I + 2 x x^T + 2 w [x]_x) / n, sums of products fused (mul_add).
 #pragma once
 
+#include "kernels/rotation/rotation_axis.hpp"
 #include "kernels/simd.hpp"
 
 namespace mlsdeform::kernels {
 
-/// r[3 i + j] = R(i, j).
+/// r[3 i + j] = R(i, j) of the unnormalised quaternion q = (w, x). The scalar twin returns R; here it is
+/// written into the caller's array (a C array cannot be returned; the fits' r is their output).
+///   Lanes:       float, double (an xsimd batch, or a Pair of them)
+///   Error:       |dR_ij| <= 3 gamma_10 (each entry a numerator of absolute value <= 2 |q|^2 in 8 steps over
+///                |q|^2 in 4: tests/test_stages.cpp); |(R^T R - I)_ij| within c_o eps = 64 eps
+///   Valid range: q finite with |q|^2 normal (the fits' q is); q = 0 gives NaN
 template <class V>
-MLSDEFORM_KERNEL_INLINE void sin_cos(V w, V x0, V x1, V x2, V (&r)[9]) {
+MLSDEFORM_KERNEL_INLINE void sin_cos(const Vec4<V>& q, V (&r)[9]) {
   using T = scalar_of<V>;
+  const V w = q.v[0], x0 = q.v[1], x1 = q.v[2], x2 = q.v[3];
   const V v2 = mul_add(x0, x0, mul_add(x1, x1, x2 * x2));
   const V inv_n = V(T(1)) / mul_add(w, w, v2);
   const V c = mul_sub(w, w, v2);

@@ -1,10 +1,12 @@
-# Fails if a weak symbol defined in a per-ISA kernel object is also defined in another object of the
-# library: the linker keeps one copy, possibly compiled for AVX-512, for every caller (SIGILL on older CPUs;
-# at -O0 even an inline helper, std::fma or std::sqrt used in an ISA object can become such a weak symbol).
-# Usage: cmake -DARCHIVE=libmlsdeform.a -P ...
-execute_process(COMMAND nm -A --defined-only ${ARCHIVE} OUTPUT_VARIABLE out RESULT_VARIABLE rc)
+# Fails if a weak symbol defined in a per-ISA object is also defined in an object of another instruction set
+# or in a baseline object: the linker keeps one copy, possibly compiled for AVX-512, for every caller (SIGILL
+# on older CPUs; at -O0 even an inline helper, std::fma or std::sqrt used in an ISA object can become such a
+# weak symbol). Per-ISA objects are the library's kernels (isa_<name>) and the stage test's entries
+# (entries_<name>); two objects of the same ISA may share one.
+# Usage: cmake -DARCHIVE=libmlsdeform.a [-DEXTRA_ARCHIVE=libmlsdeform_stage_entries.a] -P ...
+execute_process(COMMAND nm -A --defined-only ${ARCHIVE} ${EXTRA_ARCHIVE} OUTPUT_VARIABLE out RESULT_VARIABLE rc)
 if(NOT rc EQUAL 0)
-  message(FATAL_ERROR "nm failed on ${ARCHIVE}")
+  message(FATAL_ERROR "nm failed on ${ARCHIVE} ${EXTRA_ARCHIVE}")
 endif()
 string(REPLACE "\n" ";" lines "${out}")
 set(isa_objects "")
@@ -17,13 +19,17 @@ foreach(line IN LISTS lines)
     if(sym MATCHES "^DW\\.ref\\.")  # personality-routine pointers: data, identical in every object
       continue()
     endif()
+    # The owner: the ISA of a per-ISA object, else the object itself (baseline).
+    if(member MATCHES "^(isa|entries)_([a-z0-9_]+)\\.cpp\\.o$")
+      set(owner "isa:${CMAKE_MATCH_2}")
+      list(APPEND isa_objects ${member})
+    else()
+      set(owner ${member})
+    endif()
     string(MAKE_C_IDENTIFIER "${sym}" key)
-    list(APPEND _owners_${key} ${member})
+    list(APPEND _owners_${key} ${owner})
     list(APPEND _keys ${key})
     set(_name_${key} "${sym}")
-    if(member MATCHES "^isa_")
-      list(APPEND isa_objects ${member})
-    endif()
   endif()
 endforeach()
 list(REMOVE_DUPLICATES _keys)
@@ -31,7 +37,7 @@ foreach(key IN LISTS _keys)
   set(owners ${_owners_${key}})
   list(REMOVE_DUPLICATES owners)
   list(LENGTH owners n)
-  string(REGEX MATCH "isa_" has_isa "${owners}")
+  string(REGEX MATCH "isa:" has_isa "${owners}")
   if(n GREATER 1 AND has_isa)
     string(APPEND bad "  ${_name_${key}} in ${owners}\n")
   endif()

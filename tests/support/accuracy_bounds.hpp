@@ -44,9 +44,7 @@ inline constexpr long double c_o = 64;
 /// The a-priori constant counted above, common to every method.
 inline constexpr long double c_b_uniform = 16;
 
-/// c_b per method: every method is held to the uniform constant. (Until the second-generation fit, axis_angle
-/// and horn_matrix needed 64 and excused their stress families; the fast path of axis_angle, the converged
-/// in-lane Jacobi and horn_matrix's deflated second eigenvector removed both exceptions.)
+/// c_b per method: every method is held to the uniform constant.
 inline long double c_b(RotationMethod) { return c_b_uniform; }
 
 template <class T>

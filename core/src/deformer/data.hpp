@@ -110,7 +110,7 @@ struct DeformerData {
   AlignedVector<T> D;       ///< similarity: sum_j A_j . phat_j (= sum_i w_i |phat_i|^2 / S), local, padded
 
   // WeightStorage::on_the_fly (rigid and similarity with point handles only): no table; per frame the
-  // weights are recomputed from the distances (reference.hpp, deform_block_on_the_fly). Local frame:
+  // weights are recomputed from the distances (kernels/deformer/deform_kernel.hpp, on_the_fly). Local frame:
   // x_local = (x - centre) / scale.
   bool on_the_fly = false;
   AlignedVector<T> v_local;  ///< rest vertices, local frame, SoA, padded

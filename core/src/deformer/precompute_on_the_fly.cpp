@@ -1,5 +1,5 @@
 // Paper Sec. 5 for on-the-fly weights (WeightStorage::on_the_fly): no table; the rest geometry in the local
-// frame, from which the kernels recompute the weights every frame (core/src/deformer/reference.hpp).
+// frame, from which the kernels recompute the weights every frame (kernels/deformer/deform_kernel.hpp).
 #include "core/src/deformer/precompute.hpp"
 
 #include "core/src/deformer/snap.hpp"

@@ -3,6 +3,8 @@
 // skip threshold and the stopping rule).
 #pragma once
 
+#include "core/src/rotation/rotation_axis.hpp"
+
 #include "kernels/contract.hpp"
 
 #include <Eigen/Core>
@@ -15,14 +17,14 @@ namespace mlsdeform::detail {
 
 /// The careful path's eigensolver: cyclic Jacobi on the symmetric 4x4 a, in the order, with the skip threshold
 /// (|a_pq| <= eps ||a||_F) and the stopping rule of kernels/rotation/jacobi.hpp (see there); v receives the
-/// eigenvectors (columns), a's diagonal the eigenvalues.
+/// eigenvectors (columns), a's diagonal the eigenvalues. frobenius: ||a||_F (invariant under the rotations).
 template <class T>
-void jacobi_eigen(Eigen::Matrix<T, 4, 4>& a, Eigen::Matrix<T, 4, 4>& v) {
+void jacobi_eigen(Matrix4<T>& a, Matrix4<T>& v, T frobenius) {
   using std::abs;
   using std::sqrt;
   constexpr T eps = std::numeric_limits<T>::epsilon();
   v.setIdentity();
-  const T small = eps * a.norm();
+  const T small = eps * frobenius;
   for (int sweep = 0; sweep < kernels::kMaxSweeps; ++sweep) {
     for (int p = 0; p < 3; ++p)
       for (int q = p + 1; q < 4; ++q) {
@@ -65,13 +67,14 @@ void jacobi_eigen(Eigen::Matrix<T, 4, 4>& a, Eigen::Matrix<T, 4, 4>& v) {
 /// of the largest) the axis e_m with the largest projection; so that neighbouring vertices of a deformation
 /// make the same choice. With a single top eigenvalue the same formula gives v_1 v_1(m), a non-zero multiple
 /// of v_1. Jacobi is backward stable whatever the spectrum (multiple, clustered or nearly double
-/// eigenvalues), which is what the careful path's lanes have.
+/// eigenvalues), which is what the careful path's lanes have. frobenius: ||K||_F (K.norm() here; the twin
+/// takes it as 2 ||H||_F, see there).
 template <class T>
-Eigen::Matrix<T, 4, 1> top_eigenvector(const Eigen::Matrix<T, 4, 4>& K) {
-  using Vec4 = Eigen::Matrix<T, 4, 1>;
+Vector4<T> top_eigenvector(const Matrix4<T>& K, T frobenius) {
+  using Vec4 = Vector4<T>;
   constexpr T eps = std::numeric_limits<T>::epsilon();
-  Eigen::Matrix<T, 4, 4> a = K, v;
-  jacobi_eigen(a, v);
+  Matrix4<T> a = K, v;
+  jacobi_eigen(a, v, frobenius);
   const Vec4 d = a.diagonal();
   const T floor = d.maxCoeff() - T(8) * eps * K.cwiseAbs().maxCoeff();
   Vec4 proj = Vec4::Zero();

@@ -19,11 +19,16 @@
 
 namespace mlsdeform::detail {
 
-/// Davenport's symmetric 4x4 K, so that trace(R(q)^T H) = q^T K q / |q|^2 (its eigenvalues are the roots of
-/// the quartic (13)).
 template <class T>
-Eigen::Matrix<T, 4, 4> davenport(const Matrix3<T>& H, const Invariants<T>& inv) {
-  Eigen::Matrix<T, 4, 4> A;
+using Matrix4 = Eigen::Matrix<T, 4, 4>;
+template <class T>
+using Vector4 = Eigen::Matrix<T, 4, 1>;
+
+/// Davenport's symmetric 4x4 K = [[E, z^T], [z, H + H^T - E I]], so that trace(R(q)^T H) = q^T K q / |q|^2
+/// (its eigenvalues are the roots of the quartic (13)).
+template <class T>
+Matrix4<T> davenport(const Matrix3<T>& H, const Invariants<T>& inv) {
+  Matrix4<T> A;
   A(0, 0) = inv.E;
   A.template block<3, 1>(1, 0) = inv.z;
   A.template block<1, 3>(0, 1) = inv.z.transpose();
@@ -34,7 +39,8 @@ Eigen::Matrix<T, 4, 4> davenport(const Matrix3<T>& H, const Invariants<T>& inv) 
 
 /// Eq. (14), the fast path: with y from maximum_root, the column of A = adj(K - y I) with the largest
 /// diagonal entry |a_kk| = dk, then one step of the power method, q = A a_k. Returns q and dk; the caller
-/// takes the careful path (rotation_axis) instead where dk^2 <= tau^2 ||H||^6.
+/// takes the careful path (top_eigenvector) instead where dk^2 <= tau^2 ||H||^6. S = K - y I is read from
+/// K, as the twin does (K's entries are the sums of H's that S needs: 2 H_ii - E, H_ij + H_ji, z).
 ///
 /// Why this suffices, and where it does not. A = sum_i mu_i v_i v_i^T with mu_i = prod_{j != i} (lambda_j - y)
 /// (the eigenpairs of K), so a_k = A e_k weights the top eigenvector v1 by mu_1 ~ g (lambda1 - lambda3)
@@ -48,22 +54,20 @@ Eigen::Matrix<T, 4, 4> davenport(const Matrix3<T>& H, const Invariants<T>& inv) 
 /// dk >= |mu_1| / 4 ~ g ||H||^2 / 4 when lambda3, lambda4 are far, dk > tau ||H||^3 with tau = cbrt(eps)/2
 /// keeps the fast path inside that range; a smaller dk also catches the other case where dy is large, a
 /// cluster of lambda1, lambda2, lambda3 (det H < 0 near a point reflection: mu_1 small through lambda1 -
-/// lambda3). Measured (proto at 4,000 cases per family): no case beyond the bound at tau = cbrt(eps) / 2,
-/// and careful lanes are 0 on gaussian H and < 1e-3 on the point-set families.
+/// lambda3).
 /// A is symmetric: its 10 distinct entries from 11 complementary 2x2 minors of the row pairs (0, 1) and
 /// (2, 3) of S = K - y I (Laplace expansion by complementary minors), as kernels/rotation/rotation_axis.hpp computes
 /// them.
 template <class T>
-Eigen::Matrix<T, 4, 1> rotation_axis(const Matrix3<T>& H, const Invariants<T>& inv, T y, T& dk) {
-  const T S00 = inv.E - y, S11 = (T(2) * H(0, 0) - inv.E) - y, S22 = (T(2) * H(1, 1) - inv.E) - y,
-          S33 = (T(2) * H(2, 2) - inv.E) - y;
-  const T S01 = inv.z(0), S02 = inv.z(1), S03 = inv.z(2);
-  const T S12 = H(0, 1) + H(1, 0), S13 = H(0, 2) + H(2, 0), S23 = H(1, 2) + H(2, 1);
+Vector4<T> rotation_axis(const Matrix4<T>& K, T y, T& dk) {
+  const T S00 = K(0, 0) - y, S11 = K(1, 1) - y, S22 = K(2, 2) - y, S33 = K(3, 3) - y;
+  const T S01 = K(0, 1), S02 = K(0, 2), S03 = K(0, 3);
+  const T S12 = K(1, 2), S13 = K(1, 3), S23 = K(2, 3);
   const T s0 = S00 * S11 - S01 * S01, s1 = S00 * S12 - S01 * S02, s2 = S00 * S13 - S01 * S03;
   const T s3 = S01 * S12 - S11 * S02, s4 = S01 * S13 - S11 * S03, s5 = S02 * S13 - S12 * S03;
   const T c5 = S22 * S33 - S23 * S23, c4 = S12 * S33 - S13 * S23, c3 = S12 * S23 - S13 * S22;
   const T c2 = S02 * S33 - S03 * S23, c1 = S02 * S23 - S03 * S22;
-  Eigen::Matrix<T, 4, 4> A;
+  Matrix4<T> A;
   A(0, 0) = S11 * c5 + S13 * c3 - S12 * c4;
   A(0, 1) = A(1, 0) = S02 * c4 - (S01 * c5 + S03 * c3);
   A(0, 2) = A(2, 0) = S13 * s5 + S33 * s3 - S23 * s4;

@@ -1,0 +1,42 @@
+// The lane policy of the SIMD deformation kernels (DeformKernel<SimdLanes<T, A>>, deform_kernel.hpp): one
+// vertex per lane of an xsimd batch of arch A. Its fit is the lanes' branch-free axis/angle fit
+// (kernels/rotation/axis_angle.hpp) or the Horn-Jacobi baseline, and its on-the-fly weight exp2(u/2 log2 r2),
+// where the scalar reference (core/src/deformer/reference.hpp) has fit_rotation and std::pow: the only
+// places where the two instantiations of the one driver differ.
+#pragma once
+
+#include "kernels/rotation/axis_angle.hpp"
+#include "kernels/rotation/horn_jacobi.hpp"
+#include "kernels/simd.hpp"
+
+namespace mlsdeform::kernels {
+
+template <class Elem, class A>
+struct SimdLanes {
+  using T = Elem;
+  using V = xsimd::batch<T, A>;
+  static constexpr std::size_t W = V::size;
+
+  MLSDEFORM_KERNEL_INLINE static V load(const T* p) { return V::load_aligned(p); }
+  MLSDEFORM_KERNEL_INLINE static void store(const V& v, T* p) { v.store_unaligned(p); }
+
+  /// w = (dref2 / d2)^(u/2); u = 2 (the default) needs no power.
+  MLSDEFORM_KERNEL_INLINE static V relative_weight(V r2, T half_u) {
+    if (half_u == T(1)) return r2;
+    return exp2(V(half_u) * log2(r2));
+  }
+
+  /// R from the unnormalised H: the SIMD tables run axis_angle and horn_quaternion (the session falls back
+  /// to the scalar table for the other methods).
+  MLSDEFORM_KERNEL_INLINE static void fit(RotationMethod method, const V (&h)[9], V (&r)[9]) {
+    V hn[9];
+    for (int i = 0; i < 9; ++i) hn[i] = h[i];  // the fit normalises its argument in place
+    std::size_t careful = 0;                   // not reported per frame
+    if (method == RotationMethod::horn_quaternion)
+      fit_rotation<HornJacobiFit>(hn, r, careful);
+    else
+      fit_rotation<AxisAngleFit>(hn, r, careful);
+  }
+};
+
+}  // namespace mlsdeform::kernels
