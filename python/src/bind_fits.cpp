@@ -105,6 +105,9 @@ double time_cpp_fit_rotations(const Array<T>& H, int threads, const py::object& 
     rsoa.resize(9 * m);
     for (std::size_t i = 0; i < m; ++i)
       for (std::size_t e = 0; e < 9; ++e) soa[e * m + i] = h[9 * i + e];
+    // Once untimed, so that the timed call finds the caches as a repeated call does (the copy just written
+    // would otherwise be partly in the last-level cache).
+    fit_rotations(soa.data(), rsoa.data(), m, RotationMethod::axis_angle, threads);
   }
   const auto t0 = std::chrono::steady_clock::now();
   if (interleaved)
