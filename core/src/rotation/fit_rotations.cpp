@@ -75,17 +75,35 @@ kernels::FitRotationsFn<T> lane_kernel(RotationMethod method) {
   return nullptr;
 }
 
-/// Matrices [begin, end) of an interleaved batch, tile by tile through `fit` (which fits a 3 x 3 x kTile
-/// tile's first count matrices). Each tile of H is copied out before its rotations are written, so R may be H.
+/// Matrices [begin, end) of an interleaved batch, tile by tile through `fit` (which fits matrices [j0, j1) of a
+/// 3 x 3 x kTile tile). Each tile of H is copied out before its rotations are written, so R may be H. The
+/// matrices up to `ahead` (>= end) are this thread's next ones: their lines are prefetched.
 template <class T, class Fit>
-void fit_interleaved_range(const T* H, T* R, std::size_t begin, std::size_t end, const Fit& fit) {
+void fit_interleaved_range(const T* H, T* R, std::size_t begin, std::size_t end, std::size_t ahead, const Fit& fit) {
+  // A tile's fits run on L1 alone: left to the hardware prefetcher, the next tile's H and R then came from
+  // memory while the core waited (streamed double fits 40-50% slower than the planar layout's, whose kernel
+  // reads its 9 streams while it computes). So the tile is fitted kStep matrices at a time, and between steps
+  // a share of the next tile's cache lines of H (to read) and R (to write) is prefetched: 0-20% then.
+  constexpr std::size_t kStep = 16;  // a multiple of every lane width
+  constexpr std::size_t line = 64 / sizeof(T), lines_per_step = 9 * kTile / line / (kTile / kStep);
+  static_assert(9 * kTile % (line * (kTile / kStep)) == 0);
   alignas(64) T h[9 * kTile], r[9 * kTile];
   for (std::size_t first = begin; first < end; first += kTile) {
     const std::size_t count = std::min(kTile, end - first);
     const T* in = H + 9 * first;
     for (std::size_t i = 0; i < count; ++i)
       for (std::size_t e = 0; e < 9; ++e) h[e * kTile + i] = in[9 * i + e];
-    fit(h, r, count);
+    const bool next = first + 2 * kTile <= ahead;  // a whole next tile for this thread
+    for (std::size_t j = 0; j < count; j += kStep) {
+      if (next) {
+        const std::size_t at = 9 * (first + kTile) + lines_per_step * line * (j / kStep);
+        for (std::size_t k = 0; k < lines_per_step; ++k) {
+          __builtin_prefetch(H + at + k * line);
+          __builtin_prefetch(R + at + k * line, 1);
+        }
+      }
+      fit(static_cast<const T*>(h), static_cast<T*>(r), j, std::min(count, j + kStep));
+    }
     T* out = R + 9 * first;
     for (std::size_t i = 0; i < count; ++i)
       for (std::size_t e = 0; e < 9; ++e) out[9 * i + e] = r[e * kTile + i];
@@ -120,17 +138,17 @@ void fit_rotations_interleaved(const T* H, T* R, std::size_t n, RotationMethod m
   const auto arena = detail::make_arena(threads);
   validate_interleaved(H, R, n, threads, arena.get());
   const kernels::FitRotationsFn<T> kernel = lane_kernel<T>(method);
-  auto tile = [&](const T* h, T* r, std::size_t count, BatchStats* st) {
-    if (kernel) return kernel(h, r, kTile, 0, count, st);
-    detail::fit_rotations_reference(h, r, kTile, 0, count, method);
+  auto tile = [&](const T* h, T* r, std::size_t j0, std::size_t j1, BatchStats* st) {
+    if (kernel) return kernel(h, r, kTile, j0, j1, st);
+    detail::fit_rotations_reference(h, r, kTile, j0, j1, method);
   };
   std::atomic<std::size_t> near_double{0};
   detail::parallel_ranges((n + kChunk - 1) / kChunk, threads, arena.get(), [&](std::size_t c0, std::size_t c1) {
     BatchStats st;
     for (std::size_t c = c0; c < c1; ++c) {  // the caller's check before each chunk
       detail::throw_if_cancelled(cancel);
-      fit_interleaved_range(H, R, c * kChunk, std::min(n, (c + 1) * kChunk),
-                            [&](const T* h, T* r, std::size_t count) { tile(h, r, count, &st); });
+      fit_interleaved_range(H, R, c * kChunk, std::min(n, (c + 1) * kChunk), std::min(n, c1 * kChunk),
+                            [&](const T* h, T* r, std::size_t j0, std::size_t j1) { tile(h, r, j0, j1, &st); });
     }
     near_double += st.near_double;
   });
