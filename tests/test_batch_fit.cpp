@@ -8,10 +8,12 @@
 #include <Eigen/SVD>
 #include <catch2/catch.hpp>
 
+#include <algorithm>
 #include <cmath>
 #include <iostream>
 #include <limits>
 #include <random>
+#include <string>
 #include <vector>
 
 using namespace mlsdeform;
@@ -146,6 +148,63 @@ TEMPLATE_TEST_CASE("fit_rotations: n = 0, bad input, threads", "[batch]", float,
   Hf[7] = std::numeric_limits<T>::denorm_min();
   Hf[8] = -std::numeric_limits<T>::min() / T(2);
   CHECK_NOTHROW(fit_rotations(Hf.data(), R3.data(), n));
+}
+
+TEMPLATE_TEST_CASE("fit_rotations_interleaved: the planar fits bitwise, in place, bad input, cancel", "[batch]", float,
+                   double) {
+  using T = TestType;
+  const IsaGuard guard;
+  fit_rotations_interleaved<T>(nullptr, nullptr, 0);  // nothing to do, nothing touched
+  // Sizes around the tile (128 matrices) and the chunk (2,048): tails of every length within both.
+  for (std::size_t n : {std::size_t(1), std::size_t(127), std::size_t(129), std::size_t(2047), std::size_t(4100)}) {
+    const std::vector<T> H = make_cases<T>(n, 11 + n);  // planar, 3 x 3 x n
+    std::vector<T> Hi(9 * n);                           // the same matrices interleaved, n x 3 x 3
+    for (std::size_t i = 0; i < n; ++i)
+      for (std::size_t e = 0; e < 9; ++e) Hi[9 * i + e] = H[e * n + i];
+    for (Isa isa : supported_isas()) {
+      set_isa(isa);
+      for (RotationMethod method : all_rotation_methods) {
+        INFO("isa " << to_string(isa) << ", method " << to_string(method) << ", n = " << n);
+        std::vector<T> R(9 * n), Ri(9 * n, T(-7));
+        fit_rotations(H.data(), R.data(), n, method);
+        // The same stages on the same values in the same lanes' code: bitwise, whatever the threads.
+        for (int threads : {1, 0}) {
+          fit_rotations_interleaved(Hi.data(), Ri.data(), n, method, threads);
+          bool same = true;
+          for (std::size_t i = 0; i < n; ++i)
+            for (std::size_t e = 0; e < 9; ++e) same = same && Ri[9 * i + e] == R[e * n + i];
+          CHECK(same);
+        }
+        std::vector<T> in_place = Hi;
+        fit_rotations_interleaved(in_place.data(), in_place.data(), n, method, 0);
+        CHECK(in_place == Ri);
+      }
+    }
+  }
+  const std::size_t n = 20000;
+  std::vector<T> H(9 * n), R(9 * n, T(5));
+  for (std::size_t i = 0; i < 9 * n; ++i) H[i] = T(std::sin(double(i)));
+  constexpr T inf = std::numeric_limits<T>::infinity();
+  for (T bad : {std::numeric_limits<T>::quiet_NaN(), inf, -inf}) {
+    for (std::size_t at : {std::size_t(9 * 123 + 4), 9 * n - 1}) {
+      std::vector<T> Hb = H;
+      Hb[at] = bad;
+      const std::string where = "H[" + std::to_string(at / 9) + ", " + std::to_string(at % 9 / 3) + ", " +
+                                std::to_string(at % 3) + "] is NaN or infinite";
+      for (int threads : {1, 0}) {
+        CHECK_THROWS_WITH(fit_rotations_interleaved(Hb.data(), R.data(), n, RotationMethod::axis_angle, threads),
+                          Catch::Contains(where));
+        CHECK(R == std::vector<T>(9 * n, T(5)));  // nothing written
+      }
+    }
+  }
+  // A check that says stop at its third question: Cancelled, after two chunks of 2,048 at most were fitted.
+  int asked = 0;
+  const CancelCheck cancel = [&] { return ++asked > 2; };
+  CHECK_THROWS_AS(fit_rotations_interleaved(H.data(), R.data(), n, RotationMethod::axis_angle, 1, nullptr, cancel),
+                  Cancelled);
+  CHECK(asked == 3);
+  CHECK(std::all_of(R.begin() + 9 * 2 * 2048, R.end(), [](T r) { return r == T(5); }));
 }
 
 TEST_CASE("ISA names and forcing", "[batch]") {

@@ -116,6 +116,7 @@ TEMPLATE_TEST_CASE("deform and fit_rotations allocate nothing in steady state", 
   for (RotationMethod m : all_rotation_methods) {
     INFO(to_string(m));
     CHECK(allocations_during([&] { fit_rotations(H.data(), R.data(), 1000, m); }) == 0);
+    CHECK(allocations_during([&] { fit_rotations_interleaved(H.data(), R.data(), 1000, m); }) == 0);
   }
 }
 

@@ -12,6 +12,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstring>
+#include <memory>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -36,94 +37,84 @@ py::array_t<T> rotations_out(const py::object& out, py::ssize_t m) {
   return py::reinterpret_borrow<py::array_t<T>>(out);
 }
 
-/// The first non-finite entry of m row-major 3 x 3 matrices (error path only: names the matrix and entry).
+/// The library's interleaved batch call on H (m, 3, 3) into R, with the library's message for bad input naming
+/// the function Python called.
 template <class T>
-[[noreturn]] void throw_non_finite(const T* h, std::size_t m) {
-  for (std::size_t i = 0; i < m; ++i)
-    for (int e = 0; e < 9; ++e)
-      if (!std::isfinite(h[9 * i + e]))
-        throw std::invalid_argument("fit_rotations: H[" + std::to_string(i) + ", " + std::to_string(e / 3) + ", " +
-                                    std::to_string(e % 3) + "] is NaN or infinite");
-  throw std::invalid_argument("fit_rotations: H has a NaN or infinite entry");
+void fit_interleaved(const T* h, T* r, std::size_t m, RotationMethod method, int threads, const CancelCheck& cancel) {
+  try {
+    fit_rotations_interleaved(h, r, m, method, threads, nullptr, cancel);
+  } catch (const std::invalid_argument& e) {
+    const std::string what = e.what();
+    const std::size_t colon = what.find(": ");
+    throw std::invalid_argument("fit_rotations" + (colon == std::string::npos ? ": " + what : what.substr(colon)));
+  }
 }
 
+/// What the binding does before the library's call: H's shape, `out`, the threads; R is the array to return.
 template <class T>
-py::array_t<T> fit_rotations_t(Array<T> H, RotationMethod method, int threads, double* seconds_cpp,
-                               const py::object& out = py::none()) {
+py::array_t<T> checked_output(const Array<T>& H, int threads, const py::object& out) {
   if (H.ndim() != 3 || H.shape(1) != 3 || H.shape(2) != 3)
     throw py::value_error("H: expected shape (m, 3, 3), got " + shape_of(H));
   checked_threads(threads);
+  return rotations_out<T>(out, H.shape(0));
+}
+
+// The per-call work is the library's (its finite check, the fits, the transposes between numpy's layout and
+// the lanes', all in its parallel chunks) and, around it, the argument checks and the release of the GIL.
+template <class T>
+py::array_t<T> fit_rotations_t(Array<T> H, RotationMethod method, int threads, const py::object& out = py::none()) {
+  py::array_t<T> R = checked_output(H, threads, out);
   const std::size_t m = static_cast<std::size_t>(H.shape(0));
-  py::array_t<T> R = rotations_out<T>(out, H.shape(0));
-  // Both are C-contiguous (m, 3, 3) arrays of T here, so `out` either is H (each block below is copied out
-  // of H before its rotations are written back over the same rows: in place works) or overlaps it shifted,
-  // where writing block b would overwrite the H of a block not read yet: then the rotations go to the scratch
-  // array below and reach `out` only after the last block has read H.
+  // Both are C-contiguous (m, 3, 3) arrays of T here, so `out` either is H (the library fits in place) or
+  // overlaps it shifted, where writing a chunk would overwrite the H of a chunk not read yet: then the
+  // rotations go to the scratch array below and reach `out` only after the last chunk has read H.
   const bool overlaps = !out.is_none() && R.data() != H.data() && may_share_memory(H, R);
+  // Signals are checked between chunks of 2,048 matrices. So that an interrupted call leaves a caller's `out`
+  // untouched, the rotations then go to a scratch array, copied into `out` at the end: a fresh buffer's page
+  // faults and one more pass, which make a float fit into `out` about 1.5 times as long. So with `out` only a
+  // batch of more than about 0.3 s of work is watched (2^22 matrices by the SIMD methods, 2^18 by the scalar
+  // ones, which take about 15 times as long each); a shorter one is written straight into `out`, unwatched.
+  const bool scalar =
+      method == RotationMethod::svd || method == RotationMethod::kanatani || method == RotationMethod::horn_matrix;
+  const bool watched = m > 2048 && (out.is_none() || m > (scalar ? std::size_t(1) << 18 : std::size_t(1) << 22));
+  const bool scratch = (watched && !out.is_none()) || overlaps;
   const T* h = H.data();
   T* r = R.mutable_data();
-  SignalWatch watch;
-  try {
-    py::gil_scoped_release release;
-    if (seconds_cpp) {  // the reference figure: the batched call alone on data already in its layout
-      std::vector<T> soa(9 * m), rsoa(9 * m);
-      for (std::size_t i = 0; i < m; ++i)
-        for (std::size_t e = 0; e < 9; ++e) soa[e * m + i] = h[9 * i + e];
-      const auto t0 = std::chrono::steady_clock::now();
-      fit_rotations(soa.data(), rsoa.data(), m, method, threads);
-      *seconds_cpp = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-      return R;
-    }
-    // Blocks small enough that the transposed copies stay in cache (2 x 9 x 2048 values: 147 KiB in float,
-    // 295 KiB in double), larger when the library spreads a block over threads.
-    const std::size_t block = threads == 1 ? 2048 : 32768;
-    std::vector<T> soa(9 * std::min(block, m)), rsoa(soa.size());
-    // Signals are checked between blocks. So that an interrupted call leaves a caller's `out` untouched, the
-    // rotations then go to a scratch array, copied into `out` at the end: a fresh buffer's page faults and one
-    // more pass, which make a float fit into `out` about 1.5 times as long. So with `out` only a batch of more
-    // than about 0.3 s of work is watched (2^22 matrices by the SIMD methods, 2^18 by the scalar ones, which
-    // take about 15 times as long each); a shorter one is written straight into `out`, unwatched.
-    const bool scalar =
-        method == RotationMethod::svd || method == RotationMethod::kanatani || method == RotationMethod::horn_matrix;
-    const bool watched = m > block && (out.is_none() || m > (scalar ? std::size_t(1) << 18 : std::size_t(1) << 22));
-    const CancelCheck cancel = watched ? watch.check() : CancelCheck();
-    const std::unique_ptr<T[]> scratch((watched && !out.is_none()) || overlaps ? new T[9 * m] : nullptr);  // not zeroed
-    T* dest = scratch ? scratch.get() : r;
-    // A caller's `out` must stay untouched on error: all of H is checked before the first block is written
-    // (the library checks each block again). On the exponent bits, so that it vectorises.
-    if (!out.is_none()) {
-      using Bits = std::conditional_t<sizeof(T) == 4, std::uint32_t, std::uint64_t>;
-      constexpr Bits exponent = sizeof(T) == 4 ? Bits(0x7f800000u) : Bits(0x7ff0000000000000ull);
-      Bits non_finite = 0;
-      for (std::size_t i = 0; i < 9 * m; ++i) {
-        Bits b;
-        std::memcpy(&b, h + i, sizeof b);
-        non_finite |= Bits((b & exponent) == exponent);
-      }
-      if (non_finite) throw_non_finite(h, m);
-    }
-    for (std::size_t first = 0; first < m; first += block) {
-      if (cancel && cancel()) throw Cancelled();
-      const std::size_t b = std::min(block, m - first);
-      const T* hb = h + 9 * first;
-      for (std::size_t i = 0; i < b; ++i)
-        for (std::size_t e = 0; e < 9; ++e) soa[e * b + i] = hb[9 * i + e];
-      try {
-        fit_rotations(soa.data(), rsoa.data(), b, method, threads);
-      } catch (const std::invalid_argument&) {
-        throw_non_finite(h, m);  // name the matrix by its index in H, not in the block
-      }
-      T* rb = dest + 9 * first;
-      for (std::size_t i = 0; i < b; ++i)
-        for (std::size_t e = 0; e < 9; ++e) rb[9 * i + e] = rsoa[e * b + i];
-    }
-    if (dest != r) std::memcpy(r, dest, 9 * m * sizeof(T));
-  } catch (...) {  // as in interruptible()
-    watch.raise_kept();
-    throw;
-  }
-  watch.raise_kept();
+  interruptible(watched, [&](const CancelCheck& cancel) {
+    if (!scratch) return fit_interleaved(h, r, m, method, threads, cancel);
+    const std::unique_ptr<T[]> rotations(new T[9 * m]);  // not zeroed
+    fit_interleaved(h, rotations.get(), m, method, threads, cancel);
+    std::memcpy(r, rotations.get(), 9 * m * sizeof(T));
+  });
   return R;
+}
+
+/// Seconds of the library's call alone, on the arrays overhead.py gives fit_rotations: `interleaved`, the very
+/// call fit_rotations makes on H and out; else fit_rotations on a 3 x 3 x m copy of H made beforehand (the
+/// layout the lanes read, so the difference is the price of numpy's layout).
+template <class T>
+double time_cpp_fit_rotations(const Array<T>& H, int threads, const py::object& out, bool interleaved) {
+  py::array_t<T> R = checked_output(H, threads, out);
+  const std::size_t m = static_cast<std::size_t>(H.shape(0));
+  const T* h = H.data();
+  T* r = R.mutable_data();
+  const py::gil_scoped_release release;
+  std::vector<T> soa, rsoa;
+  if (!interleaved) {
+    soa.resize(9 * m);
+    rsoa.resize(9 * m);
+    for (std::size_t i = 0; i < m; ++i)
+      for (std::size_t e = 0; e < 9; ++e) soa[e * m + i] = h[9 * i + e];
+    // Once untimed, so that the timed call finds the caches as a repeated call does (the copy just written
+    // would otherwise be partly in the last-level cache).
+    fit_rotations(soa.data(), rsoa.data(), m, RotationMethod::axis_angle, threads);
+  }
+  const auto t0 = std::chrono::steady_clock::now();
+  if (interleaved)
+    fit_rotations_interleaved(h, r, m, RotationMethod::axis_angle, threads);
+  else
+    fit_rotations(soa.data(), rsoa.data(), m, RotationMethod::axis_angle, threads);
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
 }
 
 bool wants_single(const py::object& obj) {
@@ -132,10 +123,10 @@ bool wants_single(const py::object& obj) {
 
 py::array fit_rotations_py(const py::object& H, const std::string& method, int threads, const py::object& out) {
   const RotationMethod m = parse_method(method);
-  if (wants_single(H)) return fit_rotations_t<float>(Array<float>::ensure(H), m, threads, nullptr, out);
+  if (wants_single(H)) return fit_rotations_t<float>(Array<float>::ensure(H), m, threads, out);
   const Array<double> a = try_array<double>(H);
   if (!a) throw py::type_error("H: expected an (m, 3, 3) array of real numbers, got " + received(H));
-  return fit_rotations_t<double>(a, m, threads, nullptr, out);
+  return fit_rotations_t<double>(a, m, threads, out);
 }
 
 template <class T>
@@ -191,19 +182,16 @@ proper rotation R[i] maximising trace(R^T H). float32 in gives float32 out, anyt
 threads: 1 = the calling thread, 0 = all cores. out: a C-contiguous (m, 3, 3) array of H's dtype to write
 into (returned); it may be H itself or overlap H (the rotations then reach out after all of H is read). The
 GIL is released. ValueError naming the first NaN or infinite entry, with nothing written. Ctrl-C stops a batch
-of more than one block (2,048 matrices, 32,768 with threads): KeyboardInterrupt, out untouched (with out=, only
-batches of more than 2^22 matrices, 2^18 by the scalar methods).)");
+of more than 2,048 matrices between chunks of 2,048: KeyboardInterrupt, out untouched (with out=, only batches
+of more than 2^22 matrices, 2^18 by the scalar methods).)");
   m.def(
       "_time_cpp_fit_rotations",
-      [](const py::object& H, int threads) {
-        double seconds = 0;
-        if (wants_single(H))
-          fit_rotations_t<float>(Array<float>::ensure(H), RotationMethod::axis_angle, threads, &seconds);
-        else
-          fit_rotations_t<double>(Array<double>::ensure(H), RotationMethod::axis_angle, threads, &seconds);
-        return seconds;
+      [](const py::object& H, int threads, const py::object& out, bool interleaved) {
+        if (wants_single(H)) return time_cpp_fit_rotations<float>(Array<float>::ensure(H), threads, out, interleaved);
+        return time_cpp_fit_rotations<double>(Array<double>::ensure(H), threads, out, interleaved);
       },
-      py::arg("H"), py::arg("threads") = 1);
+      py::arg("H"), py::arg("threads") = 1, py::kw_only(), py::arg("out") = py::none(), py::arg("interleaved") = true,
+      "Seconds of the library's batched fit alone on H (into out): for python/bench/overhead.py.");
   m.def(
       "fit_rotation",
       [](const py::object& H, const std::string& method) -> py::array {

@@ -2,6 +2,7 @@
 // dispatch.hpp picks.
 #pragma once
 
+#include <mlsdeform/cancel.hpp>
 #include <mlsdeform/dispatch.hpp>
 #include <mlsdeform/rotation.hpp>
 #include <mlsdeform/stats.hpp>
@@ -22,5 +23,21 @@ void fit_rotations(const T* H, T* R, std::size_t n, RotationMethod method = Rota
 
 extern template void fit_rotations<float>(const float*, float*, std::size_t, RotationMethod, int, BatchStats*);
 extern template void fit_rotations<double>(const double*, double*, std::size_t, RotationMethod, int, BatchStats*);
+
+/// The same fits on n row-major 3 x 3 matrices one after the other (numpy's C-contiguous (n, 3, 3) array, an
+/// array of Eigen's RowMajor Matrix3): entry (r, c) of matrix i is H[9 i + 3 r + c]; R is written the same way,
+/// and may be H itself (in place) but must not otherwise overlap it. Each tile of 128 matrices is transposed to
+/// the lanes' layout and back in the L1 cache of the thread that fits it, so the result is bitwise that of
+/// fit_rotations on the transposed batch, for any thread count. Throws std::invalid_argument, writing nothing,
+/// naming the first NaN or infinite entry as H[i, r, c]. cancel (cancel.hpp) is asked before each chunk of
+/// 2,048 matrices; once it says stop, throws Cancelled with R partly written. Allocates nothing.
+template <class T>
+void fit_rotations_interleaved(const T* H, T* R, std::size_t n, RotationMethod method = RotationMethod::axis_angle,
+                               int threads = 1, BatchStats* stats = nullptr, const CancelCheck& cancel = {});
+
+extern template void fit_rotations_interleaved<float>(const float*, float*, std::size_t, RotationMethod, int,
+                                                      BatchStats*, const CancelCheck&);
+extern template void fit_rotations_interleaved<double>(const double*, double*, std::size_t, RotationMethod, int,
+                                                       BatchStats*, const CancelCheck&);
 
 }  // namespace mlsdeform
