@@ -8,7 +8,8 @@
 //   standard analysis (Higham, "Accuracy and Stability of Numerical Algorithms", 2nd ed., Thm 8.5 for the
 //   triangular solves and Thm 10.3 for the factorisation), the computed x solves (A + dA) x = b with
 //   |dA| <= gamma_{3w+2} P^T |L| |D| |L^T| P.
-// - Supernodal: CHOLMOD computes P A P^T + E1 = G G^T with |E1| <= gamma_{w+1} |G| |G^T| (Thm 10.3, for any
+// - Supernodal (CHOLMOD's, and ours, supernodal_ldlt.hpp, by Eigen's dense LLT, triangular solve and
+//   products on the blocks): computes P A P^T + E1 = G G^T with |E1| <= gamma_{w+1} |G| |G^T| (Thm 10.3, for any
 //   order of the inner products, so for blocked BLAS too), then D_c = fl(G_cc^2) and L_rc = fl(G_rc / G_cc),
 //   one rounding each: L D L^T = G G^T + E2 with |E2| <= gamma_3 |L| |D| |L^T|, and |G| |G^T| <=
 //   (1 + gamma_3) |L| |D| |L^T|. The solve with L, D, L^T adds gamma_{2w+1} |L| |D| |L^T| (as above).
@@ -86,15 +87,15 @@ std::vector<double> packed(const SubtreeLdlt& s, const Eigen::MatrixX3d& b) {
 TEST_CASE("SubtreeLdlt: the same bits for any schedule and thread count, residual within the LDL^T bound",
           "[arap][ldlt]") {
   using Method = SubtreeLdlt::Method;
-  std::vector<Method> methods{Method::simplicial};
+  std::vector<Method> methods{Method::simplicial, Method::supernodal_mit};
   if (mlsdeform::detail::supernodal_available())
     methods.push_back(Method::supernodal);
   else
     WARN("this build has no supernodal factorisation (MLSDEFORM_CHOLMOD=OFF): simplicial only");
   for (const Method method : methods) {
-    const bool supernodal = method == Method::supernodal;
-    // The supernodal factorisation in the order of coordinate_nested_dissection (as ArapRefiner gives the
-    // rows' points) and, where no points are given, in CHOLMOD's AMD order.
+    const bool supernodal = method != Method::simplicial;
+    // The supernodal factorisations in the order of coordinate_nested_dissection (as ArapRefiner gives the
+    // rows' points) and, where no points are given, in AMD's order (CHOLMOD's, or Eigen's for ours).
     for (const bool with_points : supernodal ? std::vector<bool>{true, false} : std::vector<bool>{false}) {
       Rng g(20261124);
       struct Shape {
@@ -106,7 +107,9 @@ TEST_CASE("SubtreeLdlt: the same bits for any schedule and thread count, residua
         const Eigen::Index n = A.rows();
         const auto points = grid_points(sh.pieces, sh.rows, sh.cols);
         const auto* x = with_points ? &points : nullptr;
-        INFO((supernodal ? "supernodal" : "simplicial")
+        INFO((method == Method::supernodal_mit ? "supernodal_mit"
+              : supernodal                     ? "supernodal"
+                                               : "simplicial")
              << (with_points ? " (points)" : "") << ", n = " << n << ", " << sh.pieces << " pieces");
         Eigen::MatrixX3d b(n, 3);
         for (Eigen::Index i = 0; i < n; ++i)

@@ -2,6 +2,7 @@
 #include "core/src/arap/subtree_ldlt.hpp"
 
 #include "core/src/arap/nested_dissection.hpp"
+#include "core/src/arap/supernodal_ldlt.hpp"
 #include "core/src/parallel.hpp"
 
 #include <Eigen/SparseCholesky>
@@ -31,6 +32,14 @@ struct EigenStorage final : SubtreeLdlt::Storage {
     const auto& L = ldlt.matrixL().nestedExpression();
     return std::size_t(L.nonZeros()) * (sizeof(double) + sizeof(int)) +
            std::size_t(L.outerSize()) * (sizeof(int) + sizeof(double) + 2 * sizeof(int));
+  }
+};
+
+/// The library's own supernodal factor, already in the columns' form.
+struct ColumnStorage final : SubtreeLdlt::Storage {
+  ColumnLdlt f;
+  std::size_t bytes() const override {
+    return f.values.capacity() * sizeof(double) + f.rows.size() * sizeof(int) + f.col_start.size() * sizeof(int);
   }
 };
 
@@ -133,7 +142,13 @@ bool SubtreeLdlt::compute(const Eigen::SparseMatrix<double>& A, std::size_t bins
                           const Eigen::Matrix<double, Eigen::Dynamic, 3>* points) {
   storage.reset();
   Lp = Li = nullptr, Lx = nullptr;
-  if (method == Method::supernodal && A.rows() > 0) {
+  if (method == Method::supernodal_mit && A.rows() > 0) {
+    auto s = std::make_unique<ColumnStorage>();
+    if (!supernodal_ldlt(A, points, int(bins), s->f)) return false;
+    D = std::move(s->f.D), perm = std::move(s->f.perm);
+    Lp = s->f.col_start.data(), Li = s->f.rows.data(), Lx = s->f.values.data();
+    storage = std::move(s);
+  } else if (method == Method::supernodal && A.rows() > 0) {
 #if MLSDEFORM_HAVE_CHOLMOD
     auto s = std::make_unique<CholmodStorage>();
     if (!s->factorise(A, points ? coordinate_nested_dissection(A, *points) : std::vector<int>(), perm, D)) return false;

@@ -8,7 +8,9 @@
 //  - supernodal: CHOLMOD's supernodal Cholesky, dense blocks by the BLAS, in the order of
 //    coordinate_nested_dissection (nested_dissection.hpp) where the rows' points are given and it leaves
 //    fewer entries in L than CHOLMOD's AMD, else in AMD's; then converted to L D L^T (only in builds with
-//    MLSDEFORM_CHOLMOD=ON; CHOLMOD's Supernodal module is GPL-2+).
+//    MLSDEFORM_CHOLMOD=ON; CHOLMOD's Supernodal module is GPL-2+);
+//  - supernodal_mit: the library's own supernodal factorisation over Eigen's dense blocks (supernodal_ldlt.hpp),
+//    in the dissection's order or AMD's alike; every build (MIT).
 #pragma once
 
 #include <tbb/task_arena.h>
@@ -26,7 +28,7 @@ bool supernodal_available();
 
 class SubtreeLdlt {
  public:
-  enum class Method { simplicial, supernodal };
+  enum class Method { simplicial, supernodal, supernodal_mit };
   SubtreeLdlt();
   ~SubtreeLdlt();
   SubtreeLdlt(SubtreeLdlt&&) noexcept;
