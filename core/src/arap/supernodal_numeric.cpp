@@ -66,23 +66,19 @@ bool factor_supernode(const Sparse& A, const SupernodalSymbolic& s, std::size_t 
   return true;
 }
 
-/// The supernodes' tree cut for the threads: `parts`, ranges [lo, hi] of consecutive supernodes, each a
-/// subtree (the numbering is a postorder: a subtree ends at its root), heaviest first, for the threads; `top`,
-/// the supernodes above them, ascending, for the calling thread afterwards. The heaviest subtree is split
-/// (its root to the top) while it holds more than 1/(8 threads) of the work (the blocks' multiplies).
-void cut_tree(const SupernodalSymbolic& s, std::size_t threads, std::vector<std::pair<int, int>>& parts,
-              std::vector<int>& top) {
-  const std::size_t ns = s.first.size() - 1;
-  std::vector<double> work(ns, 0.0);
+}  // namespace
+
+void cut_tree(const std::vector<int>& super_parent, const std::vector<double>& own, std::size_t threads,
+              std::vector<std::pair<int, int>>& parts, std::vector<int>& top) {
+  const std::size_t ns = super_parent.size();
+  std::vector<double> work(own);
   std::vector<int> size(ns, 1), roots;
   std::vector<std::vector<int>> children(ns);
   double total = 0;
   for (std::size_t t = 0; t < ns; ++t) {  // children come before their parent
-    const double c = s.first[t + 1] - s.first[t], r = s.row_start[t + 1] - s.row_start[t];
-    work[t] += c * r * r;
-    total += c * r * r;
-    if (s.super_parent[t] >= 0) {
-      const auto p = std::size_t(s.super_parent[t]);
+    total += own[t];
+    if (super_parent[t] >= 0) {
+      const auto p = std::size_t(super_parent[t]);
       work[p] += work[t], size[p] += size[t];
       children[p].push_back(int(t));
     } else {
@@ -106,10 +102,30 @@ void cut_tree(const SupernodalSymbolic& s, std::size_t threads, std::vector<std:
   for (const int r : roots) parts.emplace_back(r - size[std::size_t(r)] + 1, r);
 }
 
-}  // namespace
+ColumnLdlt to_columns(const SupernodalFactor& f) {
+  const std::size_t ns = f.first.size() - 1, n = f.perm.size();
+  ColumnLdlt out;
+  out.D.resize(n);
+  out.col_start.assign(1, 0);
+  for (std::size_t t = 0; t < ns; ++t) {
+    const int f0 = f.first[t], nc = f.first[t + 1] - f0, nr = f.row_start[t + 1] - f.row_start[t];
+    const int* rows = f.rows.data() + f.row_start[t];
+    const double* B = f.values.data() + f.value_start[t];
+    for (int c = 0; c < nc; ++c) {
+      const double g = B[std::size_t(c) * std::size_t(nr) + std::size_t(c)];
+      out.D[std::size_t(f0 + c)] = g * g;
+      for (int r = c + 1; r < nr; ++r) {
+        out.rows.push_back(rows[r]);
+        out.values.push_back(B[std::size_t(c) * std::size_t(nr) + std::size_t(r)] / g);
+      }
+      out.col_start.push_back(int(out.rows.size()));
+    }
+  }
+  return out;
+}
 
-bool supernodal_ldlt(const Sparse& A, const Eigen::Matrix<double, Eigen::Dynamic, 3>* points, int threads,
-                     ColumnLdlt& out) {
+bool supernodal_cholesky(const Sparse& A, const Eigen::Matrix<double, Eigen::Dynamic, 3>* points, int threads,
+                         SupernodalFactor& out) {
   const auto n = std::size_t(A.rows());
   // The order: the dissection where the rows' points are given, or AMD's, whichever leaves fewer entries.
   SupernodalSymbolic s;
@@ -132,7 +148,14 @@ bool supernodal_ldlt(const Sparse& A, const Eigen::Matrix<double, Eigen::Dynamic
       threads == 1 ? 1 : std::size_t(arena ? arena->max_concurrency() : tbb::this_task_arena::max_concurrency());
   std::vector<std::pair<int, int>> parts;
   std::vector<int> top;
-  cut_tree(s, bins, parts, top);
+  {
+    std::vector<double> work(ns);  // the block's multiplies
+    for (std::size_t t = 0; t < ns; ++t) {
+      const double c = s.first[t + 1] - s.first[t], r = s.row_start[t + 1] - s.row_start[t];
+      work[t] = c * r * r;
+    }
+    cut_tree(s.super_parent, work, bins, parts, top);
+  }
   tbb::enumerable_thread_specific<Scratch> scratch([n] { return Scratch{std::vector<int>(n, 0), {}}; });
   std::atomic<bool> failed{false};
   parallel_ranges(parts.size(), threads, arena.get(), [&](std::size_t k0, std::size_t k1) {
@@ -149,39 +172,9 @@ bool supernodal_ldlt(const Sparse& A, const Eigen::Matrix<double, Eigen::Dynamic
   }
   scratch.clear();
 
-  // L D L^T by columns: D_j = G_jj^2, L_rj = G_rj / G_jj, written over the blocks (each column's entries
-  // move to lower addresses only: the diagonal block's upper triangles are dropped).
-  out.D.resize(n);
-  out.col_start.resize(n + 1);
-  out.perm.resize(n);
-  for (std::size_t i = 0; i < n; ++i) out.perm[i] = s.pos[i];
-  std::size_t entries = 0;
-  for (std::size_t t = 0; t < ns; ++t) {
-    const auto nc = std::size_t(s.first[t + 1] - s.first[t]), nr = std::size_t(s.row_start[t + 1] - s.row_start[t]);
-    entries += nc * nr - nc * (nc + 1) / 2;
-  }
-  if (entries > std::size_t(std::numeric_limits<int>::max())) throw std::bad_alloc();  // L's int indices
-  std::size_t to = 0;
-  out.rows.resize(entries);
-  for (std::size_t t = 0; t < ns; ++t) {
-    const int f0 = s.first[t], nc = s.first[t + 1] - f0, nr = s.row_start[t + 1] - s.row_start[t];
-    const int* rows = s.rows.data() + s.row_start[t];
-    const double* B = values.data() + s.value_start[t];
-    for (int c = 0; c < nc; ++c) {
-      const double g = B[std::size_t(c) * std::size_t(nr) + std::size_t(c)];
-      out.D[std::size_t(f0 + c)] = g * g;
-      out.col_start[std::size_t(f0 + c)] = int(to);
-      for (int r = c + 1; r < nr; ++r, ++to) {
-        out.rows[to] = rows[r];
-        values[to] = B[std::size_t(c) * std::size_t(nr) + std::size_t(r)] / g;
-      }
-    }
-  }
-  out.col_start[n] = int(to);
-  // The blocks' storage is kept (the diagonal blocks' upper triangles, a few percent, stay at its end):
-  // shrinking would copy L once more at the set-up's memory peak.
-  values.resize(to);
-  out.values = std::move(values);
+  out.first = std::move(s.first), out.row_start = std::move(s.row_start), out.rows = std::move(s.rows);
+  out.super_parent = std::move(s.super_parent), out.perm = std::move(s.pos);
+  out.value_start = std::move(s.value_start), out.values = std::move(values);
   return true;
 }
 
