@@ -14,6 +14,7 @@ SupernodalSolve::SupernodalSolve(SupernodalFactor factor, std::size_t bins) : f(
   const auto height = [&](std::size_t t) { return f.row_start[t + 1] - f.row_start[t]; };
   std::vector<double> work(ns);
   for (std::size_t t = 0; t < ns; ++t) work[t] = double(columns(t)) * double(height(t));
+  for (const double w : work) shared_from += w / 64;
   std::vector<std::pair<int, int>> subtrees;
   cut_tree(f.super_parent, work, bins, subtrees, top);
   // The subtrees (heaviest first) each onto the lightest part.
@@ -87,11 +88,15 @@ void SupernodalSolve::forward(double* y, std::size_t t, int p0, int p1, bool dia
   int c = 0;
   for (; c + 4 <= nc; c += 4) {
     const double *g0 = column(c), *g1 = column(c + 1), *g2 = column(c + 2), *g3 = column(c + 3);
-    const double* zc = z + 3 * c;
+    const double* zc = z + 3 * c;  // in registers: the stores to acc could alias them otherwise
+    const double z00 = zc[0], z01 = zc[1], z02 = zc[2], z10 = zc[3], z11 = zc[4], z12 = zc[5];
+    const double z20 = zc[6], z21 = zc[7], z22 = zc[8], z30 = zc[9], z31 = zc[10], z32 = zc[11];
     for (std::size_t i = 0; i < m; ++i) {
       double* a = acc + 3 * i;
-      for (int k = 0; k < 3; ++k)
-        a[k] = (((a[k] + g0[i] * zc[k]) + g1[i] * zc[3 + k]) + g2[i] * zc[6 + k]) + g3[i] * zc[9 + k];
+      const double h0 = g0[i], h1 = g1[i], h2 = g2[i], h3 = g3[i];
+      a[0] = (((a[0] + h0 * z00) + h1 * z10) + h2 * z20) + h3 * z30;
+      a[1] = (((a[1] + h0 * z01) + h1 * z11) + h2 * z21) + h3 * z31;
+      a[2] = (((a[2] + h0 * z02) + h1 * z12) + h2 * z22) + h3 * z32;
     }
   }
   for (; c < nc; ++c) {
@@ -171,9 +176,10 @@ void SupernodalSolve::solve(std::vector<double>& yv, int threads, tbb::task_aren
   });
   // The top's large blocks (the dissection's top separators: a third of spot_loop3's entries) are shared by
   // the threads: rows of an update, or columns of a backward sum, in chunks (each row's or column's sum is
-  // the same whichever chunk holds it).
+  // the same whichever chunk holds it). Only blocks of at least 1/64 of the entries: at most 64 more
+  // joins of the threads per pass, each of which waits for a thread that a loaded machine may preempt.
   constexpr int kChunk = 256;
-  const auto large = [&](std::size_t t) { return threads != 1 && double(nc(t)) * double(nr(t)) >= 65536.0; };
+  const auto large = [&](std::size_t t) { return threads != 1 && double(nc(t)) * double(nr(t)) >= shared_from; };
   double* acc = scratch.back().data();
   for (const int t : tail) {
     const auto u = std::size_t(t);

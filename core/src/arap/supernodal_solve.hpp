@@ -43,6 +43,7 @@ class SupernodalSolve {
   std::vector<std::pair<int, int>> ranges;
   std::vector<std::size_t> range_start;
   std::vector<int> top, tail;  ///< the top's supernodes; those with rows in the top (top's included), ascending
+  double shared_from = 0;      ///< blocks with at least this many entries are shared by the threads (solve())
   mutable std::vector<std::vector<double>> scratch;  ///< per part, and one for the top (the last)
 };
 
