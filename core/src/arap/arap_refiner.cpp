@@ -238,12 +238,12 @@ ArapRefiner<T>::ArapRefiner(const Points<T>& rest, const Triangles& triangles,
   const std::size_t bins =
       options.threads == 1 ? 1 : std::size_t(options.threads == 0 ? cores : std::min(options.threads, cores));
   using Method = detail::SubtreeLdlt::Method;
-  const Method method =
-      options.factorisation == ArapFactorisation::supernodal_mit ? Method::supernodal_mit
-      : options.factorisation == ArapFactorisation::supernodal ||
-              (options.factorisation == ArapFactorisation::automatic && detail::supernodal_available())
-          ? Method::supernodal
-          : Method::simplicial;
+  const ArapFactorisation chosen = options.factorisation != ArapFactorisation::automatic ? options.factorisation
+                                   : detail::supernodal_available()                      ? ArapFactorisation::supernodal
+                                                                    : ArapFactorisation::supernodal_mit;
+  const Method method = chosen == ArapFactorisation::supernodal       ? Method::supernodal
+                        : chosen == ArapFactorisation::supernodal_mit ? Method::supernodal_mit
+                                                                      : Method::simplicial;
   const bool supernodal = method != Method::simplicial;
   PointsD free_points;  // the supernodal factorisation orders the rows by their points
   if (supernodal) {
