@@ -81,35 +81,35 @@ void SupernodalSolve::forward(double* y, std::size_t t, int p0, int p1, bool dia
     }
   if (p1 <= p0) return;
   const std::size_t m = std::size_t(p1 - p0);
+  // The three right-hand sides' accumulators one after the other (acc, acc + m, acc + 2 m): each is then a
+  // plain loop over the rows, which the compiler runs two rows per instruction.
+  double *a0 = acc, *a1 = acc + m, *a2 = acc + 2 * m;
   std::fill(acc, acc + 3 * m, 0.0);
   // Four columns per sweep over the rows (each row still adds its terms column by column, ascending: the
   // same bits as one column per sweep, with a quarter of the accumulators' loads and stores).
   const auto column = [&](int c) { return G + std::size_t(c) * std::size_t(nr) + p0; };
+  const auto sweep4 = [m](double* a, const double* g0, const double* g1, const double* g2, const double* g3, double w0,
+                          double w1, double w2, double w3) {
+    for (std::size_t i = 0; i < m; ++i) a[i] = (((a[i] + g0[i] * w0) + g1[i] * w1) + g2[i] * w2) + g3[i] * w3;
+  };
   int c = 0;
   for (; c + 4 <= nc; c += 4) {
     const double *g0 = column(c), *g1 = column(c + 1), *g2 = column(c + 2), *g3 = column(c + 3);
-    const double* zc = z + 3 * c;  // in registers: the stores to acc could alias them otherwise
-    const double z00 = zc[0], z01 = zc[1], z02 = zc[2], z10 = zc[3], z11 = zc[4], z12 = zc[5];
-    const double z20 = zc[6], z21 = zc[7], z22 = zc[8], z30 = zc[9], z31 = zc[10], z32 = zc[11];
-    for (std::size_t i = 0; i < m; ++i) {
-      double* a = acc + 3 * i;
-      const double h0 = g0[i], h1 = g1[i], h2 = g2[i], h3 = g3[i];
-      a[0] = (((a[0] + h0 * z00) + h1 * z10) + h2 * z20) + h3 * z30;
-      a[1] = (((a[1] + h0 * z01) + h1 * z11) + h2 * z21) + h3 * z31;
-      a[2] = (((a[2] + h0 * z02) + h1 * z12) + h2 * z22) + h3 * z32;
-    }
+    const double* zc = z + 3 * c;
+    sweep4(a0, g0, g1, g2, g3, zc[0], zc[3], zc[6], zc[9]);
+    sweep4(a1, g0, g1, g2, g3, zc[1], zc[4], zc[7], zc[10]);
+    sweep4(a2, g0, g1, g2, g3, zc[2], zc[5], zc[8], zc[11]);
   }
   for (; c < nc; ++c) {
     const double* g = column(c);
     const double z0 = z[3 * c], z1 = z[3 * c + 1], z2 = z[3 * c + 2];
-    for (std::size_t i = 0; i < m; ++i) {
-      double* a = acc + 3 * i;
-      a[0] += g[i] * z0, a[1] += g[i] * z1, a[2] += g[i] * z2;
-    }
+    for (std::size_t i = 0; i < m; ++i) a0[i] += g[i] * z0;
+    for (std::size_t i = 0; i < m; ++i) a1[i] += g[i] * z1;
+    for (std::size_t i = 0; i < m; ++i) a2[i] += g[i] * z2;
   }
   for (std::size_t i = 0; i < m; ++i) {
     double* yr = y + 3 * std::size_t(rows[std::size_t(p0) + i]);
-    yr[0] -= acc[3 * i], yr[1] -= acc[3 * i + 1], yr[2] -= acc[3 * i + 2];
+    yr[0] -= a0[i], yr[1] -= a1[i], yr[2] -= a2[i];
   }
 }
 
