@@ -124,7 +124,9 @@ Conditioning conditioning(const Tube& t) {
 TEST_CASE("ARAP: constrained vertices exact, energy decreasing every iteration", "[arap]") {
   const Tube t = tube(16, 20, 0.02, 1);
   const std::vector<Eigen::Index> c = ends(t);
-  ArapRefiner<double> arap(t.v, t.f, c);
+  ArapOptions o;
+  o.factorisation = GENERATE(ArapFactorisation::automatic, ArapFactorisation::supernodal_mit);
+  ArapRefiner<double> arap(t.v, t.f, c, o);
   CHECK(arap.clamped_weights() > 0);  // the jitter makes obtuse angles: the clamp is exercised
   const Points<double> q = end_targets(t, 1.5, 0.4);
   // Start: the rest pose with the constraints applied (far from rigid: the far ring jumps).
@@ -147,7 +149,9 @@ TEST_CASE("ARAP: constrained vertices exact, energy decreasing every iteration",
 TEST_CASE("ARAP: a rigid motion of every handle gives that motion", "[arap]") {
   const Tube t = tube(12, 10, 0.02, 2);
   const std::vector<Eigen::Index> c = ends(t);
-  ArapRefiner<double> arap(t.v, t.f, c);
+  ArapOptions o;
+  o.factorisation = GENERATE(ArapFactorisation::automatic, ArapFactorisation::supernodal_mit);
+  ArapRefiner<double> arap(t.v, t.f, c, o);
   const Eigen::Matrix3d R = Eigen::AngleAxisd(0.7, Eigen::Vector3d(1, 2, 3).normalized()).toRotationMatrix();
   const Eigen::Vector3d shift(0.5, -1, 2);
   Points<double> moved(t.v.rows(), 3);
@@ -172,9 +176,11 @@ TEST_CASE("ARAP: bitwise the same for any thread count", "[arap]") {
   const std::vector<Eigen::Index> c = ends(t);
   const Points<float> v = t.v.cast<float>(), q = end_targets(t, 2.0, 0.5).cast<float>();
   Points<float> ref;
+  const ArapFactorisation factorisation = GENERATE(ArapFactorisation::automatic, ArapFactorisation::supernodal_mit);
   for (int threads : {1, 2, 0}) {
     ArapOptions o;
     o.threads = threads;
+    o.factorisation = factorisation;
     ArapRefiner<float> arap(v, t.f, c, o);
     Points<float> x;
     arap.refine(v, q, 5, x);

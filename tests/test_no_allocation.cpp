@@ -9,6 +9,7 @@
 
 #include <atomic>
 #include <cerrno>
+#include <cmath>
 #include <cstddef>
 #include <random>
 #include <vector>
@@ -148,4 +149,38 @@ TEMPLATE_TEST_CASE("ARAP refinement allocates nothing in steady state", "[alloca
   CHECK(allocations_during([&] { d.deform(moved, out); }) == 0);
   PointsRowMajor<T> buffer(v.rows(), 3);
   CHECK(allocations_during([&] { d.deform(moved, InterleavedView<T>(buffer.data(), buffer.rows(), 3)); }) == 0);
+}
+
+TEMPLATE_TEST_CASE("ARAP refinement allocates nothing per iteration with each factorisation", "[allocation][arap]",
+                   float, double) {
+  using T = TestType;
+  // A 30 x 30 grid folded along a diagonal, its first row constrained and its last row moved: large enough
+  // for several supernodes, and, with two threads, a cut of the tree into parts and a top.
+  const int n = 30;
+  Points<T> v(n * n, 3);
+  Triangles f(2 * (n - 1) * (n - 1), 3);
+  for (int i = 0; i < n; ++i)
+    for (int j = 0; j < n; ++j) v.row(i * n + j) << T(i) / 10, T(j) / 10, T(std::abs(i - j)) / 20;
+  Eigen::Index k = 0;
+  for (int i = 0; i + 1 < n; ++i)
+    for (int j = 0; j + 1 < n; ++j) {
+      f.row(k++) << i * n + j, (i + 1) * n + j, (i + 1) * n + j + 1;
+      f.row(k++) << i * n + j, (i + 1) * n + j + 1, i * n + j + 1;
+    }
+  std::vector<Eigen::Index> held;
+  for (int j = 0; j < n; ++j) held.push_back(j), held.push_back((n - 1) * n + j);
+  Points<T> targets(Eigen::Index(held.size()), 3);
+  for (std::size_t h = 0; h < held.size(); ++h)
+    targets.row(Eigen::Index(h)) =
+        v.row(held[h]) + (held[h] >= n ? Points<T>::Constant(1, 3, T(0.3)) : Points<T>::Zero(1, 3));
+  std::vector<ArapFactorisation> methods{ArapFactorisation::simplicial, ArapFactorisation::supernodal_mit};
+  if (supernodal_factorisation_available()) methods.push_back(ArapFactorisation::supernodal);
+  for (const ArapFactorisation m : methods) {
+    INFO("factorisation " << int(m));
+    // One thread: with more, TBB's task allocation is its own (scalable allocator, not new).
+    ArapRefiner<T> r(v, f, held, ArapOptions{1, m});
+    Points<T> out;
+    CHECK(allocations_during([&] { r.refine(v, targets, 3, out); }) > 0);
+    CHECK(allocations_during([&] { r.refine(v, targets, 3, out); }) == 0);
+  }
 }

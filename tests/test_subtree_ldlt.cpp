@@ -8,7 +8,8 @@
 //   standard analysis (Higham, "Accuracy and Stability of Numerical Algorithms", 2nd ed., Thm 8.5 for the
 //   triangular solves and Thm 10.3 for the factorisation), the computed x solves (A + dA) x = b with
 //   |dA| <= gamma_{3w+2} P^T |L| |D| |L^T| P.
-// - Supernodal: CHOLMOD computes P A P^T + E1 = G G^T with |E1| <= gamma_{w+1} |G| |G^T| (Thm 10.3, for any
+// - Supernodal (CHOLMOD's, and ours, supernodal_ldlt.hpp, by Eigen's dense LLT, triangular solve and
+//   products on the blocks): computes P A P^T + E1 = G G^T with |E1| <= gamma_{w+1} |G| |G^T| (Thm 10.3, for any
 //   order of the inner products, so for blocked BLAS too), then D_c = fl(G_cc^2) and L_rc = fl(G_rc / G_cc),
 //   one rounding each: L D L^T = G G^T + E2 with |E2| <= gamma_3 |L| |D| |L^T|, and |G| |G^T| <=
 //   (1 + gamma_3) |L| |D| |L^T|. The solve with L, D, L^T adds gamma_{2w+1} |L| |D| |L^T| (as above).
@@ -19,9 +20,12 @@
 #include "core/src/arap/subtree_ldlt.hpp"
 #include "tests/support/random.hpp"
 
+#include <Eigen/Eigenvalues>
 #include <Eigen/SparseCholesky>
 #include <catch2/catch.hpp>
 
+#include <algorithm>
+#include <cmath>
 #include <cstring>
 #include <limits>
 #include <stdexcept>
@@ -86,27 +90,31 @@ std::vector<double> packed(const SubtreeLdlt& s, const Eigen::MatrixX3d& b) {
 TEST_CASE("SubtreeLdlt: the same bits for any schedule and thread count, residual within the LDL^T bound",
           "[arap][ldlt]") {
   using Method = SubtreeLdlt::Method;
-  std::vector<Method> methods{Method::simplicial};
+  std::vector<Method> methods{Method::simplicial, Method::supernodal_mit};
   if (mlsdeform::detail::supernodal_available())
     methods.push_back(Method::supernodal);
   else
     WARN("this build has no supernodal factorisation (MLSDEFORM_CHOLMOD=OFF): simplicial only");
   for (const Method method : methods) {
-    const bool supernodal = method == Method::supernodal;
-    // The supernodal factorisation in the order of coordinate_nested_dissection (as ArapRefiner gives the
-    // rows' points) and, where no points are given, in CHOLMOD's AMD order.
+    const bool supernodal = method != Method::simplicial;
+    // The supernodal factorisations in the order of coordinate_nested_dissection (as ArapRefiner gives the
+    // rows' points) and, where no points are given, in AMD's order (CHOLMOD's, or Eigen's for ours).
     for (const bool with_points : supernodal ? std::vector<bool>{true, false} : std::vector<bool>{false}) {
       Rng g(20261124);
       struct Shape {
         int pieces, rows, cols, extra;
       };
-      for (const Shape sh : {Shape{1, 1, 1, 0}, Shape{1, 1, 2, 0}, Shape{3, 1, 1, 0}, Shape{1, 7, 9, 5},
-                             Shape{4, 10, 12, 20}, Shape{2, 45, 50, 200}}) {
+      for (const Shape sh :
+           {Shape{1, 1, 1, 0}, Shape{1, 1, 2, 0}, Shape{3, 1, 1, 0}, Shape{1, 7, 9, 5}, Shape{4, 10, 12, 20},
+            Shape{2, 45, 50, 200},
+            Shape{1, 40, 40, 1500}}) {  // the last: random edges, a dense top (blocks shared by threads)
         const Sparse A = spd(g, sh.pieces, sh.rows, sh.cols, sh.extra);
         const Eigen::Index n = A.rows();
         const auto points = grid_points(sh.pieces, sh.rows, sh.cols);
         const auto* x = with_points ? &points : nullptr;
-        INFO((supernodal ? "supernodal" : "simplicial")
+        INFO((method == Method::supernodal_mit ? "supernodal_mit"
+              : supernodal                     ? "supernodal"
+                                               : "simplicial")
              << (with_points ? " (points)" : "") << ", n = " << n << ", " << sh.pieces << " pieces");
         Eigen::MatrixX3d b(n, 3);
         for (Eigen::Index i = 0; i < n; ++i)
@@ -176,6 +184,133 @@ TEST_CASE("SubtreeLdlt: the same bits for any schedule and thread count, residua
       }
     }
   }
+}
+
+namespace {
+
+/// The reduced Laplacian of ArapRefiner's global step on `pieces` grids of rows x cols vertices (edges as in
+/// spd(), weights in [0.1, 1], no shift), each with `held` random vertices constrained: their rows and
+/// columns removed, their edges left on their neighbours' diagonals. Every piece keeps a constrained vertex,
+/// so the matrix is positive definite, its conditioning that of a grid held at a few points. `points`: the
+/// free rows' points (grid_points's).
+Sparse reduced_laplacian(Rng& g, int pieces, int rows, int cols, int held,
+                         Eigen::Matrix<double, Eigen::Dynamic, 3>& points) {
+  const Sparse full = spd(g, pieces, rows, cols, 0);
+  const auto all = grid_points(pieces, rows, cols);
+  const int per = rows * cols;
+  std::vector<int> row(std::size_t(pieces * per), 0);
+  for (int p = 0; p < pieces; ++p)
+    for (int h = 0; h < held; ++h) row[std::size_t(p * per + int(g.uniform<double>(0, per - 1e-9)))] = -1;
+  int nf = 0;
+  for (int& r : row) r = r < 0 ? -1 : nf++;
+  std::vector<Eigen::Triplet<double>> t;
+  points.resize(nf, 3);
+  for (int c = 0; c < full.outerSize(); ++c) {
+    if (row[std::size_t(c)] < 0) continue;
+    points.row(row[std::size_t(c)]) = all.row(c);
+    for (Sparse::InnerIterator it(full, c); it; ++it) {
+      const int r = row[std::size_t(it.row())];
+      // spd()'s shift of the diagonal is dropped: the diagonal is minus the sum of the off-diagonal row
+      if (it.row() == c) continue;
+      t.emplace_back(row[std::size_t(c)], row[std::size_t(c)], -it.value());
+      if (r >= 0) t.emplace_back(r, row[std::size_t(c)], it.value());
+    }
+  }
+  Sparse A(nf, nf);
+  A.setFromTriplets(t.begin(), t.end());
+  return A;
+}
+
+/// max_i (|L| |D| |L^T| 1)_i = || |L| |D| |L^T| ||_1 (nonnegative and symmetric), in long double, for L's
+/// strictly lower part by columns (col_start, rows, values) and D.
+template <class Index>
+LD ldl_norm(Eigen::Index n, const Index* col_start, const Index* rows, const double* values, const double* D) {
+  const auto size = static_cast<std::size_t>(n);
+  std::vector<LD> t(size, 0), m(size, 0);
+  for (Eigen::Index c = 0; c < n; ++c) {  // t = |D| |L^T| 1
+    LD sum = 1;
+    for (Index p = col_start[c]; p < col_start[c + 1]; ++p) sum += std::abs(LD(values[p]));
+    t[std::size_t(c)] = sum * std::abs(LD(D[c]));
+  }
+  for (Eigen::Index c = 0; c < n; ++c) {  // m = |L| t
+    m[std::size_t(c)] += t[std::size_t(c)];
+    for (Index p = col_start[c]; p < col_start[c + 1]; ++p)
+      m[std::size_t(rows[p])] += std::abs(LD(values[p])) * t[std::size_t(c)];
+  }
+  return *std::max_element(m.begin(), m.end());
+}
+
+/// 1 + the most entries in a row or a column of L (the file comment's w).
+template <class Index>
+int longest(Eigen::Index n, const Index* col_start, const Index* rows) {
+  std::vector<int> count(std::size_t(n), 0);
+  int w = 1;
+  for (Eigen::Index c = 0; c < n; ++c) {
+    w = std::max(w, int(col_start[c + 1] - col_start[c]) + 1);
+    for (Index p = col_start[c]; p < col_start[c + 1]; ++p) w = std::max(w, ++count[std::size_t(rows[p])] + 1);
+  }
+  return w;
+}
+
+}  // namespace
+
+// Ours against Eigen's SimplicialLDLT, each solving A x = b. The file comment's componentwise bound gives the
+// normwise |dA|_2 <= || |dA| ||_2 <= gamma_k || P^T |L| |D| |L^T| P ||_2 <= gamma_k || |L| |D| |L^T| ||_1 (a
+// nonnegative symmetric matrix's 2-norm is at most its 1-norm), each factorisation with its own L, D, k. Then
+// (A + dA) x = b gives x - A^-1 b = -A^-1 dA x, so |x - A^-1 b|_2 <= |dA|_2 |x|_2 / lambda_min(A), and the two
+// solutions differ by at most the sum of their two bounds. lambda_min comes from Eigen's dense symmetric
+// eigensolver, which is backward stable: its eigenvalues are within n u ||A||_2 <= n u ||A||_1 of the exact
+// ones (a bound with a generous constant; the QR iteration's is a small multiple of u ||A||), subtracted
+// before dividing.
+TEST_CASE("SubtreeLdlt supernodal_mit: Eigen's SimplicialLDLT solution within the conditioning bound", "[arap][ldlt]") {
+  using Method = SubtreeLdlt::Method;
+  Rng g(20261125);
+  struct Shape {
+    int pieces, rows, cols, held;
+  };
+  for (const Shape sh : {Shape{1, 30, 30, 1}, Shape{3, 12, 15, 2}, Shape{2, 20, 22, 6}, Shape{4, 1, 9, 1}})
+    for (const bool with_points : {true, false}) {
+      Eigen::Matrix<double, Eigen::Dynamic, 3> points;
+      const Sparse A = reduced_laplacian(g, sh.pieces, sh.rows, sh.cols, sh.held, points);
+      const Eigen::Index n = A.rows();
+      INFO("n = " << n << ", " << sh.pieces << " pieces, " << sh.held << " held each"
+                  << (with_points ? ", points" : ""));
+      Eigen::MatrixX3d b(n, 3);
+      for (Eigen::Index i = 0; i < n; ++i)
+        for (int k = 0; k < 3; ++k) b(i, k) = g.uniform<double>(-1, 1);
+      SubtreeLdlt s;
+      REQUIRE(s.compute(A, 2, Method::supernodal_mit, with_points ? &points : nullptr));
+      std::vector<double> y = packed(s, b);
+      s.solve(y, 0, nullptr);
+      Eigen::SimplicialLDLT<Sparse> eigen(A);
+      REQUIRE(eigen.info() == Eigen::Success);
+      const Eigen::MatrixX3d xe = eigen.solve(b);
+
+      const Eigen::MatrixXd dense = Eigen::MatrixXd(A);
+      const LD u = std::numeric_limits<double>::epsilon() / 2, norm1 = dense.cwiseAbs().colwise().sum().maxCoeff();
+      const LD lambda =
+          LD(Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd>(dense, Eigen::EigenvaluesOnly).eigenvalues()(0)) -
+          LD(n) * u * norm1;
+      REQUIRE(lambda > 0);
+      const auto gamma = [&](int k) { return LD(k) * u / (1 - LD(k) * u); };
+      const SubtreeLdlt::Factor f = s.factor();
+      const LD ours = gamma(3 * longest(n, f.col_start.data(), f.rows.data()) + 6) *
+                      ldl_norm(n, f.col_start.data(), f.rows.data(), f.values.data(), f.D.data());
+      const auto& Le = eigen.matrixL().nestedExpression();
+      const Eigen::VectorXd De = eigen.vectorD();
+      const LD theirs = gamma(3 * longest(n, Le.outerIndexPtr(), Le.innerIndexPtr()) + 2) *
+                        ldl_norm(n, Le.outerIndexPtr(), Le.innerIndexPtr(), Le.valuePtr(), De.data());
+      for (int k = 0; k < 3; ++k) {
+        LD diff = 0, x2 = 0, xe2 = 0;
+        for (Eigen::Index i = 0; i < n; ++i) {
+          const LD x = y[3 * std::size_t(s.row_of(i)) + std::size_t(k)];
+          diff += (x - LD(xe(i, k))) * (x - LD(xe(i, k))), x2 += x * x, xe2 += LD(xe(i, k)) * LD(xe(i, k));
+        }
+        const LD bound = (ours * std::sqrt(x2) + theirs * std::sqrt(xe2)) / lambda;
+        INFO("column " << k << ": |x - x_eigen| " << double(std::sqrt(diff)) << ", bound " << double(bound));
+        CHECK(std::sqrt(diff) <= bound);
+      }
+    }
 }
 
 TEST_CASE("coordinate_nested_dissection: a permutation, separators last, less fill than the natural order",

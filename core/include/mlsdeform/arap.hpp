@@ -20,9 +20,10 @@ using Triangles = Eigen::Matrix<int, Eigen::Dynamic, 3, Eigen::RowMajor>;
 
 /// The global step's sparse factorisation, done once per session (docs/api.md, "ARAP refinement").
 enum class ArapFactorisation {
-  automatic,   ///< supernodal where this build has it, else simplicial
-  simplicial,  ///< Eigen's SimplicialLDLT, AMD ordering: every build
-  supernodal,  ///< CHOLMOD's supernodal Cholesky (GPL-2+): builds with MLSDEFORM_CHOLMOD=ON only
+  automatic,       ///< supernodal where this build has it, else supernodal_mit
+  simplicial,      ///< Eigen's SimplicialLDLT, AMD ordering: every build
+  supernodal,      ///< CHOLMOD's supernodal Cholesky (GPL-2+): builds with MLSDEFORM_CHOLMOD=ON only
+  supernodal_mit,  ///< the library's own supernodal Cholesky over Eigen's dense blocks (MIT): every build
 };
 
 /// Whether this build has ArapFactorisation::supernodal (the CMake option MLSDEFORM_CHOLMOD).

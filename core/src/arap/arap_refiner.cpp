@@ -238,15 +238,19 @@ ArapRefiner<T>::ArapRefiner(const Points<T>& rest, const Triangles& triangles,
   const std::size_t bins =
       options.threads == 1 ? 1 : std::size_t(options.threads == 0 ? cores : std::min(options.threads, cores));
   using Method = detail::SubtreeLdlt::Method;
-  const bool supernodal = options.factorisation == ArapFactorisation::supernodal ||
-                          (options.factorisation == ArapFactorisation::automatic && detail::supernodal_available());
+  const ArapFactorisation chosen = options.factorisation != ArapFactorisation::automatic ? options.factorisation
+                                   : detail::supernodal_available()                      ? ArapFactorisation::supernodal
+                                                                    : ArapFactorisation::supernodal_mit;
+  const Method method = chosen == ArapFactorisation::supernodal       ? Method::supernodal
+                        : chosen == ArapFactorisation::supernodal_mit ? Method::supernodal_mit
+                                                                      : Method::simplicial;
+  const bool supernodal = method != Method::simplicial;
   PointsD free_points;  // the supernodal factorisation orders the rows by their points
   if (supernodal) {
     free_points.resize(nf, 3);
     for (Eigen::Index f = 0; f < nf; ++f) free_points.row(f) = m.P.row(m.free_vertices[std::size_t(f)]);
   }
-  if (!m.solver.compute(L, bins, supernodal ? Method::supernodal : Method::simplicial,
-                        supernodal ? &free_points : nullptr))
+  if (!m.solver.compute(L, bins, method, supernodal ? &free_points : nullptr))
     throw std::invalid_argument("ArapRefiner: the cotangent Laplacian could not be factorised");
 
   m.X.resize(m.n, 3);

@@ -2,6 +2,8 @@
 #include "core/src/arap/subtree_ldlt.hpp"
 
 #include "core/src/arap/nested_dissection.hpp"
+#include "core/src/arap/supernodal_ldlt.hpp"
+#include "core/src/arap/supernodal_solve.hpp"
 #include "core/src/parallel.hpp"
 
 #include <Eigen/SparseCholesky>
@@ -32,6 +34,13 @@ struct EigenStorage final : SubtreeLdlt::Storage {
     return std::size_t(L.nonZeros()) * (sizeof(double) + sizeof(int)) +
            std::size_t(L.outerSize()) * (sizeof(int) + sizeof(double) + 2 * sizeof(int));
   }
+};
+
+/// The library's own supernodal factor and its substitution.
+struct BlockStorage final : SubtreeLdlt::Storage {
+  SupernodalSolve solve;
+  explicit BlockStorage(SupernodalSolve s) : solve(std::move(s)) {}
+  std::size_t bytes() const override { return solve.memory_bytes(); }
 };
 
 #if MLSDEFORM_HAVE_CHOLMOD
@@ -133,7 +142,17 @@ bool SubtreeLdlt::compute(const Eigen::SparseMatrix<double>& A, std::size_t bins
                           const Eigen::Matrix<double, Eigen::Dynamic, 3>* points) {
   storage.reset();
   Lp = Li = nullptr, Lx = nullptr;
-  if (method == Method::supernodal && A.rows() > 0) {
+  blocks = nullptr;
+  D.clear(), perm.clear(), order.clear(), part_start.clear(), top_start.clear(), tail_cols.clear();
+  if (method == Method::supernodal_mit && A.rows() > 0) {
+    SupernodalFactor f;
+    if (!supernodal_cholesky(A, points, int(bins), f)) return false;
+    perm = f.perm;
+    auto s = std::make_unique<BlockStorage>(SupernodalSolve(std::move(f), bins));
+    blocks = &s->solve;
+    storage = std::move(s);
+    return true;
+  } else if (method == Method::supernodal && A.rows() > 0) {
 #if MLSDEFORM_HAVE_CHOLMOD
     auto s = std::make_unique<CholmodStorage>();
     if (!s->factorise(A, points ? coordinate_nested_dissection(A, *points) : std::vector<int>(), perm, D)) return false;
@@ -160,8 +179,26 @@ bool SubtreeLdlt::compute(const Eigen::SparseMatrix<double>& A, std::size_t bins
 }
 
 SubtreeLdlt::Factor SubtreeLdlt::factor() const {
+  if (blocks) {
+    ColumnLdlt c = to_columns(blocks->factor());
+    return {std::move(c.col_start), std::move(c.rows), std::move(c.values), std::move(c.D)};
+  }
   const std::size_t n = D.size(), nnz = n ? std::size_t(Lp[n]) : 0;
-  return {std::span<const int>(Lp, n ? n + 1 : 0), std::span<const int>(Li, nnz), std::span<const double>(Lx, nnz), D};
+  return {std::vector<int>(Lp, Lp + (n ? n + 1 : 0)), std::vector<int>(Li, Li + nnz), std::vector<double>(Lx, Lx + nnz),
+          D};
+}
+
+std::size_t SubtreeLdlt::entries() const {
+  if (blocks) {
+    const SupernodalFactor& f = blocks->factor();
+    std::size_t e = 0;
+    for (std::size_t t = 0; t + 1 < f.first.size(); ++t) {
+      const auto c = std::size_t(f.first[t + 1] - f.first[t]), r = std::size_t(f.row_start[t + 1] - f.row_start[t]);
+      e += c * r - c * (c + 1) / 2;
+    }
+    return e;
+  }
+  return D.empty() ? 0 : std::size_t(Lp[D.size()]);
 }
 
 /// L z = y, in place in y, column by column: z_c is final once the columns before it are done, and goes
@@ -263,6 +300,10 @@ void SubtreeLdlt::schedule(std::size_t bins) {
 }
 
 void SubtreeLdlt::solve(std::vector<double>& y, int threads, tbb::task_arena* arena) const {
+  if (blocks) {
+    blocks->solve(y, threads, arena);
+    return;
+  }
   // L z = y (unit lower), then D^-1 and L^T x = z. Row r of L has entries only in columns that descend from
   // r in the elimination tree, column c only in rows that are its ancestors: the parts' subtrees share no
   // row. Forward: each part's columns scatter into their rows below the top, in parallel; then every column

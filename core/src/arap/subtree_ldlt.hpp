@@ -8,7 +8,10 @@
 //  - supernodal: CHOLMOD's supernodal Cholesky, dense blocks by the BLAS, in the order of
 //    coordinate_nested_dissection (nested_dissection.hpp) where the rows' points are given and it leaves
 //    fewer entries in L than CHOLMOD's AMD, else in AMD's; then converted to L D L^T (only in builds with
-//    MLSDEFORM_CHOLMOD=ON; CHOLMOD's Supernodal module is GPL-2+).
+//    MLSDEFORM_CHOLMOD=ON; CHOLMOD's Supernodal module is GPL-2+);
+//  - supernodal_mit: the library's own supernodal Cholesky over Eigen's dense blocks (supernodal_ldlt.hpp),
+//    in the dissection's order or AMD's alike; every build (MIT). It keeps its blocks, G G^T, and
+//    substitutes with them (supernodal_solve.hpp) rather than by columns, with the same guarantees.
 #pragma once
 
 #include <tbb/task_arena.h>
@@ -24,9 +27,11 @@ namespace mlsdeform::detail {
 /// Whether this build has the supernodal factorisation (MLSDEFORM_CHOLMOD).
 bool supernodal_available();
 
+class SupernodalSolve;
+
 class SubtreeLdlt {
  public:
-  enum class Method { simplicial, supernodal };
+  enum class Method { simplicial, supernodal, supernodal_mit };
   SubtreeLdlt();
   ~SubtreeLdlt();
   SubtreeLdlt(SubtreeLdlt&&) noexcept;
@@ -45,12 +50,15 @@ class SubtreeLdlt {
   std::size_t memory_bytes() const;
 
   /// The factor: P A P^T = L D L^T, with L's strictly lower part by columns (column c's rows, ascending, are
-  /// rows[col_start[c] .. col_start[c + 1]), its values alike) and P as row_of.
+  /// rows[col_start[c] .. col_start[c + 1]), its values alike) and P as row_of. A copy (supernodal_mit's is
+  /// converted from its blocks: L_rc = G_rc / G_cc, D_c = G_cc^2), for tests.
   struct Factor {
-    std::span<const int> col_start, rows;
-    std::span<const double> values, D;
+    std::vector<int> col_start, rows;
+    std::vector<double> values, D;
   };
   Factor factor() const;
+  /// Entries of L below the diagonal (as stored: supernodal_mit's relaxed zeros included).
+  std::size_t entries() const;
 
   struct Storage;  ///< whoever owns L's arrays (Eigen's factor or CHOLMOD's): subtree_ldlt.cpp
 
@@ -63,6 +71,8 @@ class SubtreeLdlt {
   /// L's owner; Lp, Li, Lx point into its arrays: L's strictly lower part by columns, the unit diagonal
   /// implicit.
   std::unique_ptr<Storage> storage;
+  /// supernodal_mit's factor, with its own substitution by blocks (in storage); null for the others.
+  const SupernodalSolve* blocks = nullptr;
   const int *Lp = nullptr, *Li = nullptr;
   const double* Lx = nullptr;
   std::vector<double> D;

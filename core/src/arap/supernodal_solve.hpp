@@ -1,0 +1,50 @@
+// The substitution with supernodal_cholesky's factor (supernodal_ldlt.hpp): G G^T x = b for three
+// right-hand sides at once (interleaved, 3 values per row), on the dense blocks: each supernode solves its
+// diagonal block and updates the rows below from its block's columns, which stream once through memory
+// (8 bytes per entry; the right-hand sides are gathered once per supernode row, not once per entry).
+//
+// Threads: the supernodes' tree is cut (cut_tree) into subtrees spread over `bins` parts, and a top, the
+// supernodes above them. Forward: the parts in parallel, each supernode updating the rows below it that are
+// not in the top; then, one thread, every supernode with rows in the top (ascending) updates them, and the
+// top's supernodes solve their blocks in turn (the large blocks' rows shared by the threads). Backward: the
+// top (the large blocks' columns shared), then the parts in parallel. Each row's
+// update from a supernode is one sum over the supernode's columns in ascending order, whichever pass
+// computes it, and the updates reach a row in ascending supernode order: the same bits for any thread count
+// and any cut. Nothing is allocated per solve (each part's scratch is sized by schedule()).
+#pragma once
+
+#include "core/src/arap/supernodal_ldlt.hpp"
+
+#include <tbb/task_arena.h>
+
+#include <cstddef>
+#include <vector>
+
+namespace mlsdeform::detail {
+
+class SupernodalSolve {
+ public:
+  /// Takes the factor and cuts its tree for `bins` threads.
+  SupernodalSolve(SupernodalFactor factor, std::size_t bins);
+  /// y holds b in and x out, 3 values per row, row i of A at 3 * factor().perm[i].
+  void solve(std::vector<double>& y, int threads, tbb::task_arena* arena) const;
+  const SupernodalFactor& factor() const { return f; }
+  std::size_t memory_bytes() const;
+
+ private:
+  void forward(double* y, std::size_t t, int p0, int p1, bool diagonal, double* acc) const;
+  void gather(const double* y, std::size_t t, double* xb) const;
+  void below(double* y, std::size_t t, int c0, int c1, const double* xb) const;
+  void diagonal_back(double* y, std::size_t t) const;
+
+  SupernodalFactor f;
+  std::vector<int> top_start;  ///< supernode t's rows from row position top_start[t] on are in the top
+  /// Part k's subtrees: ranges[range_start[k] .. range_start[k + 1]), each [lo, hi] of supernodes.
+  std::vector<std::pair<int, int>> ranges;
+  std::vector<std::size_t> range_start;
+  std::vector<int> top, tail;  ///< the top's supernodes; those with rows in the top (top's included), ascending
+  double shared_from = 0;      ///< blocks with at least this many entries are shared by the threads (solve())
+  mutable std::vector<std::vector<double>> scratch;  ///< per part, and one for the top (the last)
+};
+
+}  // namespace mlsdeform::detail
