@@ -86,6 +86,9 @@ struct Options {
   /// locally rigid (docs/api.md, "ARAP refinement"). Any count: each iteration costs the same, and a
   /// CancelCheck given to deform() stops a frame between iterations (cancel.hpp).
   int arap_iterations = 0;
+  /// How the ARAP iterations are driven (ArapAcceleration, arap.hpp): anderson reaches a lower energy in the
+  /// same iterations (docs/api.md, "ARAP refinement").
+  ArapAcceleration arap_acceleration = ArapAcceleration::none;
   Centroids centroids = Centroids::mls;
   /// A region of interest: the vertices (0-based, any order, each once) that may move; every other vertex
   /// keeps its rest position bitwise, and only the region's vertices cost time per frame. Empty (default):

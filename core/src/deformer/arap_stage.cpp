@@ -57,6 +57,7 @@ std::unique_ptr<ArapStage<T>> ArapStage<T>::make(const Points<T>& rest, const Tr
   }
   ArapOptions ao;
   ao.threads = options.threads;
+  ao.acceleration = options.arap_acceleration;
   ArapRefiner<T> refiner(rest, triangles, constrained, ao);
   return std::make_unique<ArapStage>(std::move(refiner), std::move(constrained), rest.rows());
 }
