@@ -115,7 +115,7 @@ def _session(obj):
     """The cached session of obj, built from the stored rest data when missing or out of date."""
     s = _settings(obj)
     key = (obj.name, obj.data.name, len(obj.data.vertices), s.transform, s.exponent, s.segment_weight,
-           s.precision, s.threads)
+           s.precision, s.threads, s.arap_iterations, s.arap_acceleration, s.arap_warm_start)
     cached = _sessions.get(obj.name)
     if cached is not None and cached["key"] == key:
         return cached
@@ -124,8 +124,15 @@ def _session(obj):
     dtype = np.float32 if s.precision == "float" else np.float64
     V = _rest_vertices(obj).astype(dtype)
     points, segments = _split(obj, rest)
+    arap = {}
+    if s.arap_iterations > 0:  # the surface for the ARAP iterations: the mesh's polygons as triangles
+        obj.data.calc_loop_triangles()
+        faces = np.empty(3 * len(obj.data.loop_triangles), dtype=np.int64)
+        obj.data.loop_triangles.foreach_get("vertices", faces)
+        arap = dict(faces=faces.reshape(-1, 3), arap_iterations=s.arap_iterations,
+                    arap_acceleration=s.arap_acceleration, arap_warm_start=s.arap_warm_start)
     deformer = mlsdeform.Deformer(V, points=points, segments=segments, transform=s.transform,
-                                  exponent=s.exponent, segment_weight=s.segment_weight, threads=s.threads)
+                                  exponent=s.exponent, segment_weight=s.segment_weight, threads=s.threads, **arap)
     cached = {"key": key, "deformer": deformer, "names": names, "out": np.empty((len(V), 3), dtype),
               "last": None}
     _sessions[obj.name] = cached
@@ -213,6 +220,17 @@ class MLSDeformSettings(bpy.types.PropertyGroup):
         default="float", update=_settings_changed)
     threads: bpy.props.IntProperty(name="Threads", description="0: all cores", default=0, min=0, max=256,
                                    update=_settings_changed)
+    arap_iterations: bpy.props.IntProperty(
+        name="ARAP iterations", description="Surface-ARAP iterations after MLS on the mesh's faces (0: MLS alone)",
+        default=0, min=0, max=1000, update=_settings_changed)
+    arap_acceleration: bpy.props.EnumProperty(
+        name="ARAP acceleration", items=[("none", "None", "Plain local/global iterations"),
+                                         ("anderson", "Anderson", "Anderson acceleration: a lower energy in the "
+                                          "same iterations")],
+        default="anderson", update=_settings_changed)
+    arap_warm_start: bpy.props.BoolProperty(
+        name="ARAP warm start", description="Start each update's ARAP iterations from the last result (while "
+        "dragging); from MLS after a jump", default=True, update=_settings_changed)
     last_ms: bpy.props.FloatProperty(name="Last deformation (ms)", default=0.0)
     last_write_ms: bpy.props.FloatProperty(name="Last write to the mesh (ms)", default=0.0)
 
@@ -375,8 +393,11 @@ class MLSDEFORM_PT_panel(bpy.types.Panel):
             layout.label(text="Select Empties, then a mesh (active)")
             return
         s = obj.mlsdeform
-        for prop in ("transform", "exponent", "segment_weight", "precision", "threads"):
+        for prop in ("transform", "exponent", "segment_weight", "precision", "threads", "arap_iterations"):
             layout.prop(s, prop)
+        if s.arap_iterations > 0:
+            layout.prop(s, "arap_acceleration")
+            layout.prop(s, "arap_warm_start")
         row = layout.row()
         row.operator("mlsdeform.bind")
         row.operator("mlsdeform.unbind")
@@ -384,6 +405,10 @@ class MLSDEFORM_PT_panel(bpy.types.Panel):
         if _bound(obj):
             layout.label(text=f"{len(obj.data.vertices)} vertices, {len(obj[PROP_HANDLES])} handles")
             layout.label(text=f"last update {s.last_ms:.2f} ms (+ {s.last_write_ms:.2f} ms to the mesh)")
+            total = s.last_ms + s.last_write_ms
+            if total > 0:  # the update rate the handles can be dragged at, ARAP included
+                rate = f"{1000 / total:.0f} updates/s"
+                layout.label(text=rate + (f" with {s.arap_iterations} ARAP iterations" if s.arap_iterations else ""))
             if obj.get(PROP_ERROR):
                 layout.label(text=obj[PROP_ERROR], icon="ERROR")
 
