@@ -105,7 +105,8 @@ struct ArapRefiner<T>::Impl {
                                   s0 += d0 * a[0], s1 += d0 * a[1], s2 += d0 * a[2];
                                   s3 += d1 * a[0], s4 += d1 * a[1], s5 += d1 * a[2];
                                   s6 += d2 * a[0], s7 += d2 * a[1], s8 += d2 * a[2];
-                                  dd += w[std::size_t(e)] * (d0 * d0 + d1 * d1 + d2 * d2);
+                                  if (with_energy)
+                                    dd += w[std::size_t(e)] * (d0 * d0 + d1 * d1 + d2 * d2);  // not on the plain path
                                 }
                                 // The fit is invariant under positive scaling of S_i: by a power of two to
                                 // max |S_i| in [1, 2), exactly, so that rounding to T neither overflows nor
