@@ -28,7 +28,7 @@ if ((quick)); then
   docs=$out/quick-docs
 fi
 mkdir -p "$out" "$docs"
-rm -f "$out"/*.json "$out"/error_sweep.csv "$out"/bench_quality.md
+rm -f "$out"/*.json "$out"/error_sweep.csv "$out"/bench_quality.md "$out"/bench_quality_arap.md
 
 common=(--benchmark_out_format=json)
 rot_extra=()
@@ -55,6 +55,9 @@ echo "== bench_roofline"
 "$build/bench/bench_roofline" --benchmark_out="$out/bench_roofline.json" "${common[@]}"
 echo "== bench_quality"
 "$build/bench/bench_quality" "${quality_extra[@]}" --json "$out/bench_quality.json" >"$out/bench_quality.md"
+echo "== bench_quality --arap"
+"$build/bench/bench_quality" --arap "${quality_extra[@]}" --json "$out/bench_quality_arap.json" \
+  >"$out/bench_quality_arap.md"
 end=$(date +%s)
 
 cmd="tools/bench_report.sh"

@@ -33,6 +33,8 @@ class Deformer:
         arap_iterations: int = ...,
         centroids: Literal["mls", "rbf"] = ...,
         region: Optional[_Array] = ...,
+        arap_acceleration: Literal["none", "anderson"] = ...,
+        arap_warm_start: bool = ...,
     ) -> None: ...
     def deform(
         self,

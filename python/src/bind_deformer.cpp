@@ -67,18 +67,19 @@ void bind_deformer(py::module_& m) {
   deformer
       .def(py::init<const py::object&, const py::object&, const py::object&, const std::string&, double,
                     const std::string&, const std::string&, int, const std::string&, const std::string&, std::size_t,
-                    const py::object&, const py::object&, int, const std::string&, const py::object&>(),
+                    const py::object&, const py::object&, int, const std::string&, const py::object&,
+                    const std::string&, bool>(),
            py::arg("vertices"), py::kw_only(), py::arg("points") = py::none(), py::arg("segments") = py::none(),
            py::arg("transform") = "rigid", py::arg("exponent") = 2.0, py::arg("method") = "axis_angle",
            py::arg("segment_weight") = "paper_constant", py::arg("threads") = 0,
            py::arg("weight_storage") = "automatic", py::arg("backend") = "simd",
            py::arg("precompute_budget_bytes") = std::size_t(32) << 20, py::arg("dtype") = py::none(),
            py::arg("faces") = py::none(), py::arg("arap_iterations") = 0, py::arg("centroids") = "mls",
-           py::arg("region") = py::none(),
+           py::arg("region") = py::none(), py::arg("arap_acceleration") = "none", py::arg("arap_warm_start") = false,
            R"(Deformer(vertices, *, points=None, segments=None, transform="rigid", exponent=2.0,
 method="axis_angle", segment_weight="paper_constant", threads=0, weight_storage="automatic",
 backend="simd", precompute_budget_bytes=32 MiB, dtype=None, faces=None, arap_iterations=0, centroids="mls",
-region=None)
+region=None, arap_acceleration="none", arap_warm_start=False)
 
 A deformation session (paper Sec. 5): precomputes what depends on the rest pose only.
 vertices: (n, 3) rest positions; float32 arrays make a float32 session, anything else float64 (or force
@@ -91,7 +92,9 @@ arap_iterations > 0: that many surface-ARAP iterations after MLS (each handle's 
 put it); centroids: "mls" (eq. 2) | "rbf" (q* = g(p*), the RBF interpolant of the handles: the paper's
 Sec. 7-8); region: None (the whole model) or the indices of the vertices that may move (the others stay
 bitwise at rest; their neighbours next to the region are held, so the result stays continuous; not with
-arap_iterations). Raises ValueError on bad input (the library's message); Ctrl-C stops the set-up
+arap_iterations); arap_acceleration: "none" | "anderson" (Anderson-accelerated ARAP iterations: a lower
+energy in the same count); arap_warm_start: start each frame's ARAP iterations from the last frame's result
+(interactive dragging), from MLS after a jump of the handles. Raises ValueError on bad input (the library's message); Ctrl-C stops the set-up
 (KeyboardInterrupt).)")
       .def("deform", on_session(&PyDeformer::deform), py::kw_only(), py::arg("points") = py::none(),
            py::arg("segments") = py::none(), py::arg("out") = py::none(),

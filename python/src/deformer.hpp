@@ -70,7 +70,8 @@ class PyDeformer {
              const std::string& transform, double exponent, const std::string& method,
              const std::string& segment_weight, int threads, const std::string& weight_storage,
              const std::string& backend, std::size_t budget_bytes, const py::object& dtype, const py::object& faces,
-             int arap_iterations, const std::string& centroids, const py::object& region) {
+             int arap_iterations, const std::string& centroids, const py::object& region,
+             const std::string& arap_acceleration, bool arap_warm_start) {
     Options o;
     o.transform = parse_transform(transform);
     o.weight_exponent = exponent;
@@ -86,6 +87,10 @@ class PyDeformer {
     o.isa = parse_enum<std::optional<Isa>>(backend, "backend", {{"simd", std::nullopt}, {"scalar", Isa::scalar}});
     o.precompute_budget_bytes = budget_bytes;
     o.arap_iterations = arap_iterations;
+    o.arap_acceleration =
+        parse_enum<ArapAcceleration>(arap_acceleration, "arap_acceleration",
+                                     {{"none", ArapAcceleration::none}, {"anderson", ArapAcceleration::anderson}});
+    o.arap_warm_start = arap_warm_start;
     o.centroids = parse_enum<Centroids>(centroids, "centroids", {{"mls", Centroids::mls}, {"rbf", Centroids::rbf}});
     if (!region.is_none()) {
       o.region = to_indices(region, "region");

@@ -150,6 +150,39 @@ def test_arap_iterations_with_faces():
         mlsdeform.Deformer(V, points=P, faces=F + len(V), arap_iterations=2)
 
 
+def test_arap_acceleration_and_warm_start():
+    # The strip of test_arap_iterations_with_faces, its far end lifted in two small steps.
+    nx, ny = 12, 6
+    V = np.array([[i / 5, j / 5, 0.0] for i in range(nx) for j in range(ny)])
+    F = np.array(
+        [
+            f
+            for i in range(nx - 1)
+            for j in range(ny - 1)
+            for f in (
+                [i * ny + j, (i + 1) * ny + j, (i + 1) * ny + j + 1],
+                [i * ny + j, (i + 1) * ny + j + 1, i * ny + j + 1],
+            )
+        ]
+    )
+    ends = [j for j in range(ny)] + [(nx - 1) * ny + j for j in range(ny)]
+    P = V[ends]
+    Q1, Q2 = P.copy(), P.copy()
+    Q1[ny:, 2] += 0.8
+    Q2[ny:, 2] += 0.82  # 0.02 against a diagonal of 2.4: under the warm start's limit of 0.05 of it
+    plain = mlsdeform.Deformer(V, points=P, faces=F, arap_iterations=5).deform(points=Q1)
+    fast = mlsdeform.Deformer(V, points=P, faces=F, arap_iterations=5, arap_acceleration="anderson")
+    accelerated = fast.deform(points=Q1)
+    assert np.array_equal(accelerated[ends], Q1)  # handles at vertices: exact
+    assert not np.array_equal(accelerated, plain)
+    cold = mlsdeform.Deformer(V, points=P, faces=F, arap_iterations=2)
+    warm = mlsdeform.Deformer(V, points=P, faces=F, arap_iterations=2, arap_warm_start=True)
+    assert np.array_equal(warm.deform(points=Q1), cold.deform(points=Q1))  # the first frame: from MLS
+    assert not np.array_equal(warm.deform(points=Q2), cold.deform(points=Q2))  # then from the last result
+    with pytest.raises(ValueError, match="arap_acceleration"):
+        mlsdeform.Deformer(V, points=P, faces=F, arap_iterations=2, arap_acceleration="fast")
+
+
 def test_rbf_centroids():
     g = rng()
     V, P, _, _ = scene(g, n=300, k=7)

@@ -182,6 +182,31 @@ def main():
     check("precision double: the double session's result rounded once to float", matches(obj, want64))
     obj.mlsdeform.precision = "float"
     bpy.context.view_layer.update()
+    # ARAP: the session gets the mesh's triangles and the ARAP options (warm start off: a pure function of the
+    # handles, so that the module on the same data gives the same bits).
+    obj.mlsdeform.arap_warm_start = False
+    obj.mlsdeform.arap_iterations = 3
+    bpy.context.view_layer.update()
+    obj.data.calc_loop_triangles()
+    F = np.array([list(t.vertices) for t in obj.data.loop_triangles])
+    d = addon.mlsdeform.Deformer(
+        rest_coords(obj),
+        points=rest[[0, 1]],
+        segments=(rest[[2]], rest[[3]]),
+        faces=F,
+        arap_iterations=3,
+        arap_acceleration="anderson",
+    )
+    want_arap = d.deform(points=now[[0, 1]], segments=(now[[2]], now[[3]]))
+    check(
+        "ARAP iterations: the module's MLS + 3 Anderson-accelerated ARAP iterations bitwise",
+        matches(obj, want_arap),
+        f"max diff {np.abs(evaluated(obj) - want_arap).max()}",
+    )
+    check("ARAP iterations: they change the result", not matches(obj, got))
+    obj.mlsdeform.arap_iterations = 0
+    obj.mlsdeform.arap_warm_start = True
+    bpy.context.view_layer.update()
     check(
         "bound without shape keys: vertices mode, the rest positions kept exactly",
         obj["mlsdeform_mode"] == "vertices" and np.array_equal(rest_coords(obj), rest_mesh),

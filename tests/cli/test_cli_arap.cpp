@@ -295,3 +295,33 @@ TEST_CASE("deform --arap: the first SIGINT stops a frame of a billion iterations
   CHECK(WEXITSTATUS(status) == 128 + SIGINT);
   CHECK(!std::filesystem::exists(out));
 }
+
+TEST_CASE("deform --arap-acceleration, --arap-warm-start: change the result, keep the handles", "[cli][arap]") {
+  BarCase c;
+  const Mesh rest = read_mesh(c.mesh);
+  const std::string plain = c.dir / "plain.ply", fast = c.dir / "fast.ply";
+  auto r = c.deform(plain, {"--arap", "5"});
+  REQUIRE(r.exit_code == 0);
+  r = c.deform(fast, {"--arap", "5", "--arap-acceleration", "anderson"});
+  INFO(r.err);
+  REQUIRE(r.exit_code == 0);
+  const Mesh a = read_mesh(plain), b = read_mesh(fast);
+  CHECK(a.vertices != b.vertices);
+  for (auto i : c.moved) CHECK((b.vertices.row(i) - rest.vertices.row(i) - c.offset).norm() < 1e-5f);
+  // Two frames with the same targets: warm, the second goes on from the first; cold, it repeats it.
+  write_text(c.dir / "anim.json", R"({"points": )" + c.points + R"(, "frames": [{}, {}]})");
+  for (const bool warm : {false, true}) {
+    std::vector<std::string> args{"deform", "-m", c.mesh,   "-H", c.dir / "anim.json", "-o", c.dir / "anim.ply",
+                                  "-q",     "-f", "--arap", "2"};
+    if (warm) args.push_back("--arap-warm-start");
+    r = cli_test::run(program, args);
+    INFO(r.err);
+    REQUIRE(r.exit_code == 0);
+    const Mesh f0 = read_mesh(c.dir / "anim_0000.ply"), f1 = read_mesh(c.dir / "anim_0001.ply");
+    CHECK((f0.vertices == f1.vertices) == !warm);
+  }
+  r = c.deform(c.dir / "bad.obj", {"--arap", "2", "--arap-acceleration", "fast"});
+  CHECK(r.exit_code == 2);
+  CHECK(r.err.find("--arap-acceleration") != std::string::npos);
+  CHECK(cli_test::line_count(r.err) == 1);
+}

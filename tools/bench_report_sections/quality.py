@@ -26,6 +26,12 @@ def write(md, inputs):
         md.append("![MLS, MLS + 2 and MLS + 10 ARAP iterations on the human bend](figures/arap.png)\n")
         with open(quality) as f:
             md.append(f.read())
+    # bench_quality --arap: convergence, acceleration, warm starts (its own markdown, headings included)
+    arap = os.path.join(res, "bench_quality_arap.md")
+    if os.path.exists(arap):
+        with open(arap) as f:
+            text = f.read()
+            md.append(text[text.find("## ARAP") :])  # from its heading: the machine is said above
     # ----------------------------------------------------------------------------------------------------
     # Skipped
     # ----------------------------------------------------------------------------------------------------

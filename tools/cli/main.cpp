@@ -148,6 +148,14 @@ int run(int argc, char** argv) {
                    "into triangles; handle vertices stay where MLS puts them. 0: MLS alone (the paper)")
       ->check(iterations_check)
       ->default_str("0");
+  add_choice<mlsdeform::ArapAcceleration>(
+      deform, "--arap-acceleration", d.options.arap_acceleration,
+      {{"none", mlsdeform::ArapAcceleration::none}, {"anderson", mlsdeform::ArapAcceleration::anderson}},
+      "how the --arap iterations are driven: none (plain local/global steps) or anderson (Anderson acceleration "
+      "with an energy safeguard: a lower energy after the same iterations)");
+  deform->add_flag("--arap-warm-start", d.options.arap_warm_start,
+                   "with frames: start each frame's --arap iterations from the last frame's result (from MLS after "
+                   "a handle moves by more than 5% of the mesh's bounding-box diagonal)");
   deform
       ->add_option_function<std::size_t>(
           "--max-input-mib", [&d](std::size_t mib) { d.max_input_bytes = mib << 20; },

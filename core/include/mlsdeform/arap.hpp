@@ -29,11 +29,22 @@ enum class ArapFactorisation {
 /// Whether this build has ArapFactorisation::supernodal (the CMake option MLSDEFORM_CHOLMOD).
 bool supernodal_factorisation_available();
 
+/// How the local/global iterations are driven (docs/api.md, "ARAP refinement").
+enum class ArapAcceleration {
+  none,      ///< the plain local/global iteration (Sorkine & Alexa 2007)
+  anderson,  ///< Anderson acceleration with an energy safeguard (Peng et al. 2018): the same fixed point, the
+             ///< energy non-increasing, fewer iterations to a given energy; one more local step per refine()
+};
+
 struct ArapOptions {
   /// Worker threads for the local step and the substitution; 0 means all cores. The result is bitwise the
   /// same for any value.
   int threads = 0;
   ArapFactorisation factorisation = ArapFactorisation::automatic;
+  ArapAcceleration acceleration = ArapAcceleration::none;
+  /// Anderson acceleration's window m (the pairs of past iterates it extrapolates from), 1 .. 8. Its history
+  /// holds 2 m + 3 copies of the positions in double, allocated with the session.
+  int anderson_window = 5;
 };
 
 /// A refinement session over a triangle mesh at rest: the constructor builds the cotangent weights and
@@ -75,6 +86,10 @@ class ArapRefiner {
   /// first); `out` is in the caller's units.
   void refine_scaled(const Points<T>& start, const Points<T>& targets, int exponent, int iterations, Points<T>& out,
                      const CancelCheck& cancel = {});
+
+  /// Extrapolated iterates that ArapAcceleration::anderson's safeguard replaced by the plain step in the last
+  /// refine() (0 without acceleration).
+  int rejected_iterates() const;
 
   /// E(x) with the optimal rotations for x (as one local step computes them), in double (in the units of the
   /// positions, squared: inf where that overflows double).

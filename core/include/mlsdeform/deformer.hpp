@@ -86,6 +86,16 @@ struct Options {
   /// locally rigid (docs/api.md, "ARAP refinement"). Any count: each iteration costs the same, and a
   /// CancelCheck given to deform() stops a frame between iterations (cancel.hpp).
   int arap_iterations = 0;
+  /// How the ARAP iterations are driven (ArapAcceleration, arap.hpp): anderson reaches a lower energy in the
+  /// same iterations (docs/api.md, "ARAP refinement").
+  ArapAcceleration arap_acceleration = ArapAcceleration::none;
+  /// For interactive sessions (targets moving a little per frame): start the ARAP iterations from the
+  /// previous deform()'s result instead of from MLS's, unless a handle's constrained vertex moved by more
+  /// than arap_warm_start_limit times the rest model's bounding-box diagonal since that frame (a jump: then
+  /// MLS, as on the first frame). A frame's result then depends on the frames before it (docs/api.md, "ARAP
+  /// refinement").
+  bool arap_warm_start = false;
+  double arap_warm_start_limit = 0.05;
   Centroids centroids = Centroids::mls;
   /// A region of interest: the vertices (0-based, any order, each once) that may move; every other vertex
   /// keeps its rest position bitwise, and only the region's vertices cost time per frame. Empty (default):

@@ -11,7 +11,9 @@
 // input by a power of two 2^k shifts e and f by k and changes no bit of the scaled problem: the result is
 // the unscaled one times 2^k, rounded once to T. (The rest terms of b, in units of 2^e, enter the system in
 // units of 2^f through the factor 2^(e - f) <= 1, which is itself scale-free.)
+#include "core/src/arap/anderson.hpp"
 #include "core/src/arap/one_rings.hpp"
+#include "core/src/arap/ring_energy.hpp"
 #include "core/src/arap/subtree_ldlt.hpp"
 #include "core/src/dispatch.hpp"
 #include "core/src/parallel.hpp"
@@ -74,10 +76,13 @@ struct ArapRefiner<T>::Impl {
   std::vector<T> H, R;     ///< 3 x 3 x n, SoA, for fit_rotations
   std::vector<double> Rd;  ///< R_i in double, row-major, 9 values per vertex
   std::vector<double> y;   ///< the three right-hand sides, permuted and interleaved (3 values per row)
+  std::unique_ptr<detail::Anderson> anderson;  ///< ArapAcceleration::anderson only, with `energy`
+  detail::RingEnergy energy;
 
   /// For every vertex S_i = sum_j w_ij (x_i - x_j)(p_i - p_j)^T and its rotation R_i, by the active kernel
   /// table's batched axis/angle fit on each chunk of vertices (one parallel pass: S, fit, R in double).
-  void local_step() {
+  /// With `with_energy`, returns E(x, R) in the units of X squared (ring_energy.hpp).
+  double local_step(bool with_energy = false) {
     const std::size_t nn = std::size_t(n);
     kernels::FitRotationsFn<T> fit;
     if constexpr (std::is_same_v<T, float>)
@@ -91,6 +96,7 @@ struct ArapRefiner<T>::Impl {
                                 // Nine named sums: an array here is packed into pairs and shuffled by the
                                 // compiler, slower than the plain scalar code.
                                 double s0 = 0, s1 = 0, s2 = 0, s3 = 0, s4 = 0, s5 = 0, s6 = 0, s7 = 0, s8 = 0;
+                                double dd = 0;  // sum_j w_ij |x_i - x_j|^2, for the energy
                                 const double* xi = X.data() + 3 * i;
                                 for (Eigen::Index e = start[i]; e < start[i + 1]; ++e) {
                                   const double* xj = X.data() + 3 * nbr[std::size_t(e)];
@@ -99,11 +105,14 @@ struct ArapRefiner<T>::Impl {
                                   s0 += d0 * a[0], s1 += d0 * a[1], s2 += d0 * a[2];
                                   s3 += d1 * a[0], s4 += d1 * a[1], s5 += d1 * a[2];
                                   s6 += d2 * a[0], s7 += d2 * a[1], s8 += d2 * a[2];
+                                  if (with_energy)
+                                    dd += w[std::size_t(e)] * (d0 * d0 + d1 * d1 + d2 * d2);  // not on the plain path
                                 }
                                 // The fit is invariant under positive scaling of S_i: by a power of two to
                                 // max |S_i| in [1, 2), exactly, so that rounding to T neither overflows nor
                                 // drops a ring whose deformation is small against the mesh.
                                 double s[9] = {s0, s1, s2, s3, s4, s5, s6, s7, s8};
+                                if (with_energy) energy.store(i, s, dd);
                                 double m = 0;
                                 for (const double x : s) m = std::max(m, std::abs(x));
                                 if (m > 0) {
@@ -121,7 +130,9 @@ struct ArapRefiner<T>::Impl {
                               fit(H.data(), R.data(), nn, i0, i1, nullptr);  // S_i is finite: X is
                               for (std::size_t i = i0; i < i1; ++i)
                                 for (std::size_t k = 0; k < 9; ++k) Rd[9 * i + k] = double(R[k * nn + i]);
+                              if (with_energy) energy.finish(c0, c1, kGrain, nn, Rd.data(), rest_to_x);
                             });
+    return with_energy ? energy.total() : 0.0;
   }
 
   /// b_i = sum_j (w_ij / 2)(R_i + R_j)(p_i - p_j) = (R_i c_i + sum_j R_j w_ij (p_i - p_j)) / 2, in the units
@@ -258,6 +269,10 @@ ArapRefiner<T>::ArapRefiner(const Points<T>& rest, const Triangles& triangles,
   m.R.assign(9 * nn, T(0));
   m.Rd.assign(9 * nn, 0.0);
   m.y.assign(3 * std::size_t(nf), 0.0);
+  if (options.acceleration == ArapAcceleration::anderson) {
+    m.anderson = std::make_unique<detail::Anderson>(3 * nn, options.anderson_window, options.threads, m.arena.get());
+    m.energy.init(m.start, m.nbr, m.w, m.P, kGrain);
+  }
 }
 
 template <class T>
@@ -295,11 +310,16 @@ void ArapRefiner<T>::refine_scaled(const Points<T>& start, const Points<T>& targ
   const int f = std::max(m.rest_e, detail::exponent_of(m.X.cwiseAbs().maxCoeff()) + exponent);
   for (Eigen::Index i = 0; i < m.X.size(); ++i) m.X.data()[i] = std::ldexp(m.X.data()[i], exponent - f);
   m.rest_to_x = std::ldexp(1.0, m.rest_e - f);
-  for (int it = 0; it < iterations; ++it) {
-    detail::throw_if_cancelled(cancel);  // before `out` is written: the strong guarantee
-    m.local_step();
-    m.global_step();
-  }
+  if (m.anderson)  // cancel is checked before every iteration there too, before `out` is written
+    m.anderson->run(
+        std::span<double>(m.X.data(), std::size_t(m.X.size())), iterations, [&] { return m.local_step(true); },
+        [&] { m.global_step(); }, cancel);
+  else
+    for (int it = 0; it < iterations; ++it) {
+      detail::throw_if_cancelled(cancel);  // before `out` is written: the strong guarantee
+      m.local_step();
+      m.global_step();
+    }
   // Back to the caller's units, refusing (before `out` changes) what T cannot hold: the iterations can move a
   // vertex beyond its start (a rotated one-ring reaches past the targets' bounding box).
   for (Eigen::Index i = 0; i < m.X.size(); ++i) {
@@ -338,6 +358,11 @@ double ArapRefiner<T>::energy(const Points<T>& x) const {
 }
 
 template <class T>
+int ArapRefiner<T>::rejected_iterates() const {
+  return impl_ && impl_->anderson ? impl_->anderson->rejections() : 0;
+}
+
+template <class T>
 Eigen::Index ArapRefiner<T>::vertex_count() const {
   return impl_ ? impl_->n : 0;
 }
@@ -354,7 +379,8 @@ std::size_t ArapRefiner<T>::memory_bytes() const {
   const auto bytes = [](const auto& v) { return v.size() * sizeof(v[0]); };
   return m.solver.memory_bytes() + bytes(m.start) + bytes(m.nbr) + bytes(m.w) + bytes(m.we) + bytes(m.c) +
          bytes(m.row) + bytes(m.free_vertices) + bytes(m.H) + bytes(m.R) + bytes(m.Rd) + bytes(m.y) +
-         std::size_t(m.P.size() + m.X.size()) * sizeof(double);
+         bytes(m.energy.ring) + bytes(m.energy.q) + bytes(m.energy.chunks) +
+         (m.anderson ? m.anderson->memory_bytes() : 0) + std::size_t(m.P.size() + m.X.size()) * sizeof(double);
 }
 
 bool supernodal_factorisation_available() { return detail::supernodal_available(); }

@@ -57,14 +57,41 @@ std::unique_ptr<ArapStage<T>> ArapStage<T>::make(const Points<T>& rest, const Tr
   }
   ArapOptions ao;
   ao.threads = options.threads;
+  ao.acceleration = options.arap_acceleration;
   ArapRefiner<T> refiner(rest, triangles, constrained, ao);
-  return std::make_unique<ArapStage>(std::move(refiner), std::move(constrained), rest.rows());
+  auto stage = std::make_unique<ArapStage>(std::move(refiner), std::move(constrained), rest.rows());
+  if (options.arap_warm_start) {
+    stage->warm_start = true;
+    stage->last.resize(rest.rows(), 3);
+    stage->last_targets.resize(stage->targets.rows(), 3);
+    // The diagonal in a frame scaled by 2^-e (no overflow), back in the caller's units.
+    double diagonal2 = 0;
+    for (int c = 0; c < 3; ++c)
+      diagonal2 +=
+          std::pow(std::ldexp(double(rest.col(c).maxCoeff()), -e) - std::ldexp(double(rest.col(c).minCoeff()), -e), 2);
+    stage->jump = options.arap_warm_start_limit * std::ldexp(std::sqrt(diagonal2), e);
+  }
+  return stage;
 }
 
 template <class T>
 void ArapStage<T>::run(Points<T>& x, int iterations, int exponent, const CancelCheck& cancel) {
   for (std::size_t k = 0; k < constrained.size(); ++k) targets.row(Eigen::Index(k)) = x.row(constrained[k]);
-  refiner.refine_scaled(x, targets, exponent, iterations, x, cancel);
+  if (!warm_start) return refiner.refine_scaled(x, targets, exponent, iterations, x, cancel);
+  // The largest move of a constrained vertex since the last frame, in the caller's units (both in the local
+  // frame, where the differences cannot overflow).
+  double moved = has_last ? 0.0 : std::numeric_limits<double>::infinity();
+  for (Eigen::Index k = 0; has_last && k < targets.rows(); ++k)
+    moved = std::max(moved, (targets.row(k) - last_targets.row(k)).template cast<double>().norm());
+  last_was_warm = std::ldexp(moved, exponent) <= jump;
+  has_last = false;  // until this frame's result is in `last`
+  if (last_was_warm) {
+    for (Eigen::Index i = 0; i < last.size(); ++i) last.data()[i] = std::ldexp(last.data()[i], -exponent);
+    refiner.refine_scaled(last, targets, exponent, iterations, x, cancel);
+  } else {
+    refiner.refine_scaled(x, targets, exponent, iterations, x, cancel);
+  }
+  last = x, last_targets = targets, has_last = true;
 }
 
 template struct ArapStage<float>;

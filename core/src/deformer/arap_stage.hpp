@@ -17,7 +17,12 @@ struct ArapStage {
   ArapRefiner<T> refiner;
   std::vector<Eigen::Index> constrained;  ///< vertex indices, in handle order, duplicates dropped
   Points<T> mls, targets;                 ///< scratch, sized once
-  std::mutex mutex;                       ///< deform() is const: concurrent calls take turns on the scratch
+  /// Options::arap_warm_start: the last result (caller's units) and its targets (scaled), sized once; the
+  /// jump limit in the caller's units (the rest bounding-box diagonal times arap_warm_start_limit).
+  bool warm_start = false, has_last = false, last_was_warm = false;
+  double jump = 0;
+  Points<T> last, last_targets;
+  std::mutex mutex;  ///< deform() is const: concurrent calls take turns on the scratch
 
   ArapStage(ArapRefiner<T>&& r, std::vector<Eigen::Index> c, Eigen::Index n);
 
@@ -27,7 +32,8 @@ struct ArapStage {
                                          const Handles<T>& rest_handles, const Options& options);
 
   /// `x` holds MLS's result (n x 3) times 2^-exponent (the deformer's local frame, data.hpp): refined in
-  /// place, `iterations` times, into the caller's units (Cancelled: x is left as it was, still scaled).
+  /// place, `iterations` times, into the caller's units (Cancelled: x is left as it was, still scaled). With
+  /// warm_start the iterations start from the last result unless the targets jumped (Options::arap_warm_start).
   void run(Points<T>& x, int iterations, int exponent, const CancelCheck& cancel);
 };
 

@@ -51,6 +51,12 @@ void check_options(const Options& o) {
                                 ")");
   if (o.threads < 0)
     throw std::invalid_argument("Deformer: threads must be >= 0 (got " + std::to_string(o.threads) + ")");
+  if (o.arap_acceleration != ArapAcceleration::none && o.arap_acceleration != ArapAcceleration::anderson)
+    throw std::invalid_argument("Deformer: unknown ArapAcceleration value " +
+                                std::to_string(static_cast<int>(o.arap_acceleration)));
+  if (!(o.arap_warm_start_limit >= 0) || !std::isfinite(o.arap_warm_start_limit))
+    throw std::invalid_argument("Deformer: arap_warm_start_limit must be finite and >= 0 (got " +
+                                std::to_string(o.arap_warm_start_limit) + ")");
   if (!o.region.empty() && o.arap_iterations > 0)
     throw std::invalid_argument(
         "Deformer: a region (Options::region) with arap_iterations > 0 is not supported; use one or the other");

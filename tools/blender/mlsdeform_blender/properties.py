@@ -48,5 +48,29 @@ class MLSDeformSettings(bpy.types.PropertyGroup):
     threads: bpy.props.IntProperty(
         name="Threads", description="0: all cores", default=0, min=0, max=256, update=_settings_changed
     )
+    arap_iterations: bpy.props.IntProperty(
+        name="ARAP iterations",
+        description="Surface-ARAP iterations after MLS on the mesh's faces (0: MLS alone)",
+        default=0,
+        min=0,
+        max=1000,
+        update=_settings_changed,
+    )
+    arap_acceleration: bpy.props.EnumProperty(
+        name="ARAP acceleration",
+        items=[
+            ("none", "None", "Plain local/global iterations"),
+            ("anderson", "Anderson", "Anderson acceleration: a lower energy in the " "same iterations"),
+        ],
+        default="anderson",
+        update=_settings_changed,
+    )
+    arap_warm_start: bpy.props.BoolProperty(
+        name="ARAP warm start",
+        description="Start each update's ARAP iterations from the last result (while "
+        "dragging); from MLS after a jump",
+        default=True,
+        update=_settings_changed,
+    )
     last_ms: bpy.props.FloatProperty(name="Last deformation (ms)", default=0.0)
     last_write_ms: bpy.props.FloatProperty(name="Last write to the mesh (ms)", default=0.0)

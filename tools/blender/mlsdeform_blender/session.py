@@ -101,6 +101,9 @@ def _session(obj):
         s.segment_weight,
         s.precision,
         s.threads,
+        s.arap_iterations,
+        s.arap_acceleration,
+        s.arap_warm_start,
     )
     cached = _sessions.get(obj.name)
     if cached is not None and cached["key"] == key:
@@ -110,6 +113,17 @@ def _session(obj):
     dtype = np.float32 if s.precision == "float" else np.float64
     V = _rest_vertices(obj).astype(dtype)
     points, segments = _split(obj, rest)
+    arap = {}
+    if s.arap_iterations > 0:  # the surface for the ARAP iterations: the mesh's polygons as triangles
+        obj.data.calc_loop_triangles()
+        faces = np.empty(3 * len(obj.data.loop_triangles), dtype=np.int64)
+        obj.data.loop_triangles.foreach_get("vertices", faces)
+        arap = dict(
+            faces=faces.reshape(-1, 3),
+            arap_iterations=s.arap_iterations,
+            arap_acceleration=s.arap_acceleration,
+            arap_warm_start=s.arap_warm_start,
+        )
     deformer = mlsdeform.Deformer(
         V,
         points=points,
@@ -118,6 +132,7 @@ def _session(obj):
         exponent=s.exponent,
         segment_weight=s.segment_weight,
         threads=s.threads,
+        **arap,
     )
     cached = {"key": key, "deformer": deformer, "names": names, "out": np.empty((len(V), 3), dtype), "last": None}
     _sessions[obj.name] = cached

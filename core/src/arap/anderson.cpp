@@ -1,0 +1,127 @@
+// Anderson acceleration's history and extrapolation (anderson.hpp has the method).
+#include "core/src/arap/anderson.hpp"
+
+#include <Eigen/QR>
+
+#include <algorithm>
+#include <atomic>
+#include <cmath>
+#include <stdexcept>
+#include <string>
+
+namespace mlsdeform::detail {
+
+namespace {
+
+/// Positions per chunk of the reductions: the chunks, not the threads, fix the order of every sum.
+constexpr std::size_t kChunk = 2048;
+
+}  // namespace
+
+Anderson::Anderson(std::size_t size, int window, int threads, tbb::task_arena* arena)
+    : size_(size), chunks_((size + kChunk - 1) / kChunk), window_(window), threads_(threads), arena_(arena) {
+  if (window < 1 || window > kMaxWindow)
+    throw std::invalid_argument("ArapRefiner: anderson_window must be in [1, " + std::to_string(kMaxWindow) +
+                                "] (got " + std::to_string(window) + ")");
+  x_prev_.assign(size, 0.0);
+  g_last_.assign(size, 0.0);
+  f_last_.assign(size, 0.0);
+  dF_.assign(size * std::size_t(window), 0.0);
+  dG_.assign(size * std::size_t(window), 0.0);
+  partial_.assign(chunks_ * 2 * std::size_t(window), 0.0);
+  gram_.resize(window, window);
+  gram_.setZero();
+}
+
+std::size_t Anderson::memory_bytes() const {
+  return sizeof(double) *
+         (x_prev_.size() + g_last_.size() + f_last_.size() + dF_.size() + dG_.size() + partial_.size());
+}
+
+void Anderson::plain(std::span<double> x) {
+  std::copy(g_last_.begin(), g_last_.end(), x.begin());
+  count_ = 0, next_ = 0, fresh_ = true;
+}
+
+void Anderson::before_global(std::span<double> x) { std::copy(x.begin(), x.end(), x_prev_.begin()); }
+
+void Anderson::after_global(std::span<double> x) {
+  const std::size_t n = size_;
+  const bool add = !fresh_;
+  const int slot = count_ < window_ ? count_ : next_;
+  const int held = add ? std::min(count_ + 1, window_) : count_;
+  const auto w = std::size_t(window_);
+  // One pass: F = G(x_k) - x_k, the new differences into `slot`, and per chunk the sums
+  // dF_new . dF_j (Gram's new row) and F . dF_j (the right-hand side) over the slots held.
+  parallel_ranges(chunks_, threads_, arena_, [&](std::size_t c0, std::size_t c1) {
+    for (std::size_t c = c0; c < c1; ++c) {
+      const std::size_t e0 = c * kChunk, e1 = std::min(n, e0 + kChunk);
+      double* p = partial_.data() + c * 2 * w;
+      std::fill(p, p + 2 * w, 0.0);
+      double* dfs = dF_.data() + std::size_t(slot) * n;
+      double* dgs = dG_.data() + std::size_t(slot) * n;
+      for (std::size_t e = e0; e < e1; ++e) {
+        const double g = x[e], f = g - x_prev_[e];
+        if (add) dfs[e] = f - f_last_[e], dgs[e] = g - g_last_[e];
+        f_last_[e] = f, g_last_[e] = g;
+      }
+      for (int j = 0; j < held; ++j) {
+        const double* dfj = dF_.data() + std::size_t(j) * n;
+        double new_dot = 0, rhs = 0;
+        for (std::size_t e = e0; e < e1; ++e) {
+          if (add) new_dot += dfs[e] * dfj[e];
+          rhs += f_last_[e] * dfj[e];
+        }
+        p[j] = new_dot, p[w + std::size_t(j)] = rhs;
+      }
+    }
+  });
+  fresh_ = false;
+  if (add) {
+    count_ = held;
+    if (count_ == window_) next_ = (slot + 1) % window_;
+  }
+  if (count_ == 0) return;  // x = G(x_k): the plain step
+  Eigen::Matrix<double, Eigen::Dynamic, 1, 0, kMaxWindow, 1> rhs(count_);
+  rhs.setZero();
+  Eigen::Matrix<double, Eigen::Dynamic, 1, 0, kMaxWindow, 1> new_row(count_);
+  new_row.setZero();
+  for (std::size_t c = 0; c < chunks_; ++c)  // in chunk order: the same sums for any thread count
+    for (int j = 0; j < count_; ++j) {
+      new_row(j) += partial_[c * 2 * w + std::size_t(j)];
+      rhs(j) += partial_[c * 2 * w + w + std::size_t(j)];
+    }
+  if (add) gram_.row(slot).head(count_) = new_row.transpose(), gram_.col(slot).head(count_) = new_row;
+  // Solve with the columns scaled to unit length (Peng et al. normalise dF the same way): the Gram matrix of
+  // nearly parallel differences is ill-conditioned, so directions below 1e-10 of the largest (relative
+  // condition 1e5 in the differences themselves) are dropped by the rank-revealing decomposition.
+  Eigen::Matrix<double, Eigen::Dynamic, 1, 0, kMaxWindow, 1> scale(count_);
+  for (int j = 0; j < count_; ++j) {
+    const double d = gram_(j, j);
+    if (!(d > 0) || !std::isfinite(d)) return;  // a zero difference: no secant information, the plain step
+    scale(j) = 1 / std::sqrt(d);
+  }
+  Small A = scale.asDiagonal() * gram_.topLeftCorner(count_, count_) * scale.asDiagonal();
+  Eigen::CompleteOrthogonalDecomposition<Small> cod;
+  cod.setThreshold(1e-10);
+  cod.compute(A);
+  Eigen::Matrix<double, Eigen::Dynamic, 1, 0, kMaxWindow, 1> theta = cod.solve(scale.cwiseProduct(rhs));
+  theta = scale.cwiseProduct(theta);
+  if (!theta.allFinite()) return;
+  // x_{k+1} = G(x_k) - sum_j theta_j dG_j, element by element (any cut, the same bits); a non-finite result
+  // (theta out of all proportion) falls back to the plain step.
+  std::atomic<bool> finite = true;
+  parallel_ranges(chunks_, threads_, arena_, [&](std::size_t c0, std::size_t c1) {
+    bool ok = true;
+    for (std::size_t e = c0 * kChunk; e < std::min(n, c1 * kChunk); ++e) {
+      double v = x[e];
+      for (int j = 0; j < count_; ++j) v -= theta(j) * dG_[std::size_t(j) * n + e];
+      x[e] = v;
+      ok = ok && std::isfinite(v);
+    }
+    if (!ok) finite.store(false, std::memory_order_relaxed);
+  });
+  if (!finite) plain(x);
+}
+
+}  // namespace mlsdeform::detail
