@@ -58,12 +58,7 @@ TEST_CASE("ARAP: a rigid motion of every handle gives that motion", "[arap]") {
   ArapOptions o;
   o.factorisation = GENERATE(ArapFactorisation::automatic, ArapFactorisation::supernodal_mit);
   ArapRefiner<double> arap(t.v, t.f, c, o);
-  const Eigen::Matrix3d R = Eigen::AngleAxisd(0.7, Eigen::Vector3d(1, 2, 3).normalized()).toRotationMatrix();
-  const Eigen::Vector3d shift(0.5, -1, 2);
-  Points<double> moved(t.v.rows(), 3);
-  for (Eigen::Index i = 0; i < t.v.rows(); ++i) moved.row(i) = (R * t.v.row(i).transpose() + shift).transpose();
-  Points<double> q(Eigen::Index(c.size()), 3);
-  for (std::size_t k = 0; k < c.size(); ++k) q.row(Eigen::Index(k)) = moved.row(c[k]);
+  const auto [moved, q] = rigid_motion(t, c);
   // From the rest pose (constraints moved), the iterations converge to the rigid motion; from the motion
   // itself, they stay there to the solve's rounding: |dx| <= 16 eps kappa(L_ff) max |x| (16: the rounding
   // of R p + t and of the right-hand side's few terms per vertex, first order).

@@ -80,12 +80,7 @@ TEST_CASE("ARAP Anderson: a rigid motion of every handle gives that motion", "[a
   const Tube t = tube(12, 10, 0.02, 2);
   const std::vector<Eigen::Index> c = ends(t);
   ArapRefiner<double> arap(t.v, t.f, c, anderson());
-  const Eigen::Matrix3d R = Eigen::AngleAxisd(0.7, Eigen::Vector3d(1, 2, 3).normalized()).toRotationMatrix();
-  const Eigen::Vector3d shift(0.5, -1, 2);
-  Points<double> moved(t.v.rows(), 3);
-  for (Eigen::Index i = 0; i < t.v.rows(); ++i) moved.row(i) = (R * t.v.row(i).transpose() + shift).transpose();
-  Points<double> q(Eigen::Index(c.size()), 3);
-  for (std::size_t k = 0; k < c.size(); ++k) q.row(Eigen::Index(k)) = moved.row(c[k]);
+  const auto [moved, q] = rigid_motion(t, c);
   // From the motion itself each plain step stays within 16 eps kappa(L_ff) max |x| (test_arap.cpp). An
   // extrapolated iterate is accepted only if its energy is not above the last one's, and both are then at
   // the rounding level of an exact motion; the result is the last checked iterate or its plain step.

@@ -118,4 +118,18 @@ inline Conditioning conditioning(const Tube& t) {
   return {es.eigenvalues()(0), es.eigenvalues()(L.rows() - 1) / es.eigenvalues()(0)};
 }
 
+/// The tube moved rigidly (a fixed rotation and shift), and the constrained vertices' targets on that motion.
+struct RigidMotion {
+  Points<double> moved, targets;
+};
+
+inline RigidMotion rigid_motion(const Tube& t, const std::vector<Eigen::Index>& constrained) {
+  const Eigen::Matrix3d R = Eigen::AngleAxisd(0.7, Eigen::Vector3d(1, 2, 3).normalized()).toRotationMatrix();
+  const Eigen::Vector3d shift(0.5, -1, 2);
+  RigidMotion m{Points<double>(t.v.rows(), 3), Points<double>(Eigen::Index(constrained.size()), 3)};
+  for (Eigen::Index i = 0; i < t.v.rows(); ++i) m.moved.row(i) = (R * t.v.row(i).transpose() + shift).transpose();
+  for (std::size_t k = 0; k < constrained.size(); ++k) m.targets.row(Eigen::Index(k)) = m.moved.row(constrained[k]);
+  return m;
+}
+
 }  // namespace mlsdeform::arap_test
