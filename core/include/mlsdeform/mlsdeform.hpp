@@ -9,5 +9,6 @@
 #include <mlsdeform/fit_rotations.hpp>
 #include <mlsdeform/point_fit.hpp>
 #include <mlsdeform/rotation.hpp>
+#include <mlsdeform/splats.hpp>
 #include <mlsdeform/types.hpp>
 #include <mlsdeform/version.hpp>
