@@ -16,8 +16,10 @@ from ._mlsdeform import (
     fit_points,
     fit_rotation,
     fit_rotations,
+    rotate_splats,
     set_isa,
     supported_isas,
+    transform_splats_affine,
 )
 
 __all__ = [
@@ -27,6 +29,8 @@ __all__ = [
     "fit_points",
     "fit_rotation",
     "fit_rotations",
+    "rotate_splats",
     "set_isa",
     "supported_isas",
+    "transform_splats_affine",
 ]
