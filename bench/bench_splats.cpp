@@ -4,6 +4,7 @@
 //   splats/rotate/sh:<d>/n:<n>/threads:<t>      rotate_splats: quaternions composed, SH bands 1..d rotated
 //   splats/similarity/sh:3/n:<n>/threads:<t>    the same with scales (log-scale offsets)
 //   splats/affine/sh:3/n:<n>/threads:<t>        transform_splats_affine (eigensolver, SVD per splat)
+// With --write-ply=PATH it writes those splats as a 3DGS PLY file and a handles file instead (for the program).
 // Counters: ns_per_splat. Every transform is a random rotation (or 0.9..1.1 s R, or I + 0.1 N for affine), so
 // no splat takes the identity's shortcut. Before timing, the rotated quaternions of 1,000 splats are checked
 // against their Hamilton products in long double (SkipWithError on a mismatch). Ratios against
@@ -17,7 +18,9 @@
 #include <Eigen/Geometry>
 
 #include <cmath>
+#include <cstdio>
 #include <functional>
+#include <numbers>
 #include <string>
 #include <vector>
 
@@ -121,9 +124,37 @@ void add(const std::string& name, int threads, std::function<void(benchmark::Sta
   if (threads != 1) b->UseRealTime();
 }
 
+/// The splat file and a handles file bending its bar: both ends held by two layers of four handles, the top
+/// ones turned 60 degrees about x around (0, 0, 1.5).
+int write_ply(const std::string& path) {
+  mlsdeform::testing::write_splat_ply(path, cloud());
+  std::string json = "{\"points\": [";
+  const double c = std::cos(std::numbers::pi / 3), s = std::sin(std::numbers::pi / 3);
+  for (double z : {0.0, 0.1, 1.9, 2.0})
+    for (double x : {-0.2, 0.2})
+      for (double y : {-0.2, 0.2}) {
+        double ty = y, tz = z;
+        if (z > 1) ty = c * y - s * (z - 1.5), tz = 1.5 + s * y + c * (z - 1.5);
+        char buf[200];
+        std::snprintf(buf, sizeof buf, "%s{\"rest\": [%g, %g, %g], \"target\": [%.17g, %.17g, %.17g]}",
+                      json.back() == '[' ? "" : ", ", x, y, z, x, ty, tz);
+        json += buf;
+      }
+  std::FILE* f = std::fopen((path + ".json").c_str(), "w");
+  if (!f) return 1;
+  std::fputs((json + "]}\n").c_str(), f);
+  std::fclose(f);
+  std::printf("%s (%zu splats), %s.json\n", path.c_str(), kSplats, path.c_str());
+  return 0;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
+  // --write-ply=PATH: instead, write the benchmark's 10^6 splats as a 3DGS PLY file (the program's timing in
+  // docs/splats.md deforms it) with a handles file PATH.json bending the bar.
+  const std::vector<std::string> options = bench::take_options(argc, argv, {"write-ply"});
+  if (!options[0].empty()) return write_ply(options[0]);
   const int all = bench::hardware_threads();
   const std::string n = "/n:" + std::to_string(kSplats);
   for (int t : {1, all}) {
