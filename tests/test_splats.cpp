@@ -52,7 +52,8 @@ std::vector<T> random_transforms(std::size_t n, Rng& rng) {
 // Rounding the rotated coefficients to T moves each by <= eps_T / 2 |c'_j|, so the colour by <= eps_T / 2 ||c'||
 // ||B(d)|| (Cauchy-Schwarz), where ||c'|| = ||c|| (a rotation is orthogonal on each band) and ||B(d)||^2 =
 // sum_l (2 l + 1) / (4 pi) <= 15 / (4 pi) (the addition theorem). Computing in double adds at most 33 roundings
-// along one coefficient's path (the back-rotated point, its basis, the 7-term band value, the 13-point sum),
+// along one coefficient's path (band 3's: the back-rotated point, its basis, the 7-term band value, the 13-point
+// sum; bands 1 and 2, turned in closed form, take fewer),
 // weighted by sum_p |P_pj| <= 4 pi max|B_j| <= 9.4: <= 9.4 * 33 eps_d ||c|| per coefficient, times sqrt(15) for
 // the colour: under 1,300 eps_d ||c|| ||B(d)||, doubled to 2,600 for the rounding of the rotation matrix.
 template <class T>
