@@ -164,7 +164,17 @@ TEMPLATE_TEST_CASE("bad splat input is refused, naming the splat, with nothing w
   bad_M[1] = nan;
   CHECK_THROWS_WITH(transform_splats_affine<T>(c.arrays(), c.n, bad_M.data()), Catch::Contains("splat 0: linear part "
                                                                                                "is NaN"));
+  c = good;
+  if constexpr (std::is_same_v<T, double>) {  // a float M times a float extent cannot overflow double
+    bad_M = M;
+    bad_M[9 * 3] = T(1e200);
+    CHECK_THROWS_WITH(transform_splats_affine<T>(c.arrays(), c.n, bad_M.data()),
+                      Catch::Contains("splat 3: linear part times"));
+  }
   CHECK(c.rotations == good.rotations);
+  c.sh[45 * 1 + 3] = std::numeric_limits<T>::max() / 2;
+  CHECK_THROWS_WITH(rotate_splats<T>(c.arrays(), c.n, q.data()), Catch::Contains("splat 1: SH coefficient"));
+  c = good;
   CHECK_THROWS_WITH(rotate_splats<T>(c.arrays(), c.n, nullptr), Catch::Contains("quaternions is null"));
   SplatArrays<T> a = c.arrays();
   a.sh_degree = 4;

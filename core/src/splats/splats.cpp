@@ -6,6 +6,7 @@
 
 #include <mlsdeform/splats.hpp>
 
+#include <algorithm>
 #include <array>
 #include <cmath>
 #include <limits>
@@ -39,8 +40,15 @@ void validate_splat(const char* function, const SplatArrays<T>& s, std::size_t i
     if (q[0] == 0 && q[1] == 0 && q[2] == 0 && q[3] == 0) fail(function, i, "rotation (rot_*) is zero");
   }
   if (s.log_scales && !finite(s.log_scales + 3 * i, 3)) fail(function, i, "log scale (scale_*) is NaN or infinite");
-  if (s.sh_rest && !finite(s.sh_rest + std::size_t(sh_count) * i, sh_count))
-    fail(function, i, "SH coefficient (f_rest_*) is NaN or infinite");
+  if (s.sh_rest) {
+    const T* c = s.sh_rest + std::size_t(sh_count) * i;
+    if (!finite(c, sh_count)) fail(function, i, "SH coefficient (f_rest_*) is NaN or infinite");
+    // A rotated coefficient is bounded by its band's norm (<= sqrt(7) max|c|) and the intermediates by a few
+    // times that: within max(T) / 64 nothing overflows.
+    for (int j = 0; j < sh_count; ++j)
+      if (std::abs(c[j]) > std::numeric_limits<T>::max() / 64)
+        fail(function, i, "SH coefficient (f_rest_*) " + std::to_string(double(c[j])) + " is too large to rotate");
+  }
 }
 
 template <class T>
@@ -89,6 +97,14 @@ void validate_affine(const SplatArrays<T>& s, std::size_t n, const T* linear) {
     const T* m = linear + 9 * i;
     if (!finite(m, 9)) fail(f, i, "linear part is NaN or infinite");
     if (detail::determinant(detail::to_double(m)) == 0) fail(f, i, "linear part is singular (determinant 0)");
+    // Sigma' = A A^T with |A_ij| <= max|M| exp(max log scale): within 1e150 it stays finite in double.
+    if (s.log_scales) {
+      double largest = 0, extent = 0;
+      for (int j = 0; j < 9; ++j) largest = std::max(largest, std::abs(double(m[j])));
+      for (int k = 0; k < 3; ++k) extent = std::max(extent, double(s.log_scales[3 * i + std::size_t(k)]));
+      if (std::isfinite(extent) && !(largest * std::exp(extent) <= 1e150))
+        fail(f, i, "linear part times the splat's extent overflows (max |M| exp(scale) > 1e150)");
+    }
     validate_splat(f, s, i, sh_count);
   }
 }
