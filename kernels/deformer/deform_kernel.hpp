@@ -6,6 +6,7 @@
 //   fit                                      R from H (L::fit: the rotation fit of the lanes, or fit_rotation)
 //   similarity_scale                         mu (similarity), else 1
 //   apply                                    v' = q* + mu R vhat
+//   store_frames (when wanted)               R, mu, mu R and rotation_quaternion(R) into the FramesOut rows
 // Affine: v' = sum_j alpha_j q_j. The pseudo-handles are visited in one order, so a vertex's sums see the same
 // terms in the same order whatever the width, thread or block schedule. Everything is in the local frame:
 // targets times local_scale as they are read, results times world_scale before they are stored.
