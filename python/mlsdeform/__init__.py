@@ -19,7 +19,9 @@ from ._mlsdeform import (
     rotate_splats,
     set_isa,
     supported_isas,
+    transform_normals,
     transform_splats_affine,
+    transform_tangents,
 )
 
 __all__ = [
@@ -32,5 +34,7 @@ __all__ = [
     "rotate_splats",
     "set_isa",
     "supported_isas",
+    "transform_normals",
     "transform_splats_affine",
+    "transform_tangents",
 ]
