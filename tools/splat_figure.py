@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """Draws docs/figures/splats.png: splat centres with their three axes (red, green, blue: scale_0..2, each axis
 drawn 2 standard deviations long) before and after a bend, the splats turned by the MLS rotation at their
-centres (python/examples/deform_splats.py's bend and rotations, on a sheet of splats so that the axes read).
+centres, the deformer's frames (python/examples/deform_splats.py's bend, on a sheet of splats so that the axes read).
 
     PYTHONPATH=build/python python3 tools/splat_figure.py [out.png]
 """
@@ -61,10 +61,10 @@ def main(argv):
     log_scales = np.tile(np.log(np.float32([0.03, 0.07, 0.03])), (n, 1))
     sh_rest = deform_splats.splat_bar(n=n)[3]
     P, Q = deform_splats.bend()
-    moved = mlsdeform.Deformer(centres, points=P).deform(points=Q)
-    turns = deform_splats.to_quaternions(deform_splats.mls_rotations(P, Q, centres.astype(np.float64)))
+    moved, turns = np.empty_like(centres), np.empty((len(centres), 4), dtype=np.float32)
+    mlsdeform.Deformer(centres, points=P).deform(points=Q, out=moved, quaternions=turns)
     after_rot, after_sh = rotations.copy(), sh_rest.copy()
-    mlsdeform.rotate_splats(turns.astype(np.float32), rotations=after_rot, sh_rest=after_sh)
+    mlsdeform.rotate_splats(turns, rotations=after_rot, sh_rest=after_sh)
     spec = {
         "title": "Gaussian splats bent by MLS: centres moved, each splat turned by the rotation at its centre",
         "rows": 1,

@@ -1,8 +1,8 @@
-"""Gaussian splats deformed in numpy: a bar of 20,000 splats (the 3DGS per-splat arrays: centres, rot_0..3,
-scale_0..2, f_rest_0..44) bent by turning its top end 90 degrees. The centres move by MLS (Deformer); each splat
-turns by the MLS rotation at its centre: its quaternion composed, its spherical harmonics rotated
-(mlsdeform.rotate_splats). The rotations here are the MLS fit at each centre, computed from the handles with
-mlsdeform.fit_rotations (the rigid MLS rotation of the paper's Algorithm 1, w = |p - v|^-2).
+"""Gaussian splats deformed in numpy with the library's splat functions: a bar of 20,000 splats (the 3DGS
+per-splat arrays: centres, rot_0..3, scale_0..2, f_rest_0..44) bent by turning its top end 90 degrees. The centres
+move by MLS (Deformer); the deformer's frames (its rotation at each centre) turn each splat: its quaternion
+composed, its spherical harmonics rotated (mlsdeform.rotate_splats; docs/splats.md). python/examples/splats.py
+composes the quaternions by hand in numpy instead, for per-point data of the user's own.
 
     python3 python/examples/deform_splats.py [out.npz]
 """
@@ -23,40 +23,6 @@ def splat_bar(n=20000, length=4.0, seed=7):
     log_scales = np.log(0.02) + 0.5 * rng.normal(size=(n, 3))
     sh_rest = 0.1 * rng.normal(size=(n, 45))
     return [a.astype(np.float32) for a in (centres, rotations, log_scales, sh_rest)]
-
-
-def mls_rotations(P, Q, X, exponent=2.0):
-    """The rigid MLS rotation at each point of X (rest pose) for handles P moved to Q: the rotation maximising
-    trace(R^T H) with H = sum_j w_j (q_j - q*)(p_j - p*)^T, w_j = |p_j - x|^-exponent, p* and q* the weighted
-    centroids."""
-    w = np.sum((X[:, None, :] - P[None, :, :]) ** 2, axis=2) ** (-exponent / 2)
-    w /= w.sum(axis=1, keepdims=True)
-    p_hat = P[None, :, :] - (w @ P)[:, None, :]
-    q_hat = Q[None, :, :] - (w @ Q)[:, None, :]
-    H = np.einsum("nk,nki,nkj->nij", w, q_hat, p_hat)
-    return mlsdeform.fit_rotations(H)
-
-
-def to_quaternions(R):
-    """Unit quaternions w x y z of rotation matrices (n, 3, 3) (Shepperd: divide by the largest component)."""
-    t = np.trace(R, axis1=1, axis2=2)
-    case = np.argmax(np.stack([t, R[:, 0, 0], R[:, 1, 1], R[:, 2, 2]], axis=1), axis=1)
-    q = np.empty((len(R), 4))
-    s = R[:, 2, 1] - R[:, 1, 2], R[:, 0, 2] - R[:, 2, 0], R[:, 1, 0] - R[:, 0, 1]  # 4 w x, 4 w y, 4 w z
-    a = R[:, 0, 1] + R[:, 1, 0], R[:, 0, 2] + R[:, 2, 0], R[:, 1, 2] + R[:, 2, 1]  # 4 x y, 4 x z, 4 y z
-    diag = (
-        1 + t,
-        1 + R[:, 0, 0] - R[:, 1, 1] - R[:, 2, 2],
-        1 - R[:, 0, 0] + R[:, 1, 1] - R[:, 2, 2],
-        1 - R[:, 0, 0] - R[:, 1, 1] + R[:, 2, 2],
-    )
-    # per case: the largest component (from the diagonal), then the other three (from s and a) divided by 4 x it
-    others = [(s[0], s[1], s[2]), (s[0], a[0], a[1]), (s[1], a[0], a[2]), (s[2], a[1], a[2])]
-    for c in range(4):
-        m = case == c
-        big = np.sqrt(np.maximum(diag[c][m], 0)) / 2
-        q[m] = np.insert(np.stack([x[m] / (4 * big) for x in others[c]], axis=1), c, big, axis=1)
-    return q
 
 
 def bend(length=4.0):
@@ -80,8 +46,9 @@ def main(argv):
     rest_rotations = rotations.copy()
     P, Q = bend()
     start = time.perf_counter()
-    moved = mlsdeform.Deformer(centres, points=P).deform(points=Q)
-    turns = to_quaternions(mls_rotations(P, Q, centres.astype(np.float64))).astype(np.float32)
+    d = mlsdeform.Deformer(centres, points=P)
+    moved, turns = np.empty_like(centres), np.empty((len(centres), 4), dtype=np.float32)
+    d.deform(points=Q, out=moved, quaternions=turns)  # each centre's rotation as a unit quaternion, w x y z
     mlsdeform.rotate_splats(turns, rotations=rotations, log_scales=log_scales, sh_rest=sh_rest, threads=0)
     ms = 1000 * (time.perf_counter() - start)
     # How far each splat turned: the angle between its old and new orientation, 2 acos |<q, q'>|.
