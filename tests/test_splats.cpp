@@ -115,7 +115,7 @@ TEMPLATE_TEST_CASE("rotated SH: the colour seen from R d is the colour formerly 
   }
 }
 
-TEMPLATE_TEST_CASE("a rotated splat's covariance is R Sigma R^T; a similarity's s^2 R Sigma R^T", "[splats]", float,
+TEMPLATE_TEST_CASE("a rotated splat's covariance is R Sigma R^T, a similarity's s^2 R Sigma R^T", "[splats]", float,
                    double) {
   using T = TestType;
   Rng rng(31);
