@@ -80,7 +80,7 @@ if(NOT MLSDEFORM_SANITIZE)
                           ${_cli_dir}/handles/resolve.cpp ${_cli_dir}/file_read.cpp)
     mlsdeform_fuzz_test(fuzz_handles fuzz_handles ${_fuzz_dir}/corpus ${_fuzz_dir}/handles.dict 20000 2048)
     # The mesh readers and writers, one per format, and what they share.
-    set(_cli_formats ${_cli_dir}/formats/reader.cpp ${_cli_dir}/formats/obj_read.cpp ${_cli_dir}/formats/off_read.cpp
+    set(_cli_formats ${_cli_dir}/attributes.cpp ${_cli_dir}/attributes_ops.cpp ${_cli_dir}/formats/reader.cpp ${_cli_dir}/formats/obj_read.cpp ${_cli_dir}/formats/off_read.cpp
                      ${_cli_dir}/formats/ply_read.cpp ${_cli_dir}/formats/obj_write.cpp
                      ${_cli_dir}/formats/off_write.cpp ${_cli_dir}/formats/ply_write.cpp)
     # One target per mesh reader, and one for gzip input (FUZZ_MESH_FORMAT picks it); each round-trips what it

@@ -54,7 +54,7 @@ void check_invariants(const BasicMesh<T>& m) {
 template <class T>
 void check_round_trip(const BasicMesh<T>& m, const std::string& format, PlyEncoding ply) {
   const std::string name = "round_trip." + format;
-  const std::string bytes = encode_mesh(m, name, {false, ply, false});
+  const std::string bytes = encode_mesh(m, name, {false, ply});
   const auto source = memory_source(bytes);
   BasicMesh<T> back;
   try {

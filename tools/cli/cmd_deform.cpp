@@ -38,6 +38,24 @@ int deform(const DeformArgs& a) {
     outputs.push_back(handles.animated() ? frame_path(a.out, f, frame_count) : a.out);
   for (const auto& o : outputs) check_output_path(o, a.force);  // before any work: fail fast, write nothing
 
+  // What the output keeps of the input's attributes, named before any work (--strict-attributes refuses then).
+  const bool same_format = format_extension(a.mesh) == format_extension(a.out);
+  const bool transform_normals_wanted = a.normals == NormalsOut::input && same_format && mesh.extras.has_normals();
+  // Until the deformer writes each vertex's linear part, no fit gives one to transform normals by.
+  const bool affine = true;
+  // The library gives no linear part for affine fits (FramesOut): written as read, the normals would be wrong.
+  const InputNormals fate = !transform_normals_wanted ? InputNormals::kept
+                            : affine                  ? InputNormals::untransformable
+                                                      : InputNormals::transformed;
+  const AttributeReport report = attribute_report(mesh, a.out, a.normals, fate);
+  if (!report.dropped.empty()) {
+    std::string list;
+    for (const auto& d : report.dropped) list += (list.empty() ? "" : "; ") + d;
+    if (a.strict_attributes)
+      throw InputError(a.mesh, "the output " + a.out + " cannot keep: " + list + " (--strict-attributes)");
+    std::fprintf(stderr, "mlsdeform: dropped from %s: %s\n", a.mesh.c_str(), list.c_str());
+  }
+
   const ResolvedHandles<T> resolved = resolve_handles<T>(handles, mesh.vertices);
   if (arap && !resolved.region.empty())
     throw InputError(a.handles, "a region and --arap cannot be combined (give one or the other)", "/region");
@@ -71,6 +89,15 @@ int deform(const DeformArgs& a) {
                     : (", a region of " + std::to_string(options.region.size()) + " vertices (the " +
                        std::to_string(mesh.vertex_count() - Eigen::Index(options.region.size())) + " others stay)")
                           .c_str());
+    auto listed = [](const std::vector<std::string>& items) {
+      std::string s;
+      for (const auto& i : items) s += (s.empty() ? "" : "; ") + i;
+      return s;
+    };
+    if (!report.kept.empty() || !report.transformed.empty())
+      std::printf("attributes: %s%s%s%s\n", report.kept.empty() ? "" : "kept ", listed(report.kept).c_str(),
+                  report.kept.empty() || report.transformed.empty() ? "" : "; ",
+                  report.transformed.empty() ? "" : ("transformed " + listed(report.transformed)).c_str());
     char threads[32];
     std::snprintf(threads, sizeof threads, a.options.threads > 0 ? "%d threads" : "all cores", a.options.threads);
     const std::string then_arap =
@@ -84,7 +111,8 @@ int deform(const DeformArgs& a) {
   }
 
   BasicMesh<T> result = mesh;
-  const WriteOptions write{a.force, a.ply_ascii ? PlyEncoding::ascii : PlyEncoding::binary, true, a.output_type};
+  if (fate == InputNormals::untransformable) drop_normals(result);
+  const WriteOptions write{a.force, a.ply_ascii ? PlyEncoding::ascii : PlyEncoding::binary, a.normals, a.output_type};
   const bool narrowed = std::is_same_v<T, double> && output_type(mesh, write) == CoordinateType::float32;
   Points<T> out(rest.rows(), 3);
   std::vector<double> deform_ms;
