@@ -4,19 +4,37 @@
 #include "tools/cli/file_io.hpp"
 #include "tools/cli/mesh.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <unordered_map>
 
 namespace mlsdeform::cli {
 namespace {
 
+/// v / |v|, scaled first by its largest component so that no square overflows or underflows; false (v left
+/// alone) for a zero or non-finite v.
+bool normalise(double* v) {
+  const double big = std::max({std::fabs(v[0]), std::fabs(v[1]), std::fabs(v[2])});
+  if (!(big > 0) || !std::isfinite(big)) return false;
+  double s[3] = {v[0] / big, v[1] / big, v[2] / big};
+  const double len = std::sqrt(s[0] * s[0] + s[1] * s[1] + s[2] * s[2]);
+  for (int r = 0; r < 3; ++r) v[r] = s[r] / len;
+  return true;
+}
+
 /// n' = L^-T n renormalised, through the cofactor matrix: cof(L) = det(L) L^-T, so L^-T n points along
 /// sign(det L) cof(L) n, which needs no division and stays defined for a singular L of rank 2 (the normal of
-/// the plane L flattens onto). Where that is zero or not finite (L of rank < 2, or overflow), the input normal
-/// is kept: there is no transformed direction to give. In double: float input is exact in it, and the rounding
-/// to the output type comes once, at the end.
+/// the plane L flattens onto). The input is made unit first (any finite normal, however long, then transforms
+/// without overflow). Where the result is zero or not finite (L of rank < 2, or non-finite), the input normal
+/// is kept, unit length: there is no transformed direction to give. A zero or non-finite input is kept as
+/// it is. In double: float input is exact in it, and the rounding to the output type comes once, at the end.
 template <class T>
 void transformed(const T* l, const double* n, double* out) {
+  double u[3] = {n[0], n[1], n[2]};
+  if (!normalise(u)) {
+    std::copy(n, n + 3, out);
+    return;
+  }
   const double a = double(l[0]), b = double(l[1]), c = double(l[2]);
   const double d = double(l[3]), e = double(l[4]), f = double(l[5]);
   const double g = double(l[6]), h = double(l[7]), i = double(l[8]);
@@ -26,13 +44,12 @@ void transformed(const T* l, const double* n, double* out) {
   const double det = a * cof[0] + b * cof[1] + c * cof[2];
   const double sign = det < 0 ? -1.0 : 1.0;
   double m[3];
-  for (int r = 0; r < 3; ++r) m[r] = sign * (cof[3 * r] * n[0] + cof[3 * r + 1] * n[1] + cof[3 * r + 2] * n[2]);
-  const double len = std::sqrt(m[0] * m[0] + m[1] * m[1] + m[2] * m[2]);
-  if (!(len > 0) || !std::isfinite(len)) {
-    std::copy(n, n + 3, out);
+  for (int r = 0; r < 3; ++r) m[r] = sign * (cof[3 * r] * u[0] + cof[3 * r + 1] * u[1] + cof[3 * r + 2] * u[2]);
+  if (!normalise(m)) {
+    std::copy(u, u + 3, out);
     return;
   }
-  for (int r = 0; r < 3; ++r) out[r] = m[r] / len;
+  std::copy(m, m + 3, out);
 }
 
 std::string joined(const std::vector<std::string>& names, std::size_t most = 12) {
