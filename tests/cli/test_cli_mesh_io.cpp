@@ -126,6 +126,36 @@ TEST_CASE("double meshes round-trip in every format bit for bit", "[cli][mesh][p
     }
 }
 
+// Integer coordinates: a double mesh keeps every int and uint of 32 bits (float's 24-bit significand would
+// round 2^24 + 1), so its PLY output is double; 8- and 16-bit integers fit in float, so it stays float.
+TEST_CASE("integer PLY coordinates are written back in a type that holds them", "[cli][mesh]") {
+  ScratchDir dir;
+  struct Case {
+    const char* type;
+    const char* values;  // x y z of the first vertex
+    CoordinateType expected;
+  };
+  for (const Case& c :
+       {Case{"int", "16777217 -2147483648 2147483647", CoordinateType::float64},
+        Case{"uint", "16777217 4294967295 0", CoordinateType::float64},
+        Case{"short", "-32768 32767 1", CoordinateType::float32}, Case{"uchar", "255 0 1", CoordinateType::float32}}) {
+    INFO(c.type);
+    const std::string t = c.type;
+    write_text(dir / "in.ply", "ply\nformat ascii 1.0\nelement vertex 3\nproperty " + t + " x\nproperty " + t +
+                                   " y\nproperty " + t +
+                                   " z\nelement face 1\nproperty list uchar int vertex_indices\n"
+                                   "end_header\n" +
+                                   c.values + "\n0 1 0\n1 0 0\n3 0 1 2\n");
+    const BasicMesh<double> m = read_mesh<double>(dir / "in.ply");
+    CHECK(m.stored_type == c.expected);
+    for (PlyEncoding enc : {PlyEncoding::binary, PlyEncoding::ascii}) {
+      write_mesh(m, dir / "out.ply", {true, enc});
+      const BasicMesh<double> back = read_mesh<double>(dir / "out.ply");
+      CHECK(std::memcmp(back.vertices.data(), m.vertices.data(), std::size_t(m.vertices.size()) * sizeof(double)) == 0);
+    }
+  }
+}
+
 TEST_CASE("written files are what their extension says", "[cli][mesh]") {
   ScratchDir dir;
   const Mesh m = sample_mesh();

@@ -162,9 +162,14 @@ BasicMesh<T> read_ply(Reader& reader, const std::string& path) {
 
   BasicMesh<T> mesh;
   const auto& vertex_properties = elements[std::size_t(vertex_element)].properties;
+  // float32 holds every value of the 8- and 16-bit integer types and of float exactly; a 32-bit integer (up to
+  // 2^32 - 1) needs double's 53 bits, like a double: written back as float it would be rounded.
   mesh.stored_type = CoordinateType::float32;
-  for (int c = 0; c < 3; ++c)
-    if (vertex_properties[std::size_t(xyz[c])].type == PlyScalar::f64) mesh.stored_type = CoordinateType::float64;
+  for (int c = 0; c < 3; ++c) {
+    const PlyScalar type = vertex_properties[std::size_t(xyz[c])].type;
+    if (type == PlyScalar::f64 || type == PlyScalar::i32 || type == PlyScalar::u32)
+      mesh.stored_type = CoordinateType::float64;
+  }
   const std::uint64_t nv = elements[std::size_t(vertex_element)].count;
   mesh.vertices.resize(Eigen::Index(nv), 3);
   if (face_element >= 0) mesh.face_start.reserve(std::size_t(elements[std::size_t(face_element)].count) + 1);
