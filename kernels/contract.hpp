@@ -93,6 +93,14 @@ struct DeformFrame {
   // Output: vertex v, coordinate c at out[c * out_coord_stride + v * out_vertex_stride].
   T* out;
   std::size_t out_vertex_stride, out_coord_stride;
+
+  // Frames (FramesOut, mlsdeform/frames.hpp), rigid and similarity, each row-major per vertex or nullptr:
+  // not wanted. Vertex v's unit quaternion (w, x, y, z) at quaternions[4 v], R at rotations[9 v], the
+  // similarity scale at scales[v], the linear part mu R at linear[9 v]. Unitless: no world_scale.
+  T* quaternions;
+  T* rotations;
+  T* scales;
+  T* linear;
 };
 
 /// Calls f(j, x, y, z) for the target q_j of every pseudo-handle j = 0, 1, ..., J-1 in order (the point

@@ -97,6 +97,10 @@ TEMPLATE_TEST_CASE("deform and fit_rotations allocate nothing in steady state", 
         CHECK(allocations_during([&] { d.deform(moved, out); }) == 0);
         d.set_point_target(2, Vector3<T>(T(0.5), T(0.5), T(0.5)));
         CHECK(allocations_during([&] { d.deform(out); }) == 0);
+        // Frames (FramesOut): the caller's arrays, written from the lanes.
+        std::vector<T> q(4 * 5000), r(9 * 5000), s(5000), l(9 * 5000);
+        CHECK(allocations_during([&] { d.deform(moved, out, FramesOut<T>{q, r, s, l}); }) == 0);
+        CHECK(allocations_during([&] { d.deform(out, FramesOut<T>{q, {}, {}, {}}); }) == 0);
       }
   // A region (Options::region): the kernels' output and the targets with the ring's fixed handles are the
   // session's scratch, sized at construction.
@@ -111,6 +115,9 @@ TEMPLATE_TEST_CASE("deform and fit_rotations allocate nothing in steady state", 
     CHECK(allocations_during([&] { d.deform(moved, out); }) == 0);
     PointsRowMajor<T> buffer(v.rows(), 3);
     CHECK(allocations_during([&] { d.deform(moved, InterleavedView<T>(buffer.data(), buffer.rows(), 3)); }) == 0);
+    // The region's frames are moved to their rows in place (no scratch).
+    std::vector<T> q(4 * 5000), r(9 * 5000), s(5000), l(9 * 5000);
+    CHECK(allocations_during([&] { d.deform(moved, out, FramesOut<T>{q, r, s, l}); }) == 0);
   }
   std::vector<T> H(9 * 1000), R(9 * 1000);
   for (T& h : H) h = u(rng);
@@ -155,6 +162,11 @@ TEMPLATE_TEST_CASE("ARAP refinement allocates nothing in steady state", "[alloca
     CHECK(allocations_during([&] { d.deform(moved, out); }) == 0);
     PointsRowMajor<T> buffer(v.rows(), 3);
     CHECK(allocations_during([&] { d.deform(moved, InterleavedView<T>(buffer.data(), buffer.rows(), 3)); }) == 0);
+    // The refined rotations as frames: quaternions alone go through the session's scratch, sized once.
+    const auto nv = std::size_t(v.rows());
+    std::vector<T> q(4 * nv), r(9 * nv), s(nv), l(9 * nv);
+    CHECK(allocations_during([&] { d.deform(moved, out, FramesOut<T>{q, {}, {}, {}}); }) == 0);
+    CHECK(allocations_during([&] { d.deform(moved, out, FramesOut<T>{q, r, s, l}); }) == 0);
   }
 }
 

@@ -27,6 +27,7 @@
 #include <cstring>
 #include <iterator>
 #include <limits>
+#include <numbers>
 #include <random>
 #include <set>
 #include <string>
@@ -299,6 +300,37 @@ void check_deformer_stages(const StageEntries<T>& simd, const StageEntries<T>& s
   std::vector<ApplyIn<T>> ain(n);
   fill(ain);
   check_bitwise(run(simd.apply, ain), run(scalar.apply, ain), "apply", n);
+
+  // rotation_quaternion (the frames): bitwise equal, and against the exact quaternion of the rotation the
+  // input was rounded from. Rotations from random unit quaternions in long double, and the corner cases:
+  // the identity, half turns (w = 0) about each axis and about a diagonal, and a turn by pi - 1e-3.
+  std::vector<Rotation<T>> rin(n);
+  std::vector<Eigen::Matrix<LD, 4, 1>> qref(n);
+  for (std::size_t i = 0; i < n; ++i) {
+    Eigen::Matrix<LD, 4, 1> qi(LD(u(g)), LD(u(g)), LD(u(g)), LD(u(g)));
+    const LD half = std::sin(LD(0.5) * (LD(std::numbers::pi) - LD(1e-3))),
+             w = std::cos(LD(0.5) * (LD(std::numbers::pi) - LD(1e-3)));
+    const Eigen::Matrix<LD, 4, 1> corner[6] = {{1, 0, 0, 0}, {0, 1, 0, 0}, {0, 0, 1, 0},
+                                               {0, 0, 0, 1}, {0, 1, 1, 1}, {w, half, 0, 0}};
+    if (i % 4 == 0) qi = corner[(i / 4) % 6];
+    qi.normalize();
+    if (qi(0) < 0) qi = -qi;
+    qref[i] = qi;
+    const Eigen::Matrix<LD, 3, 3> R = Eigen::Quaternion<LD>(qi(0), qi(1), qi(2), qi(3)).toRotationMatrix();
+    for (int e = 0; e < 9; ++e) rin[i].r[e] = T(R(e / 3, e % 3));
+  }
+  const auto q_simd = run(simd.rotation_quaternion, rin), q_scalar = run(scalar.rotation_quaternion, rin);
+  check_bitwise(q_simd, q_scalar, "rotation_quaternion", n);
+  // Bound: R's entries are rounded to T (eps / 2 each); the chosen column 4 q_k q has entries of 1 + 3 terms
+  // or 2 terms, each within 3 (eps / 2) + 3 eps of its exact value, so the column is within 8 eps in norm,
+  // and its norm is 4 |q_k| >= 2 (the largest of four squares summing to 1 is >= 1/4): 4 eps in direction;
+  // the square root and the division add 3 eps. At w = 0 either sign is exact: the nearer is compared.
+  for (std::size_t i = 0; i < n; ++i) {
+    const Eigen::Matrix<LD, 4, 1> got(LD(q_scalar[i].q[0]), LD(q_scalar[i].q[1]), LD(q_scalar[i].q[2]),
+                                      LD(q_scalar[i].q[3]));
+    CHECK(std::min((got - qref[i]).norm(), (got + qref[i]).norm()) <= 7 * eps<T>);
+    CHECK(got(0) >= 0);
+  }
 }
 
 }  // namespace
@@ -338,5 +370,6 @@ TEMPLATE_TEST_CASE("every stage table has every entry", "[stages]", float, doubl
     CHECK(t->correlation_matrix);
     CHECK(t->similarity_scale);
     CHECK(t->apply);
+    CHECK(t->rotation_quaternion);
   }
 }

@@ -6,6 +6,7 @@
 //   fit                                      R from H (L::fit: the rotation fit of the lanes, or fit_rotation)
 //   similarity_scale                         mu (similarity), else 1
 //   apply                                    v' = q* + mu R vhat
+//   store_frames (when wanted)               R, mu, mu R and rotation_quaternion(R) into the FramesOut rows
 // Affine: v' = sum_j alpha_j q_j. The pseudo-handles are visited in one order, so a vertex's sums see the same
 // terms in the same order whatever the width, thread or block schedule. Everything is in the local frame:
 // targets times local_scale as they are read, results times world_scale before they are stored.
@@ -31,17 +32,23 @@ struct DeformKernel {
   static constexpr std::size_t W = L::W;
   static_assert(kLanes % W == 0, "a block holds a whole number of batches");
 
+  /// One vertex per lane: its position, and the frame (R, mu) that moved it (rigid, similarity).
+  struct Result {
+    V out[3];
+    V r[9];
+    V mu;
+  };
+
   /// The stages after H, shared by both weight sources: R from H, mu (similarity_scale, else 1), and apply.
   MLSDEFORM_KERNEL_INLINE static void rotate_and_apply(const DeformFrame<T>& fr, const V (&h)[9], const V (&qs)[3],
-                                                       const V (&vh)[3], V D, V (&out)[3]) {
-    V r[9];
-    L::fit(fr.method, h, r);
-    const V mu = fr.transform == Transform::similarity ? similarity_scale(r, h, D, V(T(1))) : V(T(1));
-    apply(qs, mu, r, vh, out);
+                                                       const V (&vh)[3], V D, Result& res) {
+    L::fit(fr.method, h, res.r);
+    res.mu = fr.transform == Transform::similarity ? similarity_scale(res.r, h, D, V(T(1))) : V(T(1));
+    apply(qs, res.mu, res.r, vh, res.out);
   }
 
   /// Precomputed weights, rigid or similarity: the W vertices from lane g of block b.
-  MLSDEFORM_KERNEL_INLINE static void table(const DeformFrame<T>& fr, std::size_t b, std::size_t g, V (&out)[3]) {
+  MLSDEFORM_KERNEL_INLINE static void table(const DeformFrame<T>& fr, std::size_t b, std::size_t g, Result& res) {
     const std::size_t v0 = b * kLanes + g, J = fr.k + 2 * fr.s;
     V qs[3] = {V(T(0)), V(T(0)), V(T(0))};
     V h[9];
@@ -54,7 +61,7 @@ struct DeformKernel {
     });
     const V vh[3] = {L::load(fr.vhat + v0), L::load(fr.vhat + fr.padded + v0), L::load(fr.vhat + 2 * fr.padded + v0)};
     const V D = fr.transform == Transform::similarity ? L::load(fr.D + v0) : V(T(0));
-    rotate_and_apply(fr, h, qs, vh, D, out);
+    rotate_and_apply(fr, h, qs, vh, D, res);
   }
 
   /// Affine: v' = sum_j alpha_j q_j for the W vertices from lane g of block b.
@@ -91,12 +98,13 @@ struct DeformKernel {
   ///           D = sum A_j . phat_j                                                         (eq. 6, Sec. 6.1)
   /// then R, mu and v' = q* + mu R vhat as in `table` (vhat = v - p*). Lanes on a handle, whose weights are
   /// infinite, take its target instead; where every lane does, nothing else is computed.
-  static void on_the_fly(const DeformFrame<T>& fr, std::size_t v0, V (&out)[3]) {
+  static void on_the_fly(const DeformFrame<T>& fr, std::size_t v0, Result& res) {
     const V snap = L::load(fr.snap + v0);  // padding lanes have snap = -1
     const auto snapped = snap >= V(T(0));
     if (all(snapped)) {
-      for (V& x : out) x = V(T(0));
-      return snap_to_handles(fr, snap, out);
+      for (V& x : res.out) x = V(T(0));
+      identity_frame(res);
+      return snap_to_handles(fr, snap, res.out);
     }
     const V vx = L::load(fr.v_local + v0), vy = L::load(fr.v_local + fr.padded + v0),
             vz = L::load(fr.v_local + 2 * fr.padded + v0), dref2 = L::load(fr.dref2 + v0);
@@ -129,8 +137,44 @@ struct DeformKernel {
     for (int r = 0; r < 3; ++r)
       for (int c = 0; c < 3; ++c) h[3 * r + c] = h[3 * r + c] - (qs[r] - V(fr.centre[r])) * sum_a[c];
     const V vh[3] = {-ps[0], -ps[1], -ps[2]};
-    rotate_and_apply(fr, h, qs, vh, D, out);
-    if (any(snapped)) snap_to_handles(fr, snap, out);
+    rotate_and_apply(fr, h, qs, vh, D, res);
+    if (any(snapped)) {
+      snap_to_handles(fr, snap, res.out);
+      // The frame of a vertex on a handle is the table's there (data.hpp: H = 0, R = I, mu = 1), not the
+      // infinite weights' NaN.
+      for (int i = 0; i < 9; ++i) res.r[i] = select(snapped, V(T(i % 4 == 0 ? 1 : 0)), res.r[i]);
+      res.mu = select(snapped, V(T(1)), res.mu);
+    }
+  }
+
+  /// R = I, mu = 1.
+  static void identity_frame(Result& res) {
+    for (int i = 0; i < 9; ++i) res.r[i] = V(T(i % 4 == 0 ? 1 : 0));
+    res.mu = V(T(1));
+  }
+
+  /// The W vertices' frames from v0 into fr.quaternions, rotations, scales, linear (those wanted; rows below
+  /// n): rotation_quaternion in the lanes, then each component's lanes through a buffer into the rows.
+  static void store_frames(const DeformFrame<T>& fr, std::size_t v0, const Result& res) {
+    const std::size_t count = fr.n - v0 < W ? fr.n - v0 : W;
+    alignas(64) T buf[9][W];
+    const auto rows = [&](T* dst, std::size_t width, const V* src) {
+      for (std::size_t c = 0; c < width; ++c) L::store(src[c], buf[c]);
+      for (std::size_t l = 0; l < count; ++l)
+        for (std::size_t c = 0; c < width; ++c) dst[(v0 + l) * width + c] = buf[c][l];
+    };
+    if (fr.quaternions) {
+      V q[4];
+      rotation_quaternion(res.r, q);
+      rows(fr.quaternions, 4, q);
+    }
+    if (fr.rotations) rows(fr.rotations, 9, res.r);
+    if (fr.scales) rows(fr.scales, 1, &res.mu);
+    if (fr.linear) {
+      V m[9];
+      for (int i = 0; i < 9; ++i) m[i] = res.mu * res.r[i];
+      rows(fr.linear, 9, m);
+    }
   }
 
   /// The W vertices from v0 to the caller's units and into fr.out (those below n).
@@ -156,16 +200,19 @@ struct DeformKernel {
   ///   Valid range: a frame the session built (finite targets, validated by the session; a vertex on a
   ///                handle takes its target exactly)
   static void run(const DeformFrame<T>& fr, std::size_t block_begin, std::size_t block_end) {
+    // Affine sessions have no frames (the session refuses them).
+    const bool frames = fr.transform != Transform::affine && (fr.quaternions || fr.rotations || fr.scales || fr.linear);
     for (std::size_t b = block_begin; b < block_end; ++b)
       for (std::size_t g = 0; g < kLanes && b * kLanes + g < fr.n; g += W) {
-        V out[3];
+        Result res;
         if (fr.weights == WeightSource::on_the_fly)
-          on_the_fly(fr, b * kLanes + g, out);
+          on_the_fly(fr, b * kLanes + g, res);
         else if (fr.transform == Transform::affine)
-          affine(fr, b, g, out);
+          affine(fr, b, g, res.out);
         else
-          table(fr, b, g, out);
-        store(fr, b * kLanes + g, out);
+          table(fr, b, g, res);
+        store(fr, b * kLanes + g, res.out);
+        if (frames) store_frames(fr, b * kLanes + g, res);
       }
   }
 };

@@ -7,9 +7,12 @@
 //   correlation_matrix  H  = sum_j (q_j - c) A_j^T                     (eq. 6, Sec. 6.2), one term per call
 //   similarity_scale    mu = trace(R^T H) / D                          (Sec. 6.1)
 //   apply               v' = q* + mu R vhat                            (Algorithm 1 steps 8-10)
+//   rotation_quaternion R -> unit q (w x y z), w >= 0                   (Shepperd 1978, Markley 2008)
 #pragma once
 
 #include "kernels/lanes.hpp"
+
+#include <cmath>
 
 namespace mlsdeform::kernels {
 
@@ -59,6 +62,40 @@ MLSDEFORM_KERNEL_INLINE void apply(const V (&qs)[3], V mu, const V (&r)[9], cons
     const V rv = r[3 * i] * vh[0] + r[3 * i + 1] * vh[1] + r[3 * i + 2] * vh[2];
     out[i] = qs[i] + mu * rv;
   }
+}
+
+/// The frames' output (FramesOut, mlsdeform/frames.hpp): the unit quaternion q = (w, x, y, z), w >= 0, of a
+/// rotation matrix r (row-major), branch-free. Shepperd's method as Markley writes it: the four columns of
+/// 4 q q^T that 3 x 3 entries give,
+///   (1 + tr, r21 - r12, r02 - r20, r10 - r01)    (r21 - r12, 1 + r00 - r11 - r22, r10 + r01, r02 + r20)
+///   (r02 - r20, r10 + r01, 1 - r00 + r11 - r22, r21 + r12)    (r10 - r01, r02 + r20, r21 + r12, 1 - r00 - r11 + r22),
+/// each 4 q_k q; the one with the largest diagonal (4 q_k^2 >= 1 for a rotation: the largest of four squares
+/// summing to 1 is at least 1/4) is normalised, so no component is found from a small difference, and for an
+/// R that is orthonormal to a few eps the result is within a few eps of the exact quaternion of the nearest
+/// rotation. Selects pick the column in every lane; a tie takes the first.
+///   Lanes:       float, double (one vertex, or an xsimd batch)
+///   Error:       |q - q_exact| <= ~10 eps + |R^T R - I| (the column's 3-term sums, one square root and a
+///                division: tests/test_stages.cpp derives the check); bitwise the same at every width
+///                (correctly rounded sqrt and division, no fusion)
+///   Valid range: finite r, orthonormal to well within 1/4 (a fit's result)
+template <class V>
+MLSDEFORM_KERNEL_INLINE void rotation_quaternion(const V (&r)[9], V (&q)[4]) {
+  using std::sqrt;
+  using T = scalar_of<V>;
+  const V one(T(1));
+  const V d0 = one + r[0] + r[4] + r[8], d1 = one + r[0] - r[4] - r[8], d2 = one - r[0] + r[4] - r[8],
+          d3 = one - r[0] - r[4] + r[8];
+  const V s21 = r[7] - r[5], s02 = r[2] - r[6], s10 = r[3] - r[1];  // 4 w (x, y, z)
+  const V a10 = r[3] + r[1], a02 = r[2] + r[6], a21 = r[7] + r[5];  // 4 x y, 4 x z, 4 y z
+  // The column of the largest diagonal: k = 0 unless another is larger.
+  const auto p1 = d1 > d0, p2 = d2 > select(p1, d1, d0), p3 = d3 > select(p2, d2, select(p1, d1, d0));
+  V c[4] = {d0, s21, s02, s10};
+  const V c1[4] = {s21, d1, a10, a02}, c2[4] = {s02, a10, d2, a21}, c3[4] = {s10, a02, a21, d3};
+  for (int i = 0; i < 4; ++i) c[i] = select(p3, c3[i], select(p2, c2[i], select(p1, c1[i], c[i])));
+  const V norm = sqrt(c[0] * c[0] + c[1] * c[1] + c[2] * c[2] + c[3] * c[3]);
+  // q and -q are one rotation: the one with w >= 0.
+  const V inv = select(c[0] < V(T(0)), -one, one) / norm;
+  for (int i = 0; i < 4; ++i) q[i] = c[i] * inv;
 }
 
 }  // namespace mlsdeform::kernels

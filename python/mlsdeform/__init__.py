@@ -18,6 +18,8 @@ from ._mlsdeform import (
     fit_rotations,
     set_isa,
     supported_isas,
+    transform_normals,
+    transform_tangents,
 )
 
 __all__ = [
@@ -29,4 +31,6 @@ __all__ = [
     "fit_rotations",
     "set_isa",
     "supported_isas",
+    "transform_normals",
+    "transform_tangents",
 ]

@@ -96,9 +96,11 @@ arap_iterations); arap_acceleration: "none" | "anderson" (Anderson-accelerated A
 energy in the same count); arap_warm_start: start each frame's ARAP iterations from the last frame's result
 (interactive dragging), from MLS after a jump of the handles. Raises ValueError on bad input (the library's message); Ctrl-C stops the set-up
 (KeyboardInterrupt).)")
-      .def("deform", on_session(&PyDeformer::deform), py::kw_only(), py::arg("points") = py::none(),
-           py::arg("segments") = py::none(), py::arg("out") = py::none(),
-           R"(deform(*, points=None, segments=None, out=None) -> (n, 3) array
+      .def(
+          "deform", on_session(&PyDeformer::deform), py::kw_only(), py::arg("points") = py::none(),
+          py::arg("segments") = py::none(), py::arg("out") = py::none(), py::arg("quaternions") = py::none(),
+          py::arg("rotations") = py::none(), py::arg("scales") = py::none(), py::arg("linear") = py::none(),
+          R"(deform(*, points=None, segments=None, out=None, quaternions=None, rotations=None, scales=None, linear=None) -> (n, 3) array
 
 Deformed vertices for the moved handles: points (k, 3), segments (C, D); a kind not given keeps the
 session's current targets (set_point_target / set_segment_target; initially the rest handles). out: a
@@ -106,7 +108,13 @@ C-contiguous, writeable (n, 3) array of the session's dtype, written in place wi
 None allocates a new one. The GIL is released while deforming. On bad input raises ValueError/TypeError and
 writes nothing; a deformed position the dtype cannot hold raises ValueError naming the vertex (out has then
 been written over; with arap_iterations it is untouched). With arap_iterations > 0, Ctrl-C stops the frame
-between iterations: KeyboardInterrupt, out untouched.)")
+between iterations: KeyboardInterrupt, out untouched.
+
+Frames: each vertex's transform, written into the caller's preallocated C-contiguous arrays of the session's
+dtype (no copy, nothing allocated; None: not wanted): quaternions (n, 4) unit (w, x, y, z) with w >= 0,
+rotations (n, 3, 3), scales (n,) (similarity; 1 for rigid), linear (n, 3, 3) the linear part R or s R. With
+arap_iterations the refined local rotations (scales 1); outside a region the identity; affine sessions refuse
+them (ValueError). A wrong shape is a ValueError, a wrong dtype a TypeError, both before anything is written.)")
       .def("set_point_target", on_session(&PyDeformer::set_point_target), py::arg("i"), py::arg("target"),
            "Move point handle i's target (3 numbers) for later deform() calls; IndexError if out of range.")
       .def("set_segment_target", on_session(&PyDeformer::set_segment_target), py::arg("i"), py::arg("a"), py::arg("b"),

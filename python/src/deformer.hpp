@@ -12,15 +12,22 @@
 
 #include <chrono>
 #include <cstring>
+#include <initializer_list>
 #include <limits>
 #include <memory>
 #include <optional>
+#include <span>
 #include <string>
 #include <type_traits>
 #include <utility>
 #include <vector>
 
 namespace mlsdeform::python {
+
+/// Deformer.deform's frame outputs (FramesOut): None, or the caller's preallocated arrays.
+struct FrameArgs {
+  py::object quaternions, rotations, scales, linear;
+};
 
 /// Handles from the optional points array and (a, b) segment tuple, in precision T.
 template <class T>
@@ -121,8 +128,11 @@ class PyDeformer {
     return visit([](const auto& d) { return d.vertex_count(); });
   }
 
-  py::array deform(const py::object& points, const py::object& segments, const py::object& out) const {
-    return single() ? run<float>(points, segments, out) : run<double>(points, segments, out);
+  py::array deform(const py::object& points, const py::object& segments, const py::object& out,
+                   const py::object& quaternions, const py::object& rotations, const py::object& scales,
+                   const py::object& linear) const {
+    const FrameArgs frames{quaternions, rotations, scales, linear};
+    return single() ? run<float>(points, segments, out, frames) : run<double>(points, segments, out, frames);
   }
 
   void set_point_target(Eigen::Index i, const py::object& q) {
@@ -271,10 +281,37 @@ class PyDeformer {
     return py::reinterpret_borrow<py::array_t<T>>(out);
   }
 
+  /// A frame output (FrameArgs): None (not wanted), or a C-contiguous, writeable array of the session's dtype
+  /// of shape (n,) + `tail` (no copy: the library writes into it).
   template <class T>
-  py::array run(const py::object& points, const py::object& segments, const py::object& out) const {
+  std::span<T> frame_output(const py::object& obj, const char* name, std::initializer_list<py::ssize_t> tail) const {
+    if (obj.is_none()) return {};
+    const py::ssize_t n = get<T>().vertex_count();
+    std::string want = "(" + std::to_string(n) + (tail.size() == 0 ? "," : "");
+    for (const py::ssize_t t : tail) want += ", " + std::to_string(t);
+    want += ")";
+    if (!py::isinstance<py::array>(obj)) throw py::type_error(std::string(name) + ": expected a numpy array");
+    py::array a = py::reinterpret_borrow<py::array>(obj);
+    if (!a.dtype().equal(py::dtype::of<T>()))
+      throw py::type_error(std::string(name) + ": expected dtype " + (sizeof(T) == 4 ? "float32" : "float64") +
+                           " (the session's), got " + std::string(py::str(a.dtype())));
+    bool shape_ok = a.ndim() == py::ssize_t(1 + tail.size()) && a.shape(0) == n;
+    py::ssize_t k = 1, size = n;
+    for (const py::ssize_t t : tail) shape_ok = shape_ok && a.shape(k++) == t, size *= t;
+    if (!shape_ok) throw py::value_error(std::string(name) + ": expected shape " + want + ", got " + shape_of(a));
+    if (!(a.flags() & py::array::c_style)) throw py::value_error(std::string(name) + ": must be C-contiguous");
+    if (!a.writeable()) throw py::value_error(std::string(name) + ": is read-only");
+    return {static_cast<T*>(a.mutable_data()), std::size_t(size)};
+  }
+
+  template <class T>
+  py::array run(const py::object& points, const py::object& segments, const py::object& out,
+                const FrameArgs& fa) const {
     const Handles<T> h = moved<T>(points, segments);
     py::array_t<T> result = output<T>(out);
+    const FramesOut<T> frames{frame_output<T>(fa.quaternions, "quaternions", {4}),
+                              frame_output<T>(fa.rotations, "rotations", {3, 3}),
+                              frame_output<T>(fa.scales, "scales", {}), frame_output<T>(fa.linear, "linear", {3, 3})};
     const Deformer<T>& d = get<T>();
     T* data = result.mutable_data();
     // Watched: ARAP frames (the library checks between iterations, `out` untouched when stopped) and plain
@@ -289,7 +326,7 @@ class PyDeformer {
     py::array_t<T> work = scratch ? py::array_t<T>({d.vertex_count(), Eigen::Index(3)}) : result;
     T* target = work.mutable_data();
     interruptible(arap || long_frame, [&](const CancelCheck& cancel) {
-      d.deform(h, InterleavedView<T>(target, d.vertex_count(), 3), cancel);
+      d.deform(h, InterleavedView<T>(target, d.vertex_count(), 3), frames, cancel);
       if (scratch) std::memcpy(data, target, sizeof(T) * 3 * n);
     });
     return result;

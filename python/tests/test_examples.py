@@ -36,3 +36,33 @@ def test_animate(tmp_path):
 def test_interop(tmp_path):
     out = run("interop.py", str(tmp_path / "picture.png"), cwd=tmp_path)
     assert "deformed mesh" in out or "open3d is not installed" in out
+
+
+def rotation_matrices(q):
+    w, x, y, z = q.T
+    return np.stack(
+        [
+            np.stack([1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)], axis=1),
+            np.stack([2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)], axis=1),
+            np.stack([2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)], axis=1),
+        ],
+        axis=1,
+    )
+
+
+def test_splats(tmp_path):
+    out = run("splats.py", str(tmp_path / "splats.npz"), cwd=tmp_path)
+    assert "20000 splats deformed" in out
+    z = np.load(tmp_path / "splats.npz")
+    # The splat's new orientation is its vertex's rotation (the linear part over its scale) after its own.
+    s = np.exp(z["moved_log_scales"][:, 0] - z["log_scales"][:, 0])
+    composed = rotation_matrices(z["moved_rot"])
+    own = rotation_matrices(z["rot"])
+    R_vertex = np.einsum("nij,njk->nik", composed, own.transpose(0, 2, 1))
+    assert np.abs(np.einsum("nji,njk->nik", R_vertex, R_vertex) - np.eye(3)).max() <= 1e-12
+    assert np.all(z["moved_rot"].shape == z["rot"].shape)
+    assert np.all(s > 0.9) and np.all(s < 1.6)  # between the fixed end's 1 and the grown end's 1.5
+    # Normals stay unit; the bottom end (fixed) keeps its splats' orientations.
+    assert np.abs(np.linalg.norm(z["moved_normals"], axis=1) - 1).max() <= 1e-12
+    bottom = z["centres"][:, 1] < 0.05
+    assert np.abs(np.abs(np.sum(z["moved_rot"][bottom] * z["rot"][bottom], axis=1)) - 1).max() <= 1e-2

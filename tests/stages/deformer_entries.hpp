@@ -38,6 +38,11 @@ struct DeformerEntries {
                                  [](const ApplyIn<V>& x, Point<V>& y) { kernels::apply(x.qs, x.mu, x.r, x.vh, y.x); });
   }
 
+  static void rotation_quaternion(const Rotation<T>* in, Quaternion<T>* out, std::size_t n) {
+    for_lanes<L, Rotation, Quaternion>(
+        in, out, n, [](const Rotation<V>& x, Quaternion<V>& y) { kernels::rotation_quaternion(x.r, y.q); });
+  }
+
   /// The table with the rotation stages' entries R (a struct of the same static functions).
   template <class R>
   static StageEntries<T> table(const char* isa) {
@@ -51,7 +56,8 @@ struct DeformerEntries {
             &weighted_centroid,
             &correlation_matrix,
             &similarity_scale,
-            &apply};
+            &apply,
+            &rotation_quaternion};
   }
 };
 

@@ -33,7 +33,7 @@ struct AxisIn {
 };
 template <class E>
 struct Quaternion {
-  E q[4];  ///< (w, x), unnormalised
+  E q[4];  ///< (w, x), unnormalised (rotation_quaternion: unit, w >= 0)
 };
 template <class E>
 struct AxisOut {
@@ -88,6 +88,7 @@ struct StageEntries {
   void (*correlation_matrix)(const CorrelationIn<T>* in, const Shared<T>& d, Rotation<T>* out, std::size_t n);
   void (*similarity_scale)(const SimilarityIn<T>* in, Scalar<T>* out, std::size_t n);
   void (*apply)(const ApplyIn<T>* in, Point<T>* out, std::size_t n);
+  void (*rotation_quaternion)(const Rotation<T>* in, Quaternion<T>* out, std::size_t n);
 };
 
 /// The tables: the scalar reference's (scalar_entries.cpp) and each ISA's (entries_<isa>.cpp).

@@ -87,6 +87,12 @@ class ArapRefiner {
   void refine_scaled(const Points<T>& start, const Points<T>& targets, int exponent, int iterations, Points<T>& out,
                      const CancelCheck& cancel = {});
 
+  /// The local rotations of the last refine()'s result, as one more local step finds them (R_i = argmax
+  /// trace(R^T S_i) over its one-ring, the batched axis/angle fit), row-major into `out` (9 values per
+  /// vertex). Allocates nothing. Throws std::invalid_argument on a size other than 9 n, std::logic_error
+  /// before any refine() has succeeded.
+  void rotations(std::span<T> out);
+
   /// Extrapolated iterates that ArapAcceleration::anderson's safeguard replaced by the plain step in the last
   /// refine() (0 without acceleration).
   int rejected_iterates() const;

@@ -5,6 +5,7 @@
 #include <mlsdeform/arap.hpp>
 #include <mlsdeform/cancel.hpp>
 #include <mlsdeform/dispatch.hpp>
+#include <mlsdeform/frames.hpp>
 #include <mlsdeform/rotation.hpp>
 #include <mlsdeform/types.hpp>
 
@@ -145,6 +146,14 @@ class Deformer {
   void deform(const Handles<T>& moved_handles, Points<T>& out, const CancelCheck& cancel = {}) const;
   /// The same, writing interleaved xyz (e.g. a mapped vertex buffer of vertex_count() * 3 values).
   void deform(const Handles<T>& moved_handles, InterleavedView<T> out, const CancelCheck& cancel = {}) const;
+  /// The same, and each vertex's frame into the wanted outputs of `frames` (frames.hpp), computed in the
+  /// lanes that compute the positions: the positions are bitwise those of deform() without frames. Throws
+  /// std::invalid_argument, writing nothing, on an output of the wrong size or one the transform lacks
+  /// (affine). Allocates nothing; cancellation and errors leave the frames as they leave `out`.
+  void deform(const Handles<T>& moved_handles, Points<T>& out, const FramesOut<T>& frames,
+              const CancelCheck& cancel = {}) const;
+  void deform(const Handles<T>& moved_handles, InterleavedView<T> out, const FramesOut<T>& frames,
+              const CancelCheck& cancel = {}) const;
 
   /// Stateful targets for interactive use: the session keeps the current moved handles (initially the rest
   /// handles); move some of them and deform() with no handle argument.
@@ -168,6 +177,9 @@ class Deformer {
   void deform(Points<T>& out, const CancelCheck& cancel = {}) const;
   /// The same, writing interleaved xyz (vertex_count() rows; std::invalid_argument otherwise).
   void deform(InterleavedView<T> out, const CancelCheck& cancel = {}) const;
+  /// The stateful targets' frame with frames (as above).
+  void deform(Points<T>& out, const FramesOut<T>& frames, const CancelCheck& cancel = {}) const;
+  void deform(InterleavedView<T> out, const FramesOut<T>& frames, const CancelCheck& cancel = {}) const;
 
   /// A new rest pose (vertices and/or handles): redoes the precomputation; targets reset to the rest handles.
   /// On any exception (Cancelled included) the session is unchanged.

@@ -7,6 +7,7 @@
 #include <mlsdeform/deformer.hpp>
 #include <mlsdeform/dispatch.hpp>
 #include <mlsdeform/fit_rotations.hpp>
+#include <mlsdeform/frames.hpp>
 #include <mlsdeform/point_fit.hpp>
 #include <mlsdeform/rotation.hpp>
 #include <mlsdeform/types.hpp>

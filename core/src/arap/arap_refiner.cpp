@@ -71,7 +71,8 @@ struct ArapRefiner<T>::Impl {
   std::vector<double> c;       ///< c_i = sum_j w_ij (p_i - p_j) per vertex (3 values); units 2^e
 
   // Scratch, sized once.
-  RowPoints X;             ///< current positions times 2^-f (refine)
+  RowPoints X;             ///< current positions times 2^-f (refine), the caller's units after it
+  bool refined = false;    ///< X holds a refine()'s result
   double rest_to_x = 1;    ///< 2^(e - f): the rest terms of b in the units of X
   std::vector<T> H, R;     ///< 3 x 3 x n, SoA, for fit_rotations
   std::vector<double> Rd;  ///< R_i in double, row-major, 9 values per vertex
@@ -230,20 +231,8 @@ ArapRefiner<T>::ArapRefiner(const Points<T>& rest, const Triangles& triangles,
       m.free_vertices.push_back(Eigen::Index(i));
     }
 
-  // The reduced Laplacian L_ff: L_ii = sum_j w_ij, L_ij = -w_ij between free vertices.
   const Eigen::Index nf = Eigen::Index(m.free_vertices.size());
-  std::vector<Eigen::Triplet<double>> entries;
-  for (const Eigen::Index i : m.free_vertices) {
-    double diag = 0;
-    for (Eigen::Index e = m.start[std::size_t(i)]; e < m.start[std::size_t(i) + 1]; ++e) {
-      diag += m.w[std::size_t(e)];
-      const Eigen::Index rj = m.row[std::size_t(m.nbr[std::size_t(e)])];
-      if (rj >= 0) entries.emplace_back(m.row[std::size_t(i)], rj, -m.w[std::size_t(e)]);
-    }
-    entries.emplace_back(m.row[std::size_t(i)], m.row[std::size_t(i)], diag);
-  }
-  Eigen::SparseMatrix<double> L(nf, nf);
-  L.setFromTriplets(entries.begin(), entries.end());
+  const Eigen::SparseMatrix<double> L = detail::reduced_laplacian({m.start, m.nbr, m.w}, m.row, m.free_vertices);
   // One part of the substitution per thread the local step may use (detail::make_arena's rule).
   const int cores = tbb::info::default_concurrency();
   const std::size_t bins =
@@ -304,6 +293,7 @@ void ArapRefiner<T>::refine_scaled(const Points<T>& start, const Points<T>& targ
                                 ")");
   if (!start.allFinite() || !targets.allFinite())
     throw std::invalid_argument("ArapRefiner::refine: non-finite coordinate in start or targets");
+  m.refined = false;
   m.X = start.template cast<double>();  // row-major copy
   for (std::size_t k = 0; k < m.constrained.size(); ++k)
     m.X.row(m.constrained[k]) = targets.row(Eigen::Index(k)).template cast<double>();
@@ -333,6 +323,20 @@ void ArapRefiner<T>::refine_scaled(const Points<T>& start, const Points<T>& targ
   }
   if (out.rows() != m.n) out.resize(m.n, 3);
   out = m.X.template cast<T>();
+  m.refined = true;
+}
+
+template <class T>
+void ArapRefiner<T>::rotations(std::span<T> out) {
+  if (!impl_ || !impl_->refined) throw std::logic_error("ArapRefiner::rotations: no refine() result to fit");
+  Impl& m = *impl_;
+  const std::size_t nn = std::size_t(m.n);
+  if (out.size() != 9 * nn)
+    throw std::invalid_argument("ArapRefiner::rotations: " + std::to_string(out.size()) + " values for " +
+                                std::to_string(nn) + " vertices (9 each)");
+  m.local_step();  // R_i is invariant under the scale of X: its S_i is normalised to a power of two
+  for (std::size_t i = 0; i < nn; ++i)
+    for (std::size_t k = 0; k < 9; ++k) out[9 * i + k] = m.R[k * nn + i];
 }
 
 template <class T>

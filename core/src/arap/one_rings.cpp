@@ -103,4 +103,22 @@ OneRings cotangent_one_rings(const Eigen::Matrix<double, Eigen::Dynamic, 3>& P, 
   return r;
 }
 
+Eigen::SparseMatrix<double> reduced_laplacian(const OneRingsView& rings, const std::vector<Eigen::Index>& row,
+                                              const std::vector<Eigen::Index>& free_vertices) {
+  const auto nf = Eigen::Index(free_vertices.size());
+  std::vector<Eigen::Triplet<double>> entries;
+  for (const Eigen::Index i : free_vertices) {
+    double diag = 0;
+    for (Eigen::Index e = rings.start[std::size_t(i)]; e < rings.start[std::size_t(i) + 1]; ++e) {
+      diag += rings.w[std::size_t(e)];
+      const Eigen::Index rj = row[std::size_t(rings.nbr[std::size_t(e)])];
+      if (rj >= 0) entries.emplace_back(row[std::size_t(i)], rj, -rings.w[std::size_t(e)]);
+    }
+    entries.emplace_back(row[std::size_t(i)], row[std::size_t(i)], diag);
+  }
+  Eigen::SparseMatrix<double> L(nf, nf);
+  L.setFromTriplets(entries.begin(), entries.end());
+  return L;
+}
+
 }  // namespace mlsdeform::detail

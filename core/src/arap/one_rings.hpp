@@ -5,6 +5,7 @@
 #include <mlsdeform/arap.hpp>
 
 #include <Eigen/Core>
+#include <Eigen/SparseCore>
 
 #include <cstddef>
 #include <numeric>
@@ -19,10 +20,22 @@ struct OneRings {
   std::size_t clamped = 0;  ///< edges whose cotangent weight was negative, clamped at zero
 };
 
+/// A one-ring structure held elsewhere (the refiner's session keeps its own arrays).
+struct OneRingsView {
+  const std::vector<Eigen::Index>& start;
+  const std::vector<Eigen::Index>& nbr;
+  const std::vector<double>& w;
+};
+
 /// w_ij = (cot alpha + cot beta) / 2 over the triangles sharing the edge (degenerate triangles and repeated
 /// corners contribute nothing), clamped below at zero, plus 1e-6 of the mean weight on every edge. Throws
 /// std::invalid_argument for a triangle index outside [0, P.rows()).
 OneRings cotangent_one_rings(const Eigen::Matrix<double, Eigen::Dynamic, 3>& P, const Triangles& triangles);
+
+/// The cotangent Laplacian reduced to the free vertices (row[i] >= 0 their row, -1 for a held vertex, in
+/// the order of free_vertices): L_ii = sum_j w_ij, L_ij = -w_ij between free vertices.
+Eigen::SparseMatrix<double> reduced_laplacian(const OneRingsView& rings, const std::vector<Eigen::Index>& row,
+                                              const std::vector<Eigen::Index>& free_vertices);
 
 /// Union-find with path halving.
 struct Disjoint {

@@ -21,7 +21,11 @@ void check_triangles(const Triangles& triangles, Eigen::Index n) {
 
 template <class T>
 ArapStage<T>::ArapStage(ArapRefiner<T>&& r, std::vector<Eigen::Index> c, Eigen::Index n)
-    : refiner(std::move(r)), constrained(std::move(c)), mls(n, 3), targets(Eigen::Index(constrained.size()), 3) {}
+    : refiner(std::move(r)),
+      constrained(std::move(c)),
+      mls(n, 3),
+      targets(Eigen::Index(constrained.size()), 3),
+      rotations(9 * std::size_t(n)) {}
 
 template <class T>
 std::unique_ptr<ArapStage<T>> ArapStage<T>::make(const Points<T>& rest, const Triangles& triangles,

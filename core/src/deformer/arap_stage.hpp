@@ -17,6 +17,7 @@ struct ArapStage {
   ArapRefiner<T> refiner;
   std::vector<Eigen::Index> constrained;  ///< vertex indices, in handle order, duplicates dropped
   Points<T> mls, targets;                 ///< scratch, sized once
+  std::vector<T> rotations;               ///< scratch for the frames: the refined R_i (9 per vertex), sized once
   /// Options::arap_warm_start: the last result (caller's units) and its targets (scaled), sized once; the
   /// jump limit in the caller's units (the rest bounding-box diagonal times arap_warm_start_limit).
   bool warm_start = false, has_last = false, last_was_warm = false;

@@ -8,6 +8,7 @@
 #include "core/src/deformer/targets.hpp"
 #include "core/src/deformer/validation.hpp"
 #include "core/src/dispatch.hpp"
+#include "core/src/frames.hpp"
 #include "core/src/parallel.hpp"
 
 #include <mlsdeform/deformer.hpp>
@@ -76,31 +77,37 @@ struct Deformer<T>::Impl {
   /// The whole model's vertex count.
   std::size_t vertices() const { return region ? std::size_t(region->n) : data.n; }
 
-  /// One frame into `out` (vertex v, coordinate c at out[c * cstride + v * vstride]): over the whole model,
-  /// or over the region, scattered, with the other vertices at rest.
-  void frame(const Handles<T>& moved, T* out, std::size_t vstride, std::size_t cstride,
+  /// One frame into `out` (vertex v, coordinate c at out[c * cstride + v * vstride]) and `frames`: over the
+  /// whole model, or over the region, scattered, with the other vertices at rest (frames: the identity). The
+  /// region's frames go to the first rows of the caller's outputs and are then moved to their vertices' rows
+  /// in place (frames.hpp): no scratch.
+  void frame(const Handles<T>& moved, T* out, std::size_t vstride, std::size_t cstride, const FramesOut<T>& frames,
              const CancelCheck& cancel) const {
-    if (!region) return run(moved, out, vstride, cstride, false, cancel);
+    if (!region) return run(moved, out, vstride, cstride, false, frames, cancel);
     const std::lock_guard<std::mutex> lock(region->mutex);
     region->set_targets(moved);
-    run(region->moved, region->compact.data(), 1, data.n, false, cancel);
+    run(region->moved, region->compact.data(), 1, data.n, false, frames, cancel);
     region->scatter(out, vstride, cstride);
+    detail::scatter_frames(frames, region->inside);
   }
 
   /// One frame for validated `moved` into `out` (vertices() rows; `interleaved` xyz, or by coordinate), with
   /// the ARAP refinement when the session has one, and the check that every coordinate is finite.
-  void deform(const Handles<T>& moved, T* out, bool interleaved, const CancelCheck& cancel) const {
+  /// The wanted `frames` (checked by the caller) likewise: MLS's, or the refinement's rotations.
+  void deform(const Handles<T>& moved, T* out, bool interleaved, const FramesOut<T>& frames,
+              const CancelCheck& cancel) const {
     const std::size_t n = vertices(), vstride = interleaved ? 3 : 1, cstride = interleaved ? 1 : n;
     if (!arap) {
-      frame(moved, out, vstride, cstride, cancel);
+      frame(moved, out, vstride, cstride, frames, cancel);
       return detail::check_result(out, n, interleaved);
     }
     const std::lock_guard<std::mutex> lock(arap->mutex);
     // MLS's result in the local frame, handed to the refinement as it is (no rounding to the caller's units in
     // between: the two stages together scale with the scene to the bit). out untouched on a throw.
-    run(moved, arap->mls.data(), 1, n, true, cancel);
+    run(moved, arap->mls.data(), 1, n, true, {}, cancel);
     detail::check_result(arap->mls.data(), n, false);
     arap->run(arap->mls, options.arap_iterations, std::ilogb(data.scale), cancel);
+    if (frames.any()) detail::write_rotations(frames, arap->refiner, arap->rotations);
     for (std::size_t v = 0; v < n; ++v)
       for (std::size_t c = 0; c < 3; ++c) out[c * cstride + v * vstride] = arap->mls(Eigen::Index(v), Eigen::Index(c));
   }
@@ -123,7 +130,7 @@ struct Deformer<T>::Impl {
   /// caller's units or, with `local`, the local frame's (times 2^-e: data.hpp, Units). Nothing is allocated
   /// here; scratch lives on the stack of each block. `cancel` is checked before every kCancelBlocks blocks.
   void run(const Handles<T>& moved, T* out, std::size_t vstride, std::size_t cstride, bool local = false,
-           const CancelCheck& cancel = {}) const {
+           const FramesOut<T>& frames = {}, const CancelCheck& cancel = {}) const {
     kernels::DeformFrame<T> fr{};
     fr.transform = data.transform;
     fr.method = options.method;
@@ -152,6 +159,11 @@ struct Deformer<T>::Impl {
     fr.out = out;
     fr.out_vertex_stride = vstride;
     fr.out_coord_stride = cstride;
+    const auto wanted = [](std::span<T> s) { return s.empty() ? nullptr : s.data(); };
+    fr.quaternions = wanted(frames.quaternions);
+    fr.rotations = wanted(frames.rotations);
+    fr.scales = wanted(frames.scales);
+    fr.linear = wanted(frames.linear);
     const kernels::DeformBlocksFn<T> blocks = kernel();
     if (!cancel) {
       detail::parallel_ranges(data.blocks, options.threads, arena.get(),
@@ -213,21 +225,35 @@ Deformer<T>& Deformer<T>::operator=(Deformer&&) noexcept = default;
 
 template <class T>
 void Deformer<T>::deform(const Handles<T>& moved_handles, Points<T>& out, const CancelCheck& cancel) const {
-  detail::check_moved(moved_handles, impl().rest);
-  detail::check_coincident(moved_handles, impl().coincident);
-  const auto n = static_cast<Eigen::Index>(impl().vertices());
-  if (out.rows() != n) out.resize(n, 3);
-  impl().deform(moved_handles, out.data(), false, cancel);
+  deform(moved_handles, out, FramesOut<T>{}, cancel);
 }
 
 template <class T>
 void Deformer<T>::deform(const Handles<T>& moved_handles, InterleavedView<T> out, const CancelCheck& cancel) const {
+  deform(moved_handles, out, FramesOut<T>{}, cancel);
+}
+
+template <class T>
+void Deformer<T>::deform(const Handles<T>& moved_handles, Points<T>& out, const FramesOut<T>& frames,
+                         const CancelCheck& cancel) const {
+  detail::check_moved(moved_handles, impl().rest);
+  detail::check_coincident(moved_handles, impl().coincident);
+  detail::check_frames(frames, impl().vertices(), impl().data.transform);
+  const auto n = static_cast<Eigen::Index>(impl().vertices());
+  if (out.rows() != n) out.resize(n, 3);
+  impl().deform(moved_handles, out.data(), false, frames, cancel);
+}
+
+template <class T>
+void Deformer<T>::deform(const Handles<T>& moved_handles, InterleavedView<T> out, const FramesOut<T>& frames,
+                         const CancelCheck& cancel) const {
   detail::check_moved(moved_handles, impl().rest);
   detail::check_coincident(moved_handles, impl().coincident);
   if (out.rows() != static_cast<Eigen::Index>(impl().vertices()))
     throw std::invalid_argument("Deformer: the interleaved output has " + std::to_string(out.rows()) +
                                 " rows but the model has " + std::to_string(impl().vertices()) + " vertices");
-  impl().deform(moved_handles, out.data(), true, cancel);
+  detail::check_frames(frames, impl().vertices(), impl().data.transform);
+  impl().deform(moved_handles, out.data(), true, frames, cancel);
 }
 
 template <class T>
@@ -260,6 +286,16 @@ void Deformer<T>::deform(Points<T>& out, const CancelCheck& cancel) const {
 template <class T>
 void Deformer<T>::deform(InterleavedView<T> out, const CancelCheck& cancel) const {
   deform(impl().targets, out, cancel);
+}
+
+template <class T>
+void Deformer<T>::deform(Points<T>& out, const FramesOut<T>& frames, const CancelCheck& cancel) const {
+  deform(impl().targets, out, frames, cancel);
+}
+
+template <class T>
+void Deformer<T>::deform(InterleavedView<T> out, const FramesOut<T>& frames, const CancelCheck& cancel) const {
+  deform(impl().targets, out, frames, cancel);
 }
 
 template <class T>

@@ -1,0 +1,137 @@
+"""Frames out of Deformer.deform (quaternions=, rotations=, scales=, linear= into preallocated arrays) and
+mlsdeform.transform_normals / transform_tangents: positions unchanged, a rigid motion's rotation at every vertex,
+no copy, bad arrays refused before anything is written. The bounds of the C++ tests (tests/test_frames.cpp)
+are derived per vertex; here a rigid motion of well-spread handles is checked to a fixed 1e-9 (double), far
+above the fit's error (a few hundred eps times the conditioning of these scenes) and far below any real bug.
+
+Run from the build tree with PYTHONPATH=<build>/python (ctest does), or against the installed package.
+"""
+import numpy as np
+import pytest
+
+import mlsdeform
+from support import random_rotation, rng, scene
+
+
+def frames_for(n, dtype=np.float64):
+    return {
+        "quaternions": np.empty((n, 4), dtype),
+        "rotations": np.empty((n, 3, 3), dtype),
+        "scales": np.empty((n,), dtype),
+        "linear": np.empty((n, 3, 3), dtype),
+    }
+
+
+def test_frames_leave_positions_unchanged_and_are_written_in_place():
+    g = rng()
+    V, P, _, _ = scene(g)
+    d = mlsdeform.Deformer(V, points=P, transform="similarity")
+    Q = P + g.uniform(-0.2, 0.2, P.shape)
+    f = frames_for(len(V))
+    ids = {k: id(a) for k, a in f.items()}
+    X = d.deform(points=Q, **f)
+    assert np.array_equal(X, d.deform(points=Q))
+    assert {k: id(a) for k, a in f.items()} == ids
+    q, R, s, L = f["quaternions"], f["rotations"], f["scales"], f["linear"]
+    assert np.all(q[:, 0] >= 0)
+    assert np.abs(np.linalg.norm(q, axis=1) - 1).max() <= 1e-14
+    assert np.abs(np.einsum("nji,njk->nik", R, R) - np.eye(3)).max() <= 1e-13
+    assert np.array_equal(L, s[:, None, None] * R)
+
+
+@pytest.mark.parametrize("angle", [0.4, 2.5, np.pi])
+def test_rigid_motion_gives_its_rotation_everywhere(angle):
+    g = rng()
+    V, P, _, _ = scene(g, k=9)
+    axis = np.array([0.3, -1.0, 0.6]) / np.linalg.norm([0.3, -1.0, 0.6])
+    K = np.array([[0, -axis[2], axis[1]], [axis[2], 0, -axis[0]], [-axis[1], axis[0], 0]])
+    R0 = np.eye(3) + np.sin(angle) * K + (1 - np.cos(angle)) * K @ K
+    q0 = np.concatenate([[np.cos(angle / 2)], np.sin(angle / 2) * axis])
+    d = mlsdeform.Deformer(V, points=P)
+    f = frames_for(len(V))
+    d.deform(points=P @ R0.T + [0.5, -1, 2], **f)
+    assert np.abs(f["rotations"] - R0).max() <= 1e-9
+    # q and -q are one rotation (at 180 degrees w = 0 and either sign is exact).
+    dq = np.minimum(np.linalg.norm(f["quaternions"] - q0, axis=1), np.linalg.norm(f["quaternions"] + q0, axis=1))
+    assert dq.max() <= 1e-9
+    assert np.all(f["scales"] == 1)
+
+
+def test_frames_in_float32_and_each_alone():
+    g = rng()
+    V, P, _, _ = scene(g)
+    d = mlsdeform.Deformer(V.astype(np.float32), points=P.astype(np.float32))
+    Q = (P + 0.1).astype(np.float32)
+    f = frames_for(len(V), np.float32)
+    d.deform(points=Q, **f)
+    for k, a in f.items():
+        alone = np.empty_like(a)
+        d.deform(points=Q, **{k: alone})
+        assert np.array_equal(alone, a), k
+
+
+def test_arap_frames_are_rotations():
+    g = rng()
+    n = 6
+    xs, ys = np.meshgrid(np.linspace(0, 1, n), np.linspace(0, 1, n))
+    V = np.stack([xs.ravel(), ys.ravel(), 0.1 * xs.ravel() * ys.ravel()], axis=1)
+    F = []
+    for i in range(n - 1):
+        for j in range(n - 1):
+            a = i * n + j
+            F += [[a, a + 1, a + n + 1], [a, a + n + 1, a + n]]
+    P = V[[0, n - 1, n * n - 1, n * n - n]]
+    d = mlsdeform.Deformer(V, points=P, faces=np.array(F), arap_iterations=3)
+    R0 = random_rotation(g)
+    f = frames_for(len(V))
+    X = d.deform(points=P @ R0.T, **f)
+    assert np.abs(X - V @ R0.T).max() <= 1e-9
+    assert np.abs(f["rotations"] - R0).max() <= 1e-6
+    assert np.all(f["scales"] == 1)
+
+
+def test_bad_frame_arrays_are_refused_before_writing():
+    g = rng()
+    V, P, _, _ = scene(g)
+    d = mlsdeform.Deformer(V, points=P)
+    out = np.full_like(V, 7.0)
+    good = np.full((len(V), 3, 3), 7.0)
+    with pytest.raises(ValueError, match=r"quaternions: expected shape \(400, 4\), got \(400, 3\)"):
+        d.deform(points=P + 0.1, out=out, rotations=good, quaternions=np.empty((len(V), 3)))
+    with pytest.raises(TypeError, match="scales: expected dtype float64"):
+        d.deform(points=P + 0.1, out=out, rotations=good, scales=np.empty(len(V), np.float32))
+    with pytest.raises(ValueError, match="linear: must be C-contiguous"):
+        d.deform(points=P + 0.1, out=out, linear=np.empty((3, 3, len(V))).transpose(2, 0, 1))
+    with pytest.raises(TypeError, match="rotations: expected a numpy array"):
+        d.deform(points=P + 0.1, out=out, rotations=[[0.0] * 9] * len(V))
+    assert np.all(out == 7) and np.all(good == 7)
+    a = mlsdeform.Deformer(V, points=P, transform="affine")
+    with pytest.raises(ValueError, match="affine"):
+        a.deform(points=P + 0.1, out=out, linear=good)
+    assert np.all(out == 7) and np.all(good == 7)
+
+
+def test_transform_normals_and_tangents():
+    g = rng()
+    n = 50
+    L = np.stack([random_rotation(g) * s for s in g.uniform(0.5, 2, n)])
+    N = g.normal(size=(n, 3))
+    got = mlsdeform.transform_normals(L, N)
+    ref = np.einsum("nij,nj->ni", np.linalg.inv(L).transpose(0, 2, 1), N)
+    ref /= np.linalg.norm(ref, axis=1)[:, None]
+    assert np.abs(got - ref).max() <= 1e-13
+    # In place, float32 following linear's dtype.
+    N32 = N.astype(np.float32)
+    r = mlsdeform.transform_normals(L.astype(np.float32), N32, out=N32)
+    assert r is N32 and r.dtype == np.float32 and np.abs(r - ref).max() <= 1e-5
+    # A reflection flips the bitangent sign.
+    M = np.tile(np.diag([-1.0, 1.0, 1.0]), (n, 1, 1))
+    T = np.concatenate([g.normal(size=(n, 3)), np.ones((n, 1))], axis=1)
+    t = mlsdeform.transform_tangents(M, T)
+    assert np.all(t[:, 3] == -1)
+    assert np.allclose(t[:, :3], (T[:, :3] * [-1, 1, 1]) / np.linalg.norm(T[:, :3], axis=1)[:, None], atol=1e-15)
+    with pytest.raises(ValueError, match=r"normals: expected shape \(50, 3\)"):
+        mlsdeform.transform_normals(L, N[:10])
+    N[3, 1] = np.nan
+    with pytest.raises(ValueError, match="row 3 is not finite"):
+        mlsdeform.transform_normals(L, N)
