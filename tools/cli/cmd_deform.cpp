@@ -41,9 +41,8 @@ int deform(const DeformArgs& a) {
   // What the output keeps of the input's attributes, named before any work (--strict-attributes refuses then).
   const bool same_format = format_extension(a.mesh) == format_extension(a.out);
   const bool transform_normals_wanted = a.normals == NormalsOut::input && same_format && mesh.extras.has_normals();
-  // Until the deformer writes each vertex's linear part, no fit gives one to transform normals by.
-  const bool affine = true;
   // The library gives no linear part for affine fits (FramesOut): written as read, the normals would be wrong.
+  const bool affine = a.options.transform == Transform::affine;
   const InputNormals fate = !transform_normals_wanted ? InputNormals::kept
                             : affine                  ? InputNormals::untransformable
                                                       : InputNormals::transformed;
@@ -115,6 +114,10 @@ int deform(const DeformArgs& a) {
   const WriteOptions write{a.force, a.ply_ascii ? PlyEncoding::ascii : PlyEncoding::binary, a.normals, a.output_type};
   const bool narrowed = std::is_same_v<T, double> && output_type(mesh, write) == CoordinateType::float32;
   Points<T> out(rest.rows(), 3);
+  // Each vertex's linear part (R, s R, or ARAP's refined rotation), to carry the input's normals through.
+  std::vector<T> linear(fate == InputNormals::transformed ? std::size_t(rest.rows()) * 9 : 0);
+  FramesOut<T> frames;
+  frames.linear = std::span<T>(linear);
   std::vector<double> deform_ms;
   std::vector<std::string> written;
   Progress progress(frame_count, a.quiet || !handles.animated());
@@ -126,7 +129,11 @@ int deform(const DeformArgs& a) {
       t0 = Clock::now();
       try {
         // The first SIGINT stops a long ARAP frame between iterations, not after the last one.
-        deformer->deform(resolved.frames[f], out, [] { return pending_interrupt() != 0; });
+        const auto cancel = [] { return pending_interrupt() != 0; };
+        if (frames.any())
+          deformer->deform(resolved.frames[f], out, frames, cancel);
+        else
+          deformer->deform(resolved.frames[f], out, cancel);
       } catch (const std::invalid_argument& e) {
         throw InputError(a.handles, e.what(), where);
       } catch (const Cancelled&) {
@@ -134,6 +141,10 @@ int deform(const DeformArgs& a) {
       }
       deform_ms.push_back(ms_since(t0));
       result.vertices = out;
+      if (frames.any()) {
+        result.extras = mesh.extras;  // each frame's normals from the input's
+        transform_normals(result, linear.data());
+      }
       // The library refuses a result T cannot hold; here only a double result beyond float, the coordinate
       // type of the mesh written, is left to refuse.
       if (narrowed && !result.vertices.template cast<float>().allFinite()) {
