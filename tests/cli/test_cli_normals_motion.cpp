@@ -135,3 +135,71 @@ TEST_CASE("a rigid motion turns a flat-shaded OBJ's normals, one vn per corner's
   CHECK(cli_test::read_text(dir / "out.obj").find("\nvt 0 0\nvn ") != std::string::npos);
   CHECK(cli_test::read_text(dir / "out.obj").find("\nusemtl red\nf 1/1/1 4/1/2 3/1/3 2/1/4\n") != std::string::npos);
 }
+
+TEST_CASE("normals at handle vertices take a neighbour's frame: a rigid motion turns them too", "[cli][attributes]") {
+  // Handles on vertices 0, 1, 3 and 4 of a cube of eight (each with all its neighbours on handles: the
+  // nearest vertex off them lends its frame), a point-cloud copy with the same handles, and the cube with
+  // every vertex a handle (no frame to lend: named on stderr, normals as read).
+  ScratchDir dir;
+  const std::string v = "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nv 0 0 1\nv 1 0 1\nv 1 1 1\nv 0 1 1\n";
+  std::string vn, f;
+  for (int i = 0; i < 8; ++i)
+    vn += "vn " + std::to_string(i & 1 ? 1 : -1) + " " + std::to_string(i & 2 ? 1 : -1) + " 0.5\n";
+  for (const char* face : {"1 4 3 2", "5 6 7 8", "1 2 6 5", "2 3 7 6", "3 4 8 7", "4 1 5 8"}) {
+    f += "f";
+    std::string s = face;
+    for (std::size_t at = 0; at < s.size(); at += 2) f += std::string(" ") + s[at] + "//" + s[at];
+    f += "\n";
+  }
+  write_text(dir / "cube.obj", v + vn + f);
+  std::string cloud =
+      "ply\nformat ascii 1.0\nelement vertex 8\nproperty float x\nproperty float y\nproperty float z\n"
+      "property float nx\nproperty float ny\nproperty float nz\nend_header\n";
+  for (int i = 0; i < 8; ++i)  // "x y z" of v line i, then vn i
+    cloud += v.substr(std::size_t(8 * i + 2), 5) + " " + std::to_string(i & 1 ? 1 : -1) + " " +
+             std::to_string(i & 2 ? 1 : -1) + " 0.5\n";
+  write_text(dir / "cloud.ply", cloud);
+  const Eigen::Matrix3d R0 = Eigen::AngleAxisd(1.2, Eigen::Vector3d(0.2, 1, 0.3).normalized()).toRotationMatrix();
+  std::string handles = "{\"points\": [";
+  const double corners[8][3] = {{0, 0, 0}, {1, 0, 0}, {1, 1, 0}, {0, 1, 0}, {0, 0, 1}, {1, 0, 1}, {1, 1, 1}, {0, 1, 1}};
+  for (int i : {0, 1, 3, 4}) {
+    const Eigen::Vector3d p(corners[i][0], corners[i][1], corners[i][2]), q = R0 * p;
+    handles += std::string(i ? ", " : "") + "{\"vertex\": " + std::to_string(i) + ", \"target\": [" +
+               text(float(q.x())) + ", " + text(float(q.y())) + ", " + text(float(q.z())) + "]}";
+  }
+  write_text(dir / "h.json", handles + "]}");
+  for (const std::string mesh : {"cube.obj", "cloud.ply"}) {
+    INFO(mesh);
+    const std::string result = mesh == "cube.obj" ? "out.obj" : "out.ply";
+    const auto r = cli_test::deform(dir / mesh, dir / "h.json", dir / result, {"-f", "-q"});
+    INFO(r.err);
+    REQUIRE(r.exit_code == 0);
+    CHECK(r.err.empty());
+    const Mesh in = read_mesh(dir / mesh), out = read_mesh(dir / result);
+    if (in.extras.ply) {
+      for (std::size_t i = 0; i < 8; ++i) {
+        const PlyElement &a = in.extras.ply->vertices(), &b = out.extras.ply->vertices();
+        const Eigen::Vector3d want = R0 * Eigen::Vector3d(a.get(i, 3), a.get(i, 4), a.get(i, 5)).normalized();
+        CHECK((Eigen::Vector3d(b.get(i, 3), b.get(i, 4), b.get(i, 5)) - want).norm() < 1e-4);
+      }
+      continue;
+    }
+    const ObjExtras &a = *in.extras.obj, &b = *out.extras.obj;
+    REQUIRE(a.corner_normals.size() == 24);
+    // The handles' targets are floats of an exact rotation: every fit is R0 to a few hundred eps of float
+    // (the four handles span 3D; test_frames.cpp bounds the fit), so 1e-4 tells a rotated normal from one
+    // left as read (apart by |R0 n - n| >= 0.1 for these normals and this angle).
+    for (std::size_t k = 0; k < a.corner_normals.size(); ++k) {
+      const Eigen::Vector3d want = R0 * Eigen::Vector3d(&a.normals[3 * a.corner_normals[k]]).normalized();
+      CHECK((Eigen::Vector3d(&b.normals[3 * b.corner_normals[k]]) - want).norm() < 1e-4);
+    }
+  }
+  std::string all = "{\"points\": [";
+  for (int i = 0; i < 8; ++i) all += std::string(i ? ", " : "") + "{\"vertex\": " + std::to_string(i) + "}";
+  write_text(dir / "all.json", all + "]}");
+  const auto r = cli_test::deform(dir / "cube.obj", dir / "all.json", dir / "out.obj", {"-f", "-q"});
+  CHECK(r.exit_code == 0);
+  CHECK(r.err == "mlsdeform: " + dir / "cube.obj" +
+                     ": the normals of 8 vertices on handles are written as read (no vertex off a handle lends them "
+                     "a frame)\n");
+}

@@ -118,6 +118,15 @@ int deform(const DeformArgs& a) {
   std::vector<T> linear(fate == InputNormals::transformed ? std::size_t(rest.rows()) * 9 : 0);
   FramesOut<T> frames;
   frames.linear = std::span<T>(linear);
+  // Vertices on point handles get no frame from MLS (the identity): their normals take a neighbour's. ARAP's
+  // refined rotations cover every vertex.
+  const FrameDonors donors =
+      frames.any() && !arap ? frame_donors(mesh, Points<T>(resolved.rest.points)) : FrameDonors{};
+  if (donors.orphans > 0)
+    std::fprintf(stderr,
+                 "mlsdeform: %s: the normals of %zu vertices on handles are written as read (no vertex "
+                 "off a handle lends them a frame)\n",
+                 a.mesh.c_str(), donors.orphans);
   std::vector<double> deform_ms;
   std::vector<std::string> written;
   Progress progress(frame_count, a.quiet || !handles.animated());
@@ -142,6 +151,9 @@ int deform(const DeformArgs& a) {
       deform_ms.push_back(ms_since(t0));
       result.vertices = out;
       if (frames.any()) {
+        for (const auto& [v, from] : donors.pairs)
+          std::copy_n(linear.begin() + std::ptrdiff_t(9 * std::size_t(from)), 9,
+                      linear.begin() + std::ptrdiff_t(9 * std::size_t(v)));
         result.extras = mesh.extras;  // each frame's normals from the input's
         transform_normals(result, linear.data());
       }
