@@ -171,3 +171,30 @@ TEST_CASE("attributes another format cannot keep are named; --strict-attributes 
       {"deform", "-m", g.in + "/cube.ply", "-H", g.in + "/shear.json", "-o", g.out + "/c.obj", "--strict-attributes"},
       g.in + "/cube.ply: the output " + g.out + "/c.obj cannot keep: vertex properties red (--strict-attributes)");
 }
+
+TEST_CASE("normals computed on request: area-weighted, in place of the input's or added", "[cli][attributes]") {
+  cli_test::Fixture f;
+  // The cube has no normals: none are written by default, one per vertex on request (OBJ: f v//vn).
+  const auto plain = cli_test::deform(f.in + "/cube.obj", f.in + "/shear.json", f.out + "/a.obj", {"-q"});
+  REQUIRE(plain.exit_code == 0);
+  CHECK(cli_test::read_text(f.out + "/a.obj").find("\nvn ") == std::string::npos);
+  const auto computed =
+      cli_test::deform(f.in + "/cube.obj", f.in + "/shear.json", f.out + "/b.obj", {"-q", "--normals", "computed"});
+  REQUIRE(computed.exit_code == 0);
+  const Mesh b = read_mesh(f.out + "/b.obj");
+  CHECK(b.extras.obj->normals.size() == 3 * 8);
+  CHECK(cli_test::read_text(f.out + "/b.obj").find("\nf 1//1 4//4 3//3 2//2\n") != std::string::npos);
+  // A PLY with colours and no normals gets three new properties after its own, the colours kept.
+  write_text(f.in + "/c.ply",
+             "ply\nformat ascii 1.0\nelement vertex 4\nproperty float x\nproperty float y\nproperty float z\n"
+             "property uchar red\nelement face 2\nproperty list uchar int vertex_indices\nend_header\n"
+             "0 0 0 1\n1 0 0 2\n1 1 0 3\n0 1 0 4\n3 0 1 2\n3 0 2 3\n");
+  write_text(f.in + "/still.json", R"({"points": [{"vertex": 0}, {"vertex": 2}]})");
+  const auto ply = cli_test::deform(f.in + "/c.ply", f.in + "/still.json", f.out + "/c.ply",
+                                    {"-q", "--normals", "computed", "--ply-ascii"});
+  REQUIRE(ply.exit_code == 0);
+  const std::string text = cli_test::read_text(f.out + "/c.ply");
+  CHECK(text.find("property uchar red\nproperty float nx\nproperty float ny\nproperty float nz\n") !=
+        std::string::npos);
+  CHECK(text.find("\n0 0 0 1 0 0 1\n") != std::string::npos);  // the unit normal of the square in z = 0
+}
