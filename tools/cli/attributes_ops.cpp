@@ -15,11 +15,11 @@ namespace {
 /// v / |v|, scaled first by its largest component so that no square overflows or underflows; false (v left
 /// alone) for a zero or non-finite v.
 bool normalise(double* v) {
-  const double big = std::max({std::fabs(v[0]), std::fabs(v[1]), std::fabs(v[2])});
+  const double big = std::max(std::max(std::fabs(v[0]), std::fabs(v[1])), std::fabs(v[2]));
   if (!(big > 0) || !std::isfinite(big)) return false;
-  double s[3] = {v[0] / big, v[1] / big, v[2] / big};
-  const double len = std::sqrt(s[0] * s[0] + s[1] * s[1] + s[2] * s[2]);
-  for (int r = 0; r < 3; ++r) v[r] = s[r] / len;
+  const double inv = 1 / big, s[3] = {v[0] * inv, v[1] * inv, v[2] * inv};
+  const double inv_len = 1 / std::sqrt(s[0] * s[0] + s[1] * s[1] + s[2] * s[2]);
+  for (int r = 0; r < 3; ++r) v[r] = s[r] * inv_len;
   return true;
 }
 
@@ -70,11 +70,18 @@ void transform_normals(BasicMesh<T>& mesh, const T* linear) {
     const auto k = ply_normals(*ply);
     if (!k) return;
     PlyElement& v = ply->vertices();
+    const std::size_t stride = v.stride();
+    std::size_t at[3];
+    PlyScalar type[3];
+    for (int c = 0; c < 3; ++c)
+      at[c] = v.offset((*k)[std::size_t(c)]), type[c] = v.properties[(*k)[std::size_t(c)]].type;
     for (std::size_t i = 0; i < std::size_t(v.count); ++i) {
-      const double n[3] = {v.get(i, (*k)[0]), v.get(i, (*k)[1]), v.get(i, (*k)[2])};
+      unsigned char* item = v.data.data() + i * stride;
+      const double n[3] = {ply_load(type[0], item + at[0]), ply_load(type[1], item + at[1]),
+                           ply_load(type[2], item + at[2])};
       double out[3];
       transformed(linear + 9 * i, n, out);
-      for (int c = 0; c < 3; ++c) v.set(i, (*k)[std::size_t(c)], out[c]);
+      for (int c = 0; c < 3; ++c) ply_store(type[c], out[c], item + at[c]);
     }
   }
   if (auto& obj = mesh.extras.obj; obj && !obj->corner_normals.empty()) {

@@ -179,7 +179,11 @@ BasicMesh<T> read_ply(Reader& reader, const std::string& path) {
   for (std::size_t e = 0; e < elements.size(); ++e) {
     auto& el = elements[e];
     // Stored in the file's types: at most 8 bytes per value, and the counts were checked against the body.
-    if (!el.has_lists()) el.data.reserve(std::size_t(el.count) * el.stride());
+    const bool lists = el.has_lists();
+    std::vector<std::size_t> offsets;
+    for (std::size_t k = 0; !lists && k < el.properties.size(); ++k) offsets.push_back(el.offset(k));
+    const std::size_t stride = lists ? 0 : el.stride();
+    if (!lists) el.data.reserve(std::size_t(el.count) * stride);
     for (std::uint64_t i = 0; i < el.count; ++i) {
       // Built only for a message: most elements are fine.
       auto item = [&] { return el.name + " " + std::to_string(i); };
@@ -191,7 +195,19 @@ BasicMesh<T> read_ply(Reader& reader, const std::string& path) {
       // Each property's values, lists flattened after their count; stored in el.data as they are read.
       values.clear();
       std::size_t list_begin = 0, list_size = 0;
-      if (binary) {
+      if (binary && !lists) {
+        // A fixed-size item (every vertex element): its bytes at once, each value then put in the machine's
+        // order where the file's is the other.
+        const std::size_t at = el.data.size();
+        el.data.resize(at + stride);
+        if (!reader.bytes(reinterpret_cast<char*>(el.data.data() + at), stride)) throw truncated();
+        for (std::size_t k = 0; k < el.properties.size(); ++k) {
+          unsigned char* b = el.data.data() + at + offsets[k];
+          if (big_endian != (std::endian::native == std::endian::big))
+            std::reverse(b, b + size_of(el.properties[k].type));
+          values.push_back(ply_load(el.properties[k].type, b));
+        }
+      } else if (binary) {
         for (std::size_t k = 0; k < el.properties.size(); ++k) {
           const auto& p = el.properties[k];
           double v = 0;
