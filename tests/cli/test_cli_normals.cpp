@@ -198,3 +198,23 @@ TEST_CASE("normals computed on request: area-weighted, in place of the input's o
         std::string::npos);
   CHECK(text.find("\n0 0 0 1 0 0 1\n") != std::string::npos);  // the unit normal of the square in z = 0
 }
+
+TEST_CASE("an affine fit has no linear part: the input's normals are dropped and named", "[cli][attributes]") {
+  cli_test::Fixture f;
+  std::string ply =
+      "ply\nformat ascii 1.0\nelement vertex 8\nproperty float x\nproperty float y\nproperty float z\n"
+      "property float nx\nproperty float ny\nproperty float nz\nend_header\n";
+  for (int i = 0; i < 8; ++i)
+    ply += std::to_string(i & 1) + " " + std::to_string((i >> 1) & 1) + " " + std::to_string(i >> 2) + " 0 0 1\n";
+  write_text(f.in + "/cloud.ply", ply);
+  const auto r = cli_test::deform(f.in + "/cloud.ply", f.in + "/shear.json", f.out + "/a.ply",
+                                  {"-q", "-t", "affine", "--ply-ascii"});
+  REQUIRE(r.exit_code == 0);
+  CHECK(r.err == "mlsdeform: dropped from " + f.in +
+                     "/cloud.ply: normals (nx ny nz) (no linear part to transform them by: affine fits)\n");
+  CHECK(cli_test::read_text(f.out + "/a.ply").find(" nx\n") == std::string::npos);
+  const auto strict = cli_test::deform(f.in + "/cloud.ply", f.in + "/shear.json", f.out + "/b.ply",
+                                       {"-t", "affine", "--strict-attributes"});
+  CHECK(strict.exit_code == 2);
+  CHECK(!std::filesystem::exists(f.out + "/b.ply"));
+}
