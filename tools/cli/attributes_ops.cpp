@@ -261,7 +261,6 @@ AttributeReport attribute_report(const BasicMesh<T>& mesh, const std::string& ou
     for (auto& s : items) (out == "off" ? r.kept : r.dropped).push_back(s);
     if (x.off->comments) r.dropped.push_back(counted(x.off->comments, "comment lines"));
   }
-  if (mesh.dropped_primitives && out != "obj") r.dropped.push_back(counted(mesh.dropped_primitives, "points/lines"));
   return r;
 }
 

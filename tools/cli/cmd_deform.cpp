@@ -75,11 +75,11 @@ int deform(const DeformArgs& a) {
   const double setup_ms = ms_since(t0);
 
   if (!a.quiet) {
-    std::printf("%s: %lld vertices, %zu faces%s\n", a.mesh.c_str(), static_cast<long long>(mesh.vertex_count()),
-                mesh.face_count(),
-                mesh.dropped_primitives
-                    ? (" (" + std::to_string(mesh.dropped_primitives) + " points/lines dropped)").c_str()
-                    : "");
+    std::printf(
+        "%s: %lld vertices, %zu faces%s\n", a.mesh.c_str(), static_cast<long long>(mesh.vertex_count()),
+        mesh.face_count(),
+        // Points and lines are not deformed: kept in OBJ output, named as dropped in another format.
+        mesh.dropped_primitives ? (", " + std::to_string(mesh.dropped_primitives) + " points/lines").c_str() : "");
     std::printf("%s: %zu point and %zu segment handles%s%s\n", a.handles.c_str(), handles.points.size(),
                 handles.segments.size(),
                 handles.animated() ? (", " + std::to_string(frame_count) + " frames").c_str() : "",

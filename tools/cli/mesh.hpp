@@ -25,7 +25,7 @@ struct BasicMesh {
   PointsRowMajor<T> vertices;                ///< n x 3
   std::vector<std::uint32_t> face_start{0};  ///< face f is face_indices[face_start[f] .. face_start[f+1])
   std::vector<std::uint32_t> face_indices;
-  std::size_t dropped_primitives = 0;  ///< points and lines in the file, which are not kept
+  std::size_t dropped_primitives = 0;  ///< OBJ points and lines (kept in ObjExtras, for OBJ output only)
   /// The type that holds the file's x, y, z values exactly, for a PLY file (float64 if any is double, int or
   /// uint; float32 if all are float or integers of 8 or 16 bits); none for text
   /// formats and meshes built in memory. Chooses the type of a PLY output (WriteOptions::coordinates).
