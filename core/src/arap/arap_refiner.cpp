@@ -24,7 +24,7 @@
 
 #include "kernels/kernel_table.hpp"
 
-#include <tbb/info.h>
+#include "core/src/threading.hpp"
 #include <Eigen/SparseCore>
 
 #include <algorithm>

@@ -3,7 +3,7 @@
 #include "core/src/arap/supernodal_ldlt.hpp"
 #include "core/src/parallel.hpp"
 
-#include <tbb/enumerable_thread_specific.h>
+#include "core/src/threading.hpp"
 #include <Eigen/Cholesky>
 #include <Eigen/OrderingMethods>
 

@@ -15,7 +15,7 @@
 
 #include "core/src/arap/supernodal_ldlt.hpp"
 
-#include <tbb/task_arena.h>
+#include "core/src/threading.hpp"
 
 #include <cstddef>
 #include <vector>

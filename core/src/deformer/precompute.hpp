@@ -8,7 +8,7 @@
 
 #include <mlsdeform/deformer.hpp>
 
-#include <tbb/task_arena.h>
+#include "core/src/threading.hpp"
 
 namespace mlsdeform::detail {
 
