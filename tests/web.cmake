@@ -7,3 +7,16 @@ foreach(name test_stages test_deformer test_arap)
                                     ${MLSDEFORM_WEB_BUILD_DIR}/web/web_${name}.js)
   set_tests_properties(web:${name} PROPERTIES LABELS "web;no_sanitizer" SKIP_RETURN_CODE 77 TIMEOUT 900)
 endforeach()
+# The page (build-web/site/) in headless Chromium: the human bending opened by URL against `mlsdeform deform`,
+# a click and a drag, a malformed file, a screenshot that shows the mesh.
+# (`compare` needs the program: not in the builds without tools.)
+set(_checks interact malformed screenshot)
+if(MLSDEFORM_BUILD_TOOLS)
+  list(APPEND _checks compare)
+endif()
+foreach(check ${_checks})
+  add_test(NAME web:page_${check} COMMAND bash ${PROJECT_SOURCE_DIR}/web/tests/run_browser_test.sh
+                                          ${MLSDEFORM_WEB_BUILD_DIR}/site ${check} $<$<BOOL:${MLSDEFORM_BUILD_TOOLS}>:$<TARGET_FILE:mlsdeform>>)
+  set_tests_properties(web:page_${check} PROPERTIES LABELS "web;no_sanitizer" SKIP_RETURN_CODE 77 TIMEOUT 300
+                                                    RESOURCE_LOCK chromium)
+endforeach()
