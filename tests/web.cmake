@@ -20,6 +20,10 @@ foreach(check ${_checks})
   set_tests_properties(web:page_${check} PROPERTIES LABELS "web;no_sanitizer" SKIP_RETURN_CODE 77 TIMEOUT 300
                                                     RESOURCE_LOCK chromium)
 endforeach()
+# The JavaScript API under Node: views, no per-frame allocation, errors, delete().
+add_test(NAME web:api COMMAND bash ${PROJECT_SOURCE_DIR}/web/tests/run_node_test.sh ${PROJECT_SOURCE_DIR}/web/tests/api.mjs
+                              ${MLSDEFORM_WEB_BUILD_DIR}/site)
+set_tests_properties(web:api PROPERTIES LABELS "web;no_sanitizer" SKIP_RETURN_CODE 77 TIMEOUT 300)
 # The JavaScript example of docs/web.md, as written there.
 add_test(NAME web:doc_example COMMAND bash ${PROJECT_SOURCE_DIR}/web/tests/run_doc_example.sh ${MLSDEFORM_WEB_BUILD_DIR}/site)
 set_tests_properties(web:doc_example PROPERTIES LABELS "web;no_sanitizer" SKIP_RETURN_CODE 77 TIMEOUT 300)

@@ -8,6 +8,8 @@
 
 #include <emscripten/emscripten.h>
 
+#include <malloc.h>
+
 #include <optional>
 #include <vector>
 
@@ -105,6 +107,8 @@ EMSCRIPTEN_KEEPALIVE Session* mls_session_create(const float* vertices, int n, c
 }
 
 EMSCRIPTEN_KEEPALIVE void mls_session_delete(Session* s) { delete s; }
+/// Bytes of the module's heap in use (malloc's count), for the tests of web/tests/api.mjs.
+EMSCRIPTEN_KEEPALIVE int mls_heap_in_use() { return int(mallinfo().uordblks); }
 EMSCRIPTEN_KEEPALIVE float* mls_session_targets(Session* s) { return s->targets.data(); }
 EMSCRIPTEN_KEEPALIVE float* mls_session_output(Session* s) { return s->out.data(); }
 EMSCRIPTEN_KEEPALIVE int mls_session_vertex_count(Session* s) { return int(s->deformer.vertex_count()); }
