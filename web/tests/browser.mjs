@@ -3,7 +3,8 @@
 //   node web/tests/browser.mjs SITE compare CLI_OBJ [exact]  the exported OBJ of the human bending (URL
 //                                                     parameters) against `mlsdeform deform`'s first frame,
 //                                                     every vertex (the bounds: compare.mjs)
-//   node web/tests/browser.mjs SITE interact          a click on the surface adds a handle; dragging it deforms
+//   node web/tests/browser.mjs SITE interact [DIR]    a click on the surface adds a handle; dragging it deforms;
+//                                                     with DIR, the page's OBJ and handles file are written there
 //   node web/tests/browser.mjs SITE malformed         a malformed OBJ shows its error; the page still works
 //   node web/tests/browser.mjs SITE screenshot PNG    the mesh is drawn (not blank); the screenshot is kept
 //   node web/tests/browser.mjs SITE bench             the benchmarks of web/src/bench.js, as JSON
@@ -110,6 +111,10 @@ try {
     console.log(`click added handle ${after - 1}; dragging it 40 pixels moved it by (${dragged.dx.toFixed(4)}, ${dragged.dy.toFixed(4)}) and the mesh by up to ${dragged.moved.toFixed(4)}`);
     if (!(dragged.dx > 0.02 && Math.abs(dragged.dy) < dragged.dx / 4)) fail('the drag did not move the handle to the right');
     if (!(dragged.moved > 0.02)) fail('dragging the new handle did not deform the mesh');
+    if (arg) {
+      writeFileSync(join(arg, 'page.obj'), await page.evaluate(() => window.mlsdeformPage.exportObj()));
+      writeFileSync(join(arg, 'handles.json'), await page.evaluate(() => window.mlsdeformPage.exportHandles()));
+    }
   } else if (check === 'malformed') {
     await open('');
     extra.set('/broken.obj', 'v 0 0 0\nv 1 0 0\nv 0 1 zero\nf 1 2 3\n');

@@ -31,3 +31,12 @@ export function compareObj(pageObj, cliObj, restObj, exact) {
   }
   return { count: a.length, worst, bound, at };
 }
+
+// node compare.mjs PAGE_OBJ PROGRAM_OBJ REST_OBJ [exact]: exit 1 beyond the bound.
+if (process.argv[1] && import.meta.url.endsWith(process.argv[1].split('/').pop())) {
+  const { readFileSync } = await import('node:fs');
+  const [a, b, rest, exact] = process.argv.slice(2);
+  const r = compareObj(readFileSync(a, 'utf8'), readFileSync(b, 'utf8'), readFileSync(rest, 'utf8'), exact === 'exact');
+  console.log(`compared ${r.count} vertices: largest difference ${r.worst.toExponential(3)} (bound ${r.bound.toExponential(3)}) at vertex ${r.at}`);
+  process.exit(r.worst <= r.bound ? 0 : 1);
+}

@@ -30,6 +30,15 @@ case "$check" in
     "$program" deform -q -m "$root/data/human_man.obj" -H "$root/data/human_bend.json" -o "$tmp/best.obj"
     run compare "$tmp/best_0000.obj"
     ;;
+  interact)
+    # The pose made by the click and the drag, exported as OBJ and handles file: `mlsdeform deform` on that
+    # handles file gives the same mesh (bitwise on the SSE4.2 kernels, as for `compare`).
+    run interact "$tmp"
+    if [ -n "$program" ]; then
+      MLSDEFORM_ISA=sse4_2 "$program" deform -q -m "$root/data/human_man.obj" -H "$tmp/handles.json" -o "$tmp/program.obj"
+      node "$root/web/tests/compare.mjs" "$tmp/page.obj" "$tmp/program.obj" "$root/data/human_man.obj" exact
+    fi
+    ;;
   screenshot) run screenshot "${WEB_SCREENSHOT:-$tmp/page.png}" ;;
   *) run "$check" ;;
 esac
