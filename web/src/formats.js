@@ -72,6 +72,27 @@ export function encodeObj(mesh, xyz) {
   return out.join('\n') + '\n';
 }
 
+/** Binary little-endian PLY of the mesh with the vertices xyz (float x, y, z; polygons as the file had them). */
+export function encodePly(mesh, xyz) {
+  const n = xyz.length / 3;
+  const header = `ply\nformat binary_little_endian 1.0\ncomment written by the mlsdeform page\nelement vertex ${n}\n` +
+    'property float x\nproperty float y\nproperty float z\n' +
+    `element face ${mesh.faces.length}\nproperty list uchar int vertex_indices\nend_header\n`;
+  const head = new TextEncoder().encode(header);
+  const faceBytes = mesh.faces.reduce((sum, f) => sum + 1 + 4 * f.length, 0);
+  const out = new Uint8Array(head.length + 12 * n + faceBytes);
+  out.set(head);
+  const view = new DataView(out.buffer);
+  let at = head.length;
+  for (let i = 0; i < 3 * n; ++i, at += 4) view.setFloat32(at, xyz[i], true);
+  for (const f of mesh.faces) {
+    if (f.length > 255) throw new Error(`a face of ${f.length} corners does not fit PLY's uchar count`);
+    view.setUint8(at++, f.length);
+    for (const i of f) view.setInt32(at, i, true), (at += 4);
+  }
+  return out;
+}
+
 function vec3(x, file, where) {
   if (!Array.isArray(x) || x.length !== 3 || !x.every((c) => typeof c === 'number' && Number.isFinite(c)))
     throw new InputError(file, 'expected [x, y, z]', where);

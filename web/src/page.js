@@ -5,8 +5,9 @@ import * as THREE from 'three';
 import { OrbitControls } from 'three/addons/controls/OrbitControls.js';
 import { TransformControls } from 'three/addons/controls/TransformControls.js';
 import { loadMlsdeform } from './mlsdeform.js';
-import { parseObj, encodeObj, parseHandles, encodeHandles, InputError } from './formats.js';
+import { parseObj, encodeObj, encodePly, parseHandles, encodeHandles, InputError } from './formats.js';
 import { benchmark } from './bench.js';
+import { installInteraction } from './interaction.js';
 
 const $ = (id) => document.getElementById(id);
 const showError = (e) => {
@@ -42,7 +43,7 @@ window.addEventListener('resize', resize);
 resize();
 
 // --- state ----------------------------------------------------------------------------------------------
-const state = { mls: null, mesh: null, handles: null, session: null, object: null, markers: [], selected: -1, frameMs: [] };
+const state = { mls: null, mesh: null, handles: null, session: null, object: null, markers: [], selected: -1, group: [], frameMs: [] };
 const undoStack = [], redoStack = [];
 const snapshot = () => JSON.stringify(state.handles);
 
@@ -124,7 +125,7 @@ function placeMarkers() {
   handles.points.forEach((p, i) => {
     const m = state.markers[i];
     if (m !== gizmo.object || !gizmo.dragging) m.position.fromArray(p.target);
-    m.material.color.set(i === state.selected ? 0xffd54f : 0xff5252);
+    m.material.color.set(i === state.selected || state.group.includes(i) ? 0xffd54f : 0xff5252);
   });
   handles.segments.forEach((g, i) => {
     const position = state.markers[k + i].geometry.attributes.position;
@@ -149,6 +150,7 @@ gizmo.addEventListener('objectChange', () => {
 
 function select(i) {
   state.selected = i;
+  if (i >= 0) gizmo.setMode('translate');
   if (i < 0) gizmo.detach();
   placeMarkers();
 }
@@ -178,7 +180,7 @@ function open(mesh, handles, name) {
   geometry.setIndex(new THREE.BufferAttribute(mesh.triangles, 1));
   const object = new THREE.Mesh(geometry, new THREE.MeshStandardMaterial({ color: 0xc8b49a, roughness: 0.7, side: THREE.DoubleSide }));
   const previous = { ...state };
-  Object.assign(state, { mesh, handles, object, selected: -1 });
+  Object.assign(state, { mesh, handles, object, selected: -1, group: [] });
   geometry.computeBoundingSphere();
   state.radius = geometry.boundingSphere.radius;
   try {
@@ -258,6 +260,7 @@ function restore(from, to) {
   const restChanged = JSON.stringify(before.points.map((p) => p.rest)) !== JSON.stringify(state.handles.points.map((p) => p.rest));
   state.handles = before;
   state.selected = Math.min(state.selected, before.points.length - 1);
+  if (state.group.length) interaction.setGroup([]);
   restChanged ? rebuild() : deform();
 }
 $('undo').onclick = () => restore(undoStack, redoStack);
@@ -276,51 +279,24 @@ for (const id of ['transform', 'u', 'centroids', 'arap'])
     }
   });
 
-// A click (not a drag) on a handle selects it; on the surface adds a point handle at the clicked point, whose
-// rest position is the same point of the rest mesh (the hit's barycentric coordinates in the rest triangle).
-const raycaster = new THREE.Raycaster();
-let down = null;
-renderer.domElement.addEventListener('pointerdown', (e) => (down = [e.clientX, e.clientY]));
-renderer.domElement.addEventListener('pointerup', (e) => {
-  if (!down || Math.hypot(e.clientX - down[0], e.clientY - down[1]) > 4 || gizmo.dragging || gizmo.axis) return;
-  const rect = renderer.domElement.getBoundingClientRect();
-  raycaster.setFromCamera(new THREE.Vector2(((e.clientX - rect.left) / rect.width) * 2 - 1, -((e.clientY - rect.top) / rect.height) * 2 + 1), camera);
-  const onMarker = raycaster.intersectObjects(state.markers.filter((m) => m.userData.handle !== undefined))[0];
-  if (onMarker) return select(onMarker.object.userData.handle);
-  const hit = raycaster.intersectObject(state.object)[0];
-  if (!hit) return select(-1);
-  addPointHandle(hit.faceIndex, hit.point);
+const interaction = installInteraction({
+  state, scene, camera, renderer, gizmo, orbit, rebuild, deform, pushUndo, select, showError, placeMarkers,
+  undoLast: () => (state.handles = JSON.parse(undoStack.pop())),
 });
-
-function addPointHandle(face, point) {
-  const tri = state.mesh.triangles, rest = state.mesh.vertices, now = state.object.geometry.attributes.position.array;
-  const corner = (a, i) => new THREE.Vector3(a[3 * tri[3 * face + i]], a[3 * tri[3 * face + i] + 1], a[3 * tri[3 * face + i] + 2]);
-  const bary = new THREE.Triangle(corner(now, 0), corner(now, 1), corner(now, 2)).getBarycoord(point, new THREE.Vector3());
-  const r = corner(rest, 0).multiplyScalar(bary.x).add(corner(rest, 1).multiplyScalar(bary.y)).add(corner(rest, 2).multiplyScalar(bary.z));
-  pushUndo();
-  state.handles.points.push({ rest: r.toArray().map(Math.fround), target: point.toArray().map(Math.fround), vertex: -1, name: '' });
-  try {
-    rebuild();
-    select(state.handles.points.length - 1);
-    showError(null);
-  } catch (e) {
-    state.handles = JSON.parse(undoStack.pop());
-    showError(e);
-  }
-}
 
 // --- export -----------------------------------------------------------------------------------------------
 const exportObj = () => encodeObj(state.mesh, state.session.output);
 const exportHandles = () => encodeHandles(state.handles.points, state.handles.segments);
 function save(text, name) {
   const a = document.createElement('a');
-  a.href = URL.createObjectURL(new Blob([text], { type: 'text/plain' }));
+  a.href = URL.createObjectURL(new Blob([text], { type: 'application/octet-stream' }));
   a.download = name;
   a.click();
   URL.revokeObjectURL(a.href);
 }
 $('export-obj').onclick = () => save(exportObj(), 'posed.obj');
 $('export-handles').onclick = () => save(exportHandles(), 'handles.json');
+$('export-ply').onclick = () => save(encodePly(state.mesh, state.session.output), 'posed.ply');
 
 // --- start ------------------------------------------------------------------------------------------------
 let frames = 0, fpsStart = performance.now();
@@ -362,6 +338,9 @@ window.mlsdeformPage = {
   },
   handleCount: () => state.handles.points.length,
   benchmark: (opts) => benchmark(state.mls, state.mesh, state.handles, opts),
+  /** Selects point handles as a group (two or more: the gizmo rotates them about their centroid). */
+  selectGroup: (members) => interaction.setGroup(members),
   camera,
+  gizmo,
   state,
 };

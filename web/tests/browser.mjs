@@ -111,6 +111,37 @@ try {
     console.log(`click added handle ${after - 1}; dragging it 40 pixels moved it by (${dragged.dx.toFixed(4)}, ${dragged.dy.toFixed(4)}) and the mesh by up to ${dragged.moved.toFixed(4)}`);
     if (!(dragged.dx > 0.02 && Math.abs(dragged.dy) < dragged.dx / 4)) fail('the drag did not move the handle to the right');
     if (!(dragged.moved > 0.02)) fail('dragging the new handle did not deform the mesh');
+    // A shift-drag on the surface draws a segment handle.
+    const segments = await page.evaluate(() => window.mlsdeformPage.state.handles.segments.length);
+    await page.keyboard.down('Shift');
+    await page.mouse.move(380, 330);
+    await page.mouse.down();
+    await page.mouse.move(380, 380, { steps: 5 });
+    await page.mouse.up();
+    await page.keyboard.up('Shift');
+    const drawn = await page.evaluate(() => window.mlsdeformPage.state.handles.segments.length);
+    console.log(`a shift-drag made ${drawn - segments} segment handle(s)`);
+    if (drawn !== segments + 1) fail('a shift-drag on the surface did not make one segment handle');
+    // Three handles as a group, turned by the gizmo (its events as a drag sends them): they keep their distances.
+    const group = await page.evaluate(() => {
+      const p = window.mlsdeformPage, s = p.state, members = [3, 4, 5];
+      const at = () => members.map((i) => [...s.handles.points[i].target]);
+      const distances = (x) => [[0, 1], [1, 2], [0, 2]].map(([a, b]) => Math.hypot(...[0, 1, 2].map((c) => x[a][c] - x[b][c])));
+      const before = at();
+      p.selectGroup(members);
+      p.gizmo.dispatchEvent({ type: 'dragging-changed', value: true });
+      p.gizmo.object.rotateZ(0.4);
+      p.gizmo.dispatchEvent({ type: 'objectChange' });
+      p.gizmo.dispatchEvent({ type: 'dragging-changed', value: false });
+      const after = at(), d0 = distances(before), d1 = distances(after);
+      return { moved: Math.max(...after.flatMap((x, k) => x.map((v, c) => Math.abs(v - before[k][c])))),
+        stretch: Math.max(...d0.map((d, k) => Math.abs(d - d1[k]))) };
+    });
+    console.log(`turning a group of 3 handles by 0.4 rad moved them by up to ${group.moved.toFixed(4)}, distances kept to ${group.stretch.toExponential(2)}`);
+    if (!(group.moved > 0.05)) fail('the group did not move');
+    // The turn is computed in double and each target rounded to float once: coordinates below 2 in size move by
+    // at most half an ulp (1.2e-7) each, so a distance changes by at most 2 sqrt(3) 1.2e-7 = 4.1e-7.
+    if (!(group.stretch <= 4.2e-7)) fail('the group did not move rigidly');
     if (arg) {
       writeFileSync(join(arg, 'page.obj'), await page.evaluate(() => window.mlsdeformPage.exportObj()));
       writeFileSync(join(arg, 'handles.json'), await page.evaluate(() => window.mlsdeformPage.exportHandles()));
