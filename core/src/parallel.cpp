@@ -1,5 +1,4 @@
 #include "core/src/parallel.hpp"
-
 #include "core/src/threading.hpp"
 
 #include <algorithm>

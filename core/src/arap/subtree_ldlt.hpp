@@ -15,6 +15,7 @@
 #pragma once
 
 #include "core/src/threading.hpp"
+
 #include <Eigen/SparseCore>
 
 #include <cstddef>

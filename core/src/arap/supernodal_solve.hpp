@@ -14,7 +14,6 @@
 #pragma once
 
 #include "core/src/arap/supernodal_ldlt.hpp"
-
 #include "core/src/threading.hpp"
 
 #include <cstddef>
