@@ -9,7 +9,7 @@ foreach(name test_stages test_deformer test_arap)
 endforeach()
 # The page (build-web/site/) in headless Chromium: the human bending opened by URL against `mlsdeform deform`,
 # a click and a drag, a malformed file, a screenshot that shows the mesh.
-# (`compare` needs the program: not in the builds without tools.)
+# (`compare` needs the program, and `interact` uses it: not in the builds without tools.)
 set(_checks interact malformed screenshot)
 if(MLSDEFORM_BUILD_TOOLS)
   list(APPEND _checks compare)
