@@ -28,8 +28,7 @@ target_include_directories(mlsdeform_web_stage_entries PRIVATE ${PROJECT_SOURCE_
 target_link_libraries(mlsdeform_web_stage_entries PRIVATE mlsdeform::mlsdeform mlsdeform_warnings)
 
 # Catch2 v2's header-only main, compiled once.
-file(WRITE ${CMAKE_CURRENT_BINARY_DIR}/catch_main.cpp "#define CATCH_CONFIG_MAIN\n#include <catch2/catch.hpp>\n")
-add_library(mlsdeform_web_catch_main STATIC ${CMAKE_CURRENT_BINARY_DIR}/catch_main.cpp)
+add_library(mlsdeform_web_catch_main STATIC ${PROJECT_SOURCE_DIR}/web/tests/catch_main.cpp)
 target_include_directories(mlsdeform_web_catch_main SYSTEM PRIVATE ${CMAKE_BINARY_DIR}/sysdeps)  # web/cmake/deps.cmake
 target_compile_options(mlsdeform_web_catch_main PRIVATE ${_test_opt})
 
