@@ -226,9 +226,16 @@ async function openDropped(files) {
     } else if (handlesFile) {
       const handles = parseHandles(await bytesOf(handlesFile, handlesFile.name), handlesFile.name, state.mesh);
       pushUndo();
+      const before = state.handles;
       state.handles = handles;
       state.selected = -1;
-      rebuild();
+      try {
+        rebuild();
+      } catch (e) {
+        state.handles = before;  // the library refused them: the page keeps the pose it had
+        undoStack.pop();
+        throw e;
+      }
     }
     showError(null);
   } catch (e) {
