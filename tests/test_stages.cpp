@@ -52,10 +52,15 @@ const StageEntries<T>& entries(Isa isa) {
   switch (isa) {
     case Isa::sse4_2:
       return sse4_2_entries<T>();
+#ifndef __EMSCRIPTEN__  // WebAssembly runs the SSE4.2 twins only (kernels/CMakeLists.txt)
     case Isa::avx2:
       return avx2_entries<T>();
     case Isa::avx512:
       return avx512_entries<T>();
+#else
+    case Isa::avx2:
+    case Isa::avx512:
+#endif
     case Isa::scalar:
       break;
   }

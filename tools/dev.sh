@@ -10,6 +10,9 @@
 #   tools/dev.sh blender  install what is missing (Blender too), build build/mlsdeform_blender.zip (the add-on with
 #                       the compiled module inside, Blender 3.4 to 4.1) and build/mlsdeform_blender_extension.zip
 #                       (the Blender 4.2+ extension, the module as a bundled wheel), and run their headless tests
+#   tools/dev.sh web    install what is missing (emscripten, Chromium, the page's npm packages), build build-web/:
+#                       the library in WebAssembly, its tests under Node, and the page in build-web/site/
+#                       (docs/web.md); `tools/dev.sh web --serve [PORT]` then serves the page on localhost
 #   tools/dev.sh format rewrite every C++ file as .clang-format says (Debian 12's clang-format 14) and every Python
 #                       file as black says (Debian 12's black 23.1, pyproject.toml); CI checks both
 # Extra arguments after `demo` go to the demo.
@@ -18,7 +21,9 @@ root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
 cd "$root"
 jobs=$(nproc 2>/dev/null || echo 2)
 case "${1:-}" in
-  test|blender) bash tools/install_deps.sh blender ;;
+  test) bash tools/install_deps.sh blender web ;;
+  blender) bash tools/install_deps.sh blender ;;
+  web) bash tools/install_deps.sh web ;;
   *) bash tools/install_deps.sh ;;
 esac
 # The project's own builds link CHOLMOD for the supernodal ARAP factorisation (GPL-2+: the CMake option is
@@ -28,7 +33,23 @@ build() {  # build DIR [cmake args...]
   cmake -S . -B "$dir" -DCMAKE_BUILD_TYPE=Release -DMLSDEFORM_CHOLMOD=ON "$@" >/dev/null
   cmake --build "$dir" -j "$jobs"
 }
+# The WebAssembly build (docs/web.md): emscripten's cmake wrapper; NODE_PATH lets emcc's link step find
+# Debian's acorn when the node on PATH is not Debian's.
+build_web() {
+  export NODE_PATH=/usr/share/nodejs
+  emcmake cmake -S . -B build-web -DCMAKE_BUILD_TYPE=Release -DMLSDEFORM_WERROR=ON >/dev/null
+  cmake --build build-web -j "$jobs"
+}
 case "${1:-}" in
+  web)
+    build_web
+    echo "site: $root/build-web/site/ (tools/dev.sh web --serve to open it)"
+    if [ "${2:-}" = --serve ]; then
+      port=${3:-8000}
+      echo "serving http://localhost:$port/ (Ctrl-C stops)"
+      exec /usr/bin/python3 -m http.server --bind 127.0.0.1 --directory build-web/site "$port"
+    fi
+    ;;
   demo)
     shift
     build build
@@ -53,11 +74,12 @@ case "${1:-}" in
       "Install from Disk...)"
     ;;
   format)
-    find core kernels tests bench tools python \( -name '*.cpp' -o -name '*.hpp' -o -name '*.inc' -o -name '*.h' \) \
+    find core kernels tests bench tools python web/src \( -name '*.cpp' -o -name '*.hpp' -o -name '*.inc' -o -name '*.h' \) \
       -print0 | xargs -0 clang-format-14 -i
     black --quiet .  # pyproject.toml's settings; the files git would take (.gitignore)
     ;;
   test)
+    build_web  # before build/: its ctest label `web` runs the WebAssembly tests and the browser tests
     build build -DMLSDEFORM_WERROR=ON
     ctest --test-dir build --output-on-failure -j "$jobs"
     # Sanitizers: tests only, no benchmarks or tools.
@@ -74,7 +96,7 @@ case "${1:-}" in
     ctest --test-dir build-debug --output-on-failure -j "$jobs" -LE no_sanitizer
     ;;
   *)
-    echo "usage: tools/dev.sh demo [demo options] | test | python | blender | format" >&2
+    echo "usage: tools/dev.sh demo [demo options] | test | python | blender | web [--serve [PORT]] | format" >&2
     exit 2
     ;;
 esac

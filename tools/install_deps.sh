@@ -1,6 +1,8 @@
 #!/usr/bin/env bash
 # Installs mlsdeform's build and test dependencies from Debian 12 packages. Idempotent, and quiet when
-# everything is already there. Uses sudo when not root. With the argument `blender`, Blender too.
+# everything is already there. Uses sudo when not root. Arguments add optional parts: `blender` (Blender),
+# `web` (emscripten and Chromium from Debian, and the page's npm packages into web/node_modules from
+# web/package-lock.json: docs/web.md).
 set -euo pipefail
 packages=(cmake g++ make pkg-config
   libtbb-dev libxsimd-dev libeigen3-dev libbenchmark-dev catch2            # the library, tests, benchmarks
@@ -14,15 +16,44 @@ packages=(cmake g++ make pkg-config
   clang-format                                                            # the format check (tests/format.cmake)
   black flake8)                                                           # the Python checks (tests/python_style.cmake)
 # `install_deps.sh blender` adds Debian's Blender 3.4 for the add-on's headless test (tools/blender/).
-[ "${1:-}" = blender ] && packages+=(blender)
+# `install_deps.sh web` adds emscripten (emcc 3.1.6; node-acorn for its link step) and Chromium (the browser
+# tests drive it headless), and Node with npm where there is none.
+web=0
+for arg in "$@"; do
+  case "$arg" in
+    blender) packages+=(blender) ;;
+    web)
+      web=1
+      packages+=(emscripten node-acorn chromium)
+      command -v npm >/dev/null || packages+=(nodejs npm)
+      ;;
+    *) echo "install_deps: unknown part '$arg' (blender, web)" >&2; exit 2 ;;
+  esac
+done
+# The page's packages (three; puppeteer-core, which drives the Debian Chromium and downloads no browser),
+# pinned by web/package-lock.json, into web/node_modules only.
+web_npm() {
+  [ "$web" = 1 ] || return 0
+  local root
+  root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
+  if [ ! -d "$root/web/node_modules/three" ] || [ ! -d "$root/web/node_modules/puppeteer-core" ] ||
+    [ "$root/web/package-lock.json" -nt "$root/web/node_modules/.package-lock.json" ]; then
+    echo "install_deps: npm ci in web/" >&2
+    (cd "$root/web" && PUPPETEER_SKIP_DOWNLOAD=1 npm ci --no-audit --no-fund --ignore-scripts >/dev/null)
+  fi
+}
 missing=()
 for p in "${packages[@]}"; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
 done
-[ ${#missing[@]} -eq 0 ] && exit 0
+if [ ${#missing[@]} -eq 0 ]; then
+  web_npm
+  exit 0
+fi
 echo "install_deps: installing ${missing[*]}" >&2
 sudo=""
 [ "$(id -u)" -eq 0 ] || sudo="sudo"
 export DEBIAN_FRONTEND=noninteractive
 $sudo apt-get update -qq
 $sudo apt-get install -y -qq --no-install-recommends "${missing[@]}" >/dev/null
+web_npm

@@ -13,6 +13,8 @@ add_library(mlsdeform_cli STATIC
   ${_cli}/file_read.cpp
   ${_cli}/file_write.cpp
   ${_cli}/mesh_read.cpp
+  ${_cli}/attributes.cpp
+  ${_cli}/attributes_ops.cpp
   ${_cli}/formats/reader.cpp
   ${_cli}/formats/obj_read.cpp
   ${_cli}/formats/off_read.cpp

@@ -1,7 +1,6 @@
 // A vectorisable finiteness check for large arrays (the batched fits' input, the deformer's output).
 #pragma once
 
-#include <bit>
 #include <cstddef>
 #include <cstdint>
 #include <limits>
@@ -19,7 +18,8 @@ bool all_finite(const T* x, std::size_t count) {
   constexpr int mantissa = std::numeric_limits<T>::digits - 1;
   constexpr U sign = U(1) << (8 * sizeof(T) - 1), exponent = (sign - 1) & ~((U(1) << mantissa) - 1);
   U bad = 0;
-  for (std::size_t i = 0; i < count; ++i) bad |= (std::bit_cast<U>(x[i]) & exponent) + (U(1) << mantissa);
+  // The builtin std::bit_cast is made of: the libc++ of emscripten 3.1.6 (the WebAssembly build) lacks the latter.
+  for (std::size_t i = 0; i < count; ++i) bad |= (__builtin_bit_cast(U, x[i]) & exponent) + (U(1) << mantissa);
   return (bad & sign) == 0;
 }
 

@@ -13,6 +13,11 @@ namespace {
 constexpr std::string_view kIsaNames[] = {"scalar", "sse4_2", "avx2", "avx512"};
 
 bool cpu_runs(Isa isa) {
+#ifdef __EMSCRIPTEN__
+  // WebAssembly: the sse4_2 twins compiled to 128-bit WebAssembly SIMD (emscripten translates the SSE
+  // intrinsics), which every engine that loads the module runs; there is no wider vector in WebAssembly.
+  return isa == Isa::scalar || isa == Isa::sse4_2;
+#else
   // GCC's __builtin_cpu_supports also checks that the OS saves the wider registers (XCR0).
   switch (isa) {
     case Isa::scalar:
@@ -25,6 +30,7 @@ bool cpu_runs(Isa isa) {
       return __builtin_cpu_supports("avx512f") && __builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma");
   }
   return false;
+#endif
 }
 
 Isa isa_from_string(std::string_view name) {
@@ -88,10 +94,16 @@ const kernels::KernelTable& kernels_for(Isa isa) {
       return kernels::kernel_table_scalar();
     case Isa::sse4_2:
       return kernels::kernel_table_sse4_2();
+#ifndef __EMSCRIPTEN__  // not compiled for WebAssembly (kernels/CMakeLists.txt); cpu_runs never lets them be asked
     case Isa::avx2:
       return kernels::kernel_table_avx2();
     case Isa::avx512:
       return kernels::kernel_table_avx512();
+#else
+    case Isa::avx2:
+    case Isa::avx512:
+      break;
+#endif
   }
   return kernels::kernel_table_scalar();
 }

@@ -1,6 +1,5 @@
 #include "core/src/parallel.hpp"
-
-#include <tbb/info.h>
+#include "core/src/threading.hpp"
 
 #include <algorithm>
 

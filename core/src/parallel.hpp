@@ -4,9 +4,12 @@
 
 #include <mlsdeform/cancel.hpp>
 
+#include "core/src/threading.hpp"
+
+#if !MLSDEFORM_SERIAL
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
-#include <tbb/task_arena.h>
+#endif
 
 #include <cstddef>
 #include <memory>
@@ -24,12 +27,16 @@ inline void throw_if_cancelled(const CancelCheck& cancel) {
 }
 
 /// Calls f(begin, end) on sub-ranges covering [0, count): once with the whole range when threads == 1 or
-/// count <= 1, else from tbb::parallel_for (in `arena` if given, else the calling thread's arena). Each
-/// index's work must not depend on how the range is cut (every caller's results are bitwise the same for
-/// any thread count).
+/// count <= 1 (always in the serial build, core/src/threading.hpp), else from tbb::parallel_for (in `arena` if given,
+/// else the calling thread's arena). Each index's work must not depend on how the range is cut (every caller's results
+/// are bitwise the same for any thread count).
 template <class F>
 void parallel_ranges(std::size_t count, int threads, tbb::task_arena* arena, const F& f) {
   if (count == 0) return;
+#if MLSDEFORM_SERIAL
+  (void)threads, (void)arena;
+  f(std::size_t(0), count);
+#else
   if (threads == 1 || count == 1) {
     f(std::size_t(0), count);
     return;
@@ -42,6 +49,7 @@ void parallel_ranges(std::size_t count, int threads, tbb::task_arena* arena, con
     arena->execute(run);
   else
     run();
+#endif
 }
 
 }  // namespace mlsdeform::detail

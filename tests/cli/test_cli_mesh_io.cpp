@@ -80,9 +80,10 @@ TEST_CASE("every format round-trips vertex count, faces and coordinates", "[cli]
     for (const char* f : formats) {
       for (PlyEncoding enc : {PlyEncoding::binary, PlyEncoding::ascii}) {
         if (enc == PlyEncoding::ascii && std::strncmp(f, "ply", 3) != 0) continue;
-        for (bool normals : {true, false}) {
+        for (NormalsOut normals : {NormalsOut::computed, NormalsOut::input}) {
           const std::string path = dir / (std::string("m.") + f);
-          INFO("format " << f << (enc == PlyEncoding::ascii ? " (ascii)" : "") << (normals ? " with normals" : ""));
+          INFO("format " << f << (enc == PlyEncoding::ascii ? " (ascii)" : "")
+                         << (normals == NormalsOut::computed ? " with normals" : ""));
           write_mesh(m, path, {/*force=*/true, enc, normals});
           require_same(m, read_mesh(path));
         }
@@ -114,7 +115,7 @@ TEST_CASE("double meshes round-trip in every format bit for bit", "[cli][mesh][p
       if (enc == PlyEncoding::ascii && std::strncmp(f, "ply", 3) != 0) continue;
       const std::string path = dir / (std::string("m.") + f);
       INFO("format " << f << (enc == PlyEncoding::ascii ? " (ascii)" : ""));
-      write_mesh(m, path, {true, enc, false});
+      write_mesh(m, path, {true, enc});
       const BasicMesh<double> back = read_mesh<double>(path);
       REQUIRE(back.vertex_count() == m.vertex_count());
       CHECK(back.face_indices == m.face_indices);
@@ -148,7 +149,7 @@ TEST_CASE("integer PLY coordinates are written back in a type that holds them", 
     const BasicMesh<double> m = read_mesh<double>(dir / "in.ply");
     CHECK(m.stored_type == c.expected);
     for (PlyEncoding enc : {PlyEncoding::binary, PlyEncoding::ascii}) {
-      write_mesh(m, dir / "out.ply", {true, enc, false});
+      write_mesh(m, dir / "out.ply", {true, enc});
       const BasicMesh<double> back = read_mesh<double>(dir / "out.ply");
       CHECK(std::memcmp(back.vertices.data(), m.vertices.data(), std::size_t(m.vertices.size()) * sizeof(double)) == 0);
     }
@@ -165,8 +166,12 @@ TEST_CASE("written files are what their extension says", "[cli][mesh]") {
   write_mesh(m, dir / "c.off", {});
   CHECK(cli_test::read_text(dir / "c.off").rfind("OFF\n", 0) == 0);
   write_mesh(m, dir / "d.obj", {});
+  const std::string plain = cli_test::read_text(dir / "d.obj");
+  CHECK(plain.find("\nvn ") == std::string::npos);            // no normals invented
+  CHECK(plain.find("\nf 2 5 6 9 3\n") != std::string::npos);  // the pentagon, 1-based
+  write_mesh(m, dir / "d.obj", {true, PlyEncoding::binary, NormalsOut::computed});
   const std::string obj = cli_test::read_text(dir / "d.obj");
-  CHECK(obj.find("\nvn ") != std::string::npos);                           // normals recomputed and written
+  CHECK(obj.find("\nvn ") != std::string::npos);                           // normals computed on request
   CHECK(obj.find("\nf 2//2 5//5 6//6 9//9 3//3\n") != std::string::npos);  // the pentagon, 1-based
   const std::string gz = cli_test::read_text((write_mesh(m, dir / "e.ply.gz", {}), dir / "e.ply.gz"));
   REQUIRE(gz.size() > 2);

@@ -4,9 +4,10 @@
 // bytes). One binary because each build of it takes CI half a minute.
 //
 // Any input must either be read, and then give a mesh that keeps the documented invariants and writes and
-// reads back bit for bit, or be refused with InputError: a one-line message that names the file. Anything
-// else (another exception, a crash, a sanitizer report, a hang) is a bug. Built with clang++
-// -fsanitize=fuzzer,address,undefined by tests/cli.cmake; the test suite runs each for a bounded number of inputs.
+// reads back bit for bit (positions, faces and every attribute kept: tools/cli/attributes.hpp), or be refused with
+// InputError: a one-line message that names the file. Anything else (another exception, a crash, a sanitizer report, a
+// hang) is a bug. Built with clang++ -fsanitize=fuzzer,address,undefined by tests/cli.cmake; the test suite runs each
+// for a bounded number of inputs.
 //
 //   FUZZ_MESH_FORMAT=ply build/tests/fuzz_mesh -dict=tests/fuzz/mesh.dict NEW_CORPUS_DIR tests/fuzz/corpus_ply
 #include "tools/cli/error.hpp"
@@ -49,12 +50,77 @@ void check_invariants(const BasicMesh<T>& m) {
     if (i >= nv) bug("a vertex index out of range:", std::to_string(i));
 }
 
-// What is read is written and read back exactly (vertex order, faces, every coordinate bit). A double mesh
-// from a float PLY is written as float: its values are floats, so this holds for it too.
+// Every value of `a`'s PLY layout is `b`'s, bit for bit; the vertex element's x, y, z aside, whose type is the
+// output's coordinate type (compared as the mesh's vertices).
+void check_same_layout(const PlyLayout& a, const PlyLayout& b) {
+  if (a.elements.size() != b.elements.size() || a.header.size() != b.header.size())
+    bug("PLY elements or comments differ after a round trip");
+  for (std::size_t i = 0; i < a.header.size(); ++i)
+    if (a.header[i].text != b.header[i].text || a.header[i].after != b.header[i].after)
+      bug("a PLY comment differs after a round trip:", a.header[i].text);
+  for (std::size_t e = 0; e < a.elements.size(); ++e) {
+    const PlyElement &p = a.elements[e], &q = b.elements[e];
+    if (p.name != q.name || p.count != q.count || p.properties.size() != q.properties.size())
+      bug("a PLY element differs after a round trip:", p.name);
+    const bool vertex = int(e) == a.vertex_element;
+    for (std::size_t k = 0; k < p.properties.size(); ++k) {
+      const bool xyz =
+          vertex && (p.properties[k].name == "x" || p.properties[k].name == "y" || p.properties[k].name == "z");
+      if (p.properties[k].name != q.properties[k].name || p.properties[k].list != q.properties[k].list ||
+          (!xyz && p.properties[k].type != q.properties[k].type) ||
+          p.properties[k].count_type != q.properties[k].count_type)
+        bug("a PLY property differs after a round trip:", p.properties[k].name);
+    }
+    if (!vertex) {
+      if (p.data != q.data) bug("PLY values differ after a round trip in element", p.name);
+      continue;
+    }
+    for (std::size_t i = 0; i < p.count; ++i)
+      for (std::size_t k = 0; k < p.properties.size(); ++k) {
+        const std::string& n = p.properties[k].name;
+        if (n == "x" || n == "y" || n == "z") continue;
+        // A NaN's payload has no decimal text: an ASCII output keeps that it is a NaN.
+        const double u = p.get(i, k), v = q.get(i, k);
+        const bool same = std::isnan(u) ? std::isnan(v)
+                                        : std::memcmp(p.data.data() + i * p.stride() + p.offset(k),
+                                                      q.data.data() + i * q.stride() + q.offset(k),
+                                                      size_of(p.properties[k].type)) == 0;
+        if (!same) bug("a vertex property differs after a round trip:", n);
+      }
+  }
+}
+
+void check_same_extras(const MeshExtras& a, const MeshExtras& b) {
+  if (a.ply.has_value() != b.ply.has_value() || a.obj.has_value() != b.obj.has_value() ||
+      a.off.has_value() != b.off.has_value())
+    bug("attributes of another format after a round trip");
+  if (a.ply) check_same_layout(*a.ply, *b.ply);
+  if (a.obj) {
+    const ObjExtras &p = *a.obj, &q = *b.obj;
+    if (p.normals_rewritten) {
+      // Rewritten normals: each corner names one where it did, and they read back as written (shortest text).
+      for (std::size_t c = 0; c < p.corner_normals.size(); ++c)
+        if ((p.corner_normals[c] == ObjExtras::kNone) !=
+            (c >= q.corner_normals.size() || q.corner_normals[c] == ObjExtras::kNone))
+          bug("a corner's normal differs after a round trip");
+    } else if (p.text != q.text || p.normals != q.normals || p.corner_normals != q.corner_normals) {
+      bug("OBJ statements differ after a round trip");
+    }
+    if (p.vertex_tails.text != q.vertex_tails.text || p.vertex_tails.end != q.vertex_tails.end)
+      bug("what follows a vertex's coordinates differs after a round trip");
+  }
+  if (a.off && (a.off->keyword != b.off->keyword || a.off->vertex_tails.text != b.off->vertex_tails.text ||
+                a.off->vertex_tails.end != b.off->vertex_tails.end ||
+                a.off->face_tails.text != b.off->face_tails.text || a.off->face_tails.end != b.off->face_tails.end))
+    bug("OFF colours differ after a round trip");
+}
+
+// What is read is written and read back exactly (vertex order, faces, every coordinate bit, every attribute).
+// A double mesh from a float PLY is written as float: its values are floats, so this holds for it too.
 template <class T>
 void check_round_trip(const BasicMesh<T>& m, const std::string& format, PlyEncoding ply) {
   const std::string name = "round_trip." + format;
-  const std::string bytes = encode_mesh(m, name, {false, ply, false});
+  const std::string bytes = encode_mesh(m, name, {false, ply});
   const auto source = memory_source(bytes);
   BasicMesh<T> back;
   try {
@@ -66,6 +132,21 @@ void check_round_trip(const BasicMesh<T>& m, const std::string& format, PlyEncod
       std::memcmp(back.vertices.data(), m.vertices.data(), std::size_t(m.vertices.size()) * sizeof(T)) != 0)
     bug("vertices differ after a round trip");
   if (back.face_start != m.face_start || back.face_indices != m.face_indices) bug("faces differ after a round trip");
+  check_same_extras(m.extras, back.extras);
+}
+
+// Normals transformed (here by a rotation about z and a shear: every vertex's linear part) are written where
+// the file's were, and read back with every corner naming one where it did.
+template <class T>
+void check_transformed_round_trip(BasicMesh<T> m, const std::string& format, PlyEncoding ply) {
+  if (!m.extras.has_normals()) return;
+  std::vector<T> linear(std::size_t(m.vertex_count()) * 9);
+  for (std::size_t i = 0; i < linear.size(); i += 9) {
+    const T l[9] = {T(0.6), T(-0.8), T(0.5), T(0.8), T(0.6), T(0), T(0), T(0), T(1)};
+    std::copy(l, l + 9, linear.begin() + std::ptrdiff_t(i));
+  }
+  transform_normals(m, linear.data());
+  check_round_trip(m, format, ply);
 }
 
 std::string format_of(std::string_view text) {
@@ -119,6 +200,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   if (as_float) {
     check_invariants(m);
     check_round_trip(m, format, ply);
+    check_transformed_round_trip(m, format, ply);
   }
   BasicMesh<double> d;
   try {

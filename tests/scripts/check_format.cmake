@@ -1,7 +1,7 @@
 # Fails, naming the files, when a C++ source differs from what clang-format makes of it.
 # Usage: cmake -DCLANG_FORMAT=clang-format-14 -DROOT=<source dir> -P check_format.cmake
 set(files "")
-foreach(dir core kernels tests bench tools python)
+foreach(dir core kernels tests bench tools python web/src)
   file(GLOB_RECURSE found ${ROOT}/${dir}/*.cpp ${ROOT}/${dir}/*.hpp ${ROOT}/${dir}/*.inc ${ROOT}/${dir}/*.h)
   list(APPEND files ${found})
 endforeach()

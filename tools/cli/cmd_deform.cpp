@@ -38,6 +38,23 @@ int deform(const DeformArgs& a) {
     outputs.push_back(handles.animated() ? frame_path(a.out, f, frame_count) : a.out);
   for (const auto& o : outputs) check_output_path(o, a.force);  // before any work: fail fast, write nothing
 
+  // What the output keeps of the input's attributes, named before any work (--strict-attributes refuses then).
+  const bool same_format = format_extension(a.mesh) == format_extension(a.out);
+  const bool transform_normals_wanted = a.normals == NormalsOut::input && same_format && mesh.extras.has_normals();
+  // The library gives no linear part for affine fits (FramesOut): written as read, the normals would be wrong.
+  const bool affine = a.options.transform == Transform::affine;
+  const InputNormals fate = !transform_normals_wanted ? InputNormals::kept
+                            : affine                  ? InputNormals::untransformable
+                                                      : InputNormals::transformed;
+  const AttributeReport report = attribute_report(mesh, a.out, a.normals, fate);
+  if (!report.dropped.empty()) {
+    std::string list;
+    for (const auto& d : report.dropped) list += (list.empty() ? "" : "; ") + d;
+    if (a.strict_attributes)
+      throw InputError(a.mesh, "the output " + a.out + " cannot keep: " + list + " (--strict-attributes)");
+    std::fprintf(stderr, "mlsdeform: dropped from %s: %s\n", a.mesh.c_str(), list.c_str());
+  }
+
   const ResolvedHandles<T> resolved = resolve_handles<T>(handles, mesh.vertices);
   if (arap && !resolved.region.empty())
     throw InputError(a.handles, "a region and --arap cannot be combined (give one or the other)", "/region");
@@ -58,11 +75,11 @@ int deform(const DeformArgs& a) {
   const double setup_ms = ms_since(t0);
 
   if (!a.quiet) {
-    std::printf("%s: %lld vertices, %zu faces%s\n", a.mesh.c_str(), static_cast<long long>(mesh.vertex_count()),
-                mesh.face_count(),
-                mesh.dropped_primitives
-                    ? (" (" + std::to_string(mesh.dropped_primitives) + " points/lines dropped)").c_str()
-                    : "");
+    std::printf(
+        "%s: %lld vertices, %zu faces%s\n", a.mesh.c_str(), static_cast<long long>(mesh.vertex_count()),
+        mesh.face_count(),
+        // Points and lines are not deformed: kept in OBJ output, named as dropped in another format.
+        mesh.dropped_primitives ? (", " + std::to_string(mesh.dropped_primitives) + " points/lines").c_str() : "");
     std::printf("%s: %zu point and %zu segment handles%s%s\n", a.handles.c_str(), handles.points.size(),
                 handles.segments.size(),
                 handles.animated() ? (", " + std::to_string(frame_count) + " frames").c_str() : "",
@@ -71,6 +88,15 @@ int deform(const DeformArgs& a) {
                     : (", a region of " + std::to_string(options.region.size()) + " vertices (the " +
                        std::to_string(mesh.vertex_count() - Eigen::Index(options.region.size())) + " others stay)")
                           .c_str());
+    auto listed = [](const std::vector<std::string>& items) {
+      std::string s;
+      for (const auto& i : items) s += (s.empty() ? "" : "; ") + i;
+      return s;
+    };
+    if (!report.kept.empty() || !report.transformed.empty())
+      std::printf("attributes: %s%s%s%s\n", report.kept.empty() ? "" : "kept ", listed(report.kept).c_str(),
+                  report.kept.empty() || report.transformed.empty() ? "" : "; ",
+                  report.transformed.empty() ? "" : ("transformed " + listed(report.transformed)).c_str());
     char threads[32];
     std::snprintf(threads, sizeof threads, a.options.threads > 0 ? "%d threads" : "all cores", a.options.threads);
     const std::string then_arap =
@@ -84,9 +110,23 @@ int deform(const DeformArgs& a) {
   }
 
   BasicMesh<T> result = mesh;
-  const WriteOptions write{a.force, a.ply_ascii ? PlyEncoding::ascii : PlyEncoding::binary, true, a.output_type};
+  if (fate == InputNormals::untransformable) drop_normals(result);
+  const WriteOptions write{a.force, a.ply_ascii ? PlyEncoding::ascii : PlyEncoding::binary, a.normals, a.output_type};
   const bool narrowed = std::is_same_v<T, double> && output_type(mesh, write) == CoordinateType::float32;
   Points<T> out(rest.rows(), 3);
+  // Each vertex's linear part (R, s R, or ARAP's refined rotation), to carry the input's normals through.
+  std::vector<T> linear(fate == InputNormals::transformed ? std::size_t(rest.rows()) * 9 : 0);
+  FramesOut<T> frames;
+  frames.linear = std::span<T>(linear);
+  // Vertices on point handles get no frame from MLS (the identity): their normals take a neighbour's. ARAP's
+  // refined rotations cover every vertex.
+  const FrameDonors donors =
+      frames.any() && !arap ? frame_donors(mesh, Points<T>(resolved.rest.points)) : FrameDonors{};
+  if (donors.orphans > 0)
+    std::fprintf(stderr,
+                 "mlsdeform: %s: the normals of %zu vertices on handles are written as read (no vertex "
+                 "off a handle lends them a frame)\n",
+                 a.mesh.c_str(), donors.orphans);
   std::vector<double> deform_ms;
   std::vector<std::string> written;
   Progress progress(frame_count, a.quiet || !handles.animated());
@@ -98,7 +138,11 @@ int deform(const DeformArgs& a) {
       t0 = Clock::now();
       try {
         // The first SIGINT stops a long ARAP frame between iterations, not after the last one.
-        deformer->deform(resolved.frames[f], out, [] { return pending_interrupt() != 0; });
+        const auto cancel = [] { return pending_interrupt() != 0; };
+        if (frames.any())
+          deformer->deform(resolved.frames[f], out, frames, cancel);
+        else
+          deformer->deform(resolved.frames[f], out, cancel);
       } catch (const std::invalid_argument& e) {
         throw InputError(a.handles, e.what(), where);
       } catch (const Cancelled&) {
@@ -106,6 +150,13 @@ int deform(const DeformArgs& a) {
       }
       deform_ms.push_back(ms_since(t0));
       result.vertices = out;
+      if (frames.any()) {
+        for (const auto& [v, from] : donors.pairs)
+          std::copy_n(linear.begin() + std::ptrdiff_t(9 * std::size_t(from)), 9,
+                      linear.begin() + std::ptrdiff_t(9 * std::size_t(v)));
+        result.extras = mesh.extras;  // each frame's normals from the input's
+        transform_normals(result, linear.data());
+      }
       // The library refuses a result T cannot hold; here only a double result beyond float, the coordinate
       // type of the mesh written, is left to refuse.
       if (narrowed && !result.vertices.template cast<float>().allFinite()) {

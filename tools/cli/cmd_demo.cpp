@@ -86,7 +86,7 @@ int demo(const DemoArgs& a) {
                 simd.frames_per_second() / scalar.frames_per_second(), diff);
     std::printf("  %s\n", s.description.c_str());
     const Mesh result = with_vertices(s.mesh, simd.result);
-    write_mesh(result, (out_dir / ds.output).string(), {/*force=*/true});
+    write_mesh(result, (out_dir / ds.output).string(), {/*force=*/true, PlyEncoding::binary, NormalsOut::computed});
     written.push_back(ds.output);
     if (has_human && &ds == &scenes.front()) human_mls = simd.result;
   }
@@ -102,7 +102,8 @@ int demo(const DemoArgs& a) {
     std::printf("human + %d ARAP iterations (deform --arap %d): %.1f f/s simd, moves vertices up to %.3f from MLS\n\n",
                 kDemoArapIterations, kDemoArapIterations, run.frames_per_second(),
                 (human_arap - human_mls).rowwise().norm().maxCoeff());
-    write_mesh(with_vertices(s.mesh, human_arap), (out_dir / "human_bent_arap.obj").string(), {/*force=*/true});
+    write_mesh(with_vertices(s.mesh, human_arap), (out_dir / "human_bent_arap.obj").string(),
+               {/*force=*/true, PlyEncoding::binary, NormalsOut::computed});
     written.push_back("human_bent_arap.obj");
   }
 

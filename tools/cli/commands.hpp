@@ -23,6 +23,10 @@ struct DeformArgs {
   /// The output's coordinate type (WriteOptions::coordinates); none: the input's, at most the precision's.
   std::optional<CoordinateType> output_type = std::nullopt;
   bool quiet = false;
+  /// The normals written: the input's, transformed by each vertex's linear part, or computed from the faces.
+  NormalsOut normals = NormalsOut::input;
+  /// Refuse (exit 2) rather than drop an attribute of the input that the output cannot keep.
+  bool strict_attributes = false;
   std::size_t max_input_bytes = std::size_t(1) << 30;  ///< mesh file, or its decompressed data (kDefaultMaxInputBytes)
 };
 int run_deform(const DeformArgs& args);

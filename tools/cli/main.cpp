@@ -170,7 +170,14 @@ int run(int argc, char** argv) {
       "the output's coordinate type: PLY's property type; OBJ and OFF: the shortest text of a float or of a "
       "double. auto: float with --precision float; with --precision double, the input PLY's type (float stays "
       "float), else double");
-  deform->add_flag("--quiet,-q", d.quiet, "print nothing but errors");
+  add_choice<NormalsOut>(deform, "--normals", d.normals,
+                         {{"input", NormalsOut::input}, {"computed", NormalsOut::computed}},
+                         "the vertex normals written: input (the input's, transformed by each vertex's linear "
+                         "part; none where it has none) or computed (area-weighted, from the deformed faces)");
+  deform->add_flag("--strict-attributes", d.strict_attributes,
+                   "refuse (exit 2) rather than drop an attribute of the input the output cannot keep (another "
+                   "format, or normals an affine fit cannot transform)");
+  deform->add_flag("--quiet,-q", d.quiet, "print nothing but errors (attributes dropped are still named)");
   deform->footer(
       "The handles file (see README.md, \"Handles file\"):\n"
       "  {\"points\":   [{\"vertex\": 12, \"target\": [0, 1, 0]}, {\"rest\": [0, 0, 0]}],\n"

@@ -1,6 +1,7 @@
 // mlsdeform CLI: a polygon mesh as read from and written to files.
 #pragma once
 
+#include "tools/cli/attributes.hpp"
 #include "tools/cli/file_io.hpp"
 
 #include <mlsdeform/arap.hpp>
@@ -24,11 +25,14 @@ struct BasicMesh {
   PointsRowMajor<T> vertices;                ///< n x 3
   std::vector<std::uint32_t> face_start{0};  ///< face f is face_indices[face_start[f] .. face_start[f+1])
   std::vector<std::uint32_t> face_indices;
-  std::size_t dropped_primitives = 0;  ///< points and lines in the file, which are not kept
+  std::size_t dropped_primitives = 0;  ///< OBJ points and lines (kept in ObjExtras, for OBJ output only)
   /// The type that holds the file's x, y, z values exactly, for a PLY file (float64 if any is double, int or
   /// uint; float32 if all are float or integers of 8 or 16 bits); none for text
   /// formats and meshes built in memory. Chooses the type of a PLY output (WriteOptions::coordinates).
   std::optional<CoordinateType> stored_type;
+  /// What the file carried besides positions and faces (attributes.hpp), given back by the writer of the same
+  /// format; empty for a mesh built in memory. A writer trusts it to match `vertices` and the faces in number.
+  MeshExtras extras;
 
   Eigen::Index vertex_count() const { return vertices.rows(); }
   std::size_t face_count() const { return face_start.size() - 1; }
@@ -77,10 +81,14 @@ BasicMesh<T> parse_mesh(ByteSource& source, const std::string& format, const std
 
 enum class PlyEncoding { binary, ascii };
 
+/// The vertex normals written: the input's (transformed where transform_normals was called; none where the
+/// input has none), or area-weighted ones computed from the faces (vertex_normals), replacing the input's.
+enum class NormalsOut { input, computed };
+
 struct WriteOptions {
-  bool force = false;                     ///< overwrite an existing file
-  PlyEncoding ply = PlyEncoding::binary;  ///< for .ply and .ply.gz
-  bool normals = true;                    ///< write vertex normals where the format has them (not OFF)
+  bool force = false;                      ///< overwrite an existing file
+  PlyEncoding ply = PlyEncoding::binary;   ///< for .ply and .ply.gz
+  NormalsOut normals = NormalsOut::input;  ///< which vertex normals are written (OFF has no place for any)
   /// The type the coordinates (and normals) are written as: PLY's property type; for OBJ and OFF, the
   /// shortest text of the float or of the double (a double mesh written as float32 is rounded to float).
   /// None: float for a float mesh; for a double mesh, the type its PLY file had (a float PLY stays float),
@@ -98,6 +106,40 @@ std::string encode_mesh(const BasicMesh<T>& mesh, const std::string& path, const
 /// encode_mesh, then write_file_atomic: all or nothing.
 template <class T>
 void write_mesh(const BasicMesh<T>& mesh, const std::string& path, const WriteOptions& options = {});
+
+/// Transforms the input's normals (OBJ vn, PLY nx ny nz) by each vertex's linear part: `linear` holds n
+/// row-major 3x3 matrices L (n = the vertex count); a normal becomes L^-T n renormalised (attributes_ops.cpp:
+/// an OBJ vn that corners of vertices with different L share is split, one vn per vertex and vn).
+template <class T>
+void transform_normals(BasicMesh<T>& mesh, const T* linear);
+
+/// The deformer gives a vertex on a point handle the identity frame (the map interpolates the handle's target
+/// there, and the fit has no data: FramesOut); its normal takes instead the frame of the nearest vertex not on
+/// a handle: its nearest polygon neighbour not on one, else (a point cloud, or all its neighbours on handles)
+/// the nearest such vertex of the mesh. `pairs`: (vertex, donor); `orphans`: vertices on handles with no
+/// donor (every vertex is on a handle), which keep the identity.
+struct FrameDonors {
+  std::vector<std::pair<std::uint32_t, std::uint32_t>> pairs;
+  std::size_t orphans = 0;
+};
+template <class T>
+FrameDonors frame_donors(const BasicMesh<T>& mesh, const Points<T>& handle_points);
+
+/// Removes the input's normals (PLY nx ny nz, OBJ vn and the corners' references to them): for normals that
+/// cannot be transformed, which written as read would be wrong.
+template <class T>
+void drop_normals(BasicMesh<T>& mesh);
+
+/// What writing `mesh` to `out_path` keeps, transforms and drops of the input's attributes, each a short
+/// phrase ("vertex properties red, green, blue", "12 vt"), for the program's summary and its stderr line.
+struct AttributeReport {
+  std::vector<std::string> kept, transformed, dropped;
+};
+/// What becomes of the input's normals in the output's format (when they are not replaced by computed ones).
+enum class InputNormals { kept, transformed, untransformable };
+template <class T>
+AttributeReport attribute_report(const BasicMesh<T>& mesh, const std::string& out_path, NormalsOut normals,
+                                 InputNormals fate);
 
 /// Throws InputError naming `path` if its extension is not a format write_mesh knows.
 void check_output_format(const std::string& path);

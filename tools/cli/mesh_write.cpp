@@ -89,9 +89,11 @@ template <class T>
 std::string encode_mesh(const BasicMesh<T>& mesh, const std::string& path, const WriteOptions& options) {
   check_output_format(path);
   const std::string ext = format_extension(path);
+  // Computed normals only on request; the input's own (mesh.extras) are written by their format's writer.
+  const bool computed = options.normals == NormalsOut::computed && ext != "off";
   PointsRowMajor<T> normals;
-  if (options.normals && ext != "off") normals = vertex_normals(mesh);
-  const PointsRowMajor<T>* n = options.normals && ext != "off" ? &normals : nullptr;
+  if (computed) normals = vertex_normals(mesh);
+  const PointsRowMajor<T>* n = computed ? &normals : nullptr;
   auto encode = [&](auto as) {
     using O = decltype(as);
     return ext == "obj"   ? encode_obj<O>(mesh, n)

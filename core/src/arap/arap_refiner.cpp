@@ -18,13 +18,13 @@
 #include "core/src/dispatch.hpp"
 #include "core/src/parallel.hpp"
 #include "core/src/pow2.hpp"
+#include "core/src/threading.hpp"
 
 #include <mlsdeform/arap.hpp>
 #include <mlsdeform/fit_rotations.hpp>
 
 #include "kernels/kernel_table.hpp"
 
-#include <tbb/info.h>
 #include <Eigen/SparseCore>
 
 #include <algorithm>

@@ -14,7 +14,8 @@
 //    substitutes with them (supernodal_solve.hpp) rather than by columns, with the same guarantees.
 #pragma once
 
-#include <tbb/task_arena.h>
+#include "core/src/threading.hpp"
+
 #include <Eigen/SparseCore>
 
 #include <cstddef>

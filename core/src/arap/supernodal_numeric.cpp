@@ -2,8 +2,8 @@
 #include "core/src/arap/nested_dissection.hpp"
 #include "core/src/arap/supernodal_ldlt.hpp"
 #include "core/src/parallel.hpp"
+#include "core/src/threading.hpp"
 
-#include <tbb/enumerable_thread_specific.h>
 #include <Eigen/Cholesky>
 #include <Eigen/OrderingMethods>
 

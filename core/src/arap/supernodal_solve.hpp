@@ -14,8 +14,7 @@
 #pragma once
 
 #include "core/src/arap/supernodal_ldlt.hpp"
-
-#include <tbb/task_arena.h>
+#include "core/src/threading.hpp"
 
 #include <cstddef>
 #include <vector>

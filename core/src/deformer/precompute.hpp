@@ -5,10 +5,9 @@
 
 #include "core/src/deformer/data.hpp"
 #include "core/src/deformer/local_frame.hpp"
+#include "core/src/threading.hpp"
 
 #include <mlsdeform/deformer.hpp>
-
-#include <tbb/task_arena.h>
 
 namespace mlsdeform::detail {
 

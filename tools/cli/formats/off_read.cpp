@@ -1,4 +1,6 @@
-// The OFF reader: "OFF", the counts, the vertices, then the faces (each its corner count, then the corners).
+// The OFF reader: "OFF" (or "COFF"), the counts, the vertices (each optionally followed by a colour of 3 or 4
+// numbers), then the faces (each its corner count, the corners, optionally a colour); colours are kept
+// verbatim (OffExtras).
 #include "tools/cli/formats/reader.hpp"
 
 namespace mlsdeform::cli::formats {
@@ -7,11 +9,21 @@ template <class T>
 BasicMesh<T> read_off(Reader& reader, const std::string& path) {
   std::vector<std::string_view> t;
   Lines lines(reader);
-  if (!lines.next_content(t) || t[0] != "OFF")
+  OffExtras x;
+  auto content = [&] {  // the next line with tokens, counting comment lines (not kept)
+    while (lines.next(t)) {
+      if (lines.raw().find('#') != std::string_view::npos && lines.raw().find("# written by mlsdeform ") != 0)
+        ++x.comments;
+      if (!t.empty()) return true;
+    }
+    return false;
+  };
+  if (!content() || (t[0] != "OFF" && t[0] != "COFF"))
     throw InputError(path, "malformed OFF: the first line is not 'OFF'", at_line(lines.line()));
+  x.keyword = std::string(t[0]);
   std::vector<std::string_view> counts(t.begin() + 1, t.end());  // "OFF nv nf ne" on one line is allowed
   if (counts.empty()) {
-    if (!lines.next_content(t)) throw InputError(path, "malformed OFF: no vertex and face counts");
+    if (!content()) throw InputError(path, "malformed OFF: no vertex and face counts");
     counts = t;
   }
   std::uint64_t nv = 0, nf = 0, ne = 0;
@@ -29,19 +41,24 @@ BasicMesh<T> read_off(Reader& reader, const std::string& path) {
   BasicMesh<T> mesh;
   mesh.vertices.resize(Eigen::Index(nv), 3);
   for (std::uint64_t i = 0; i < nv; ++i) {
-    if (!lines.next_content(t))
+    if (!content())
       throw InputError(path, "malformed OFF: truncated in vertex " + std::to_string(i) + " of " + std::to_string(nv));
     T c[3];
-    if (t.size() != 3)
-      throw InputError(path, "a vertex needs 3 coordinates, found " + std::to_string(t.size()), at_line(lines.line()));
+    if (t.size() != 3 && t.size() != 6 && t.size() != 7)
+      throw InputError(path,
+                       "a vertex needs 3 coordinates (optionally then a colour of 3 or 4 numbers), found " +
+                           std::to_string(t.size()),
+                       at_line(lines.line()));
     for (int k = 0; k < 3; ++k) c[k] = coordinate<T>(t[std::size_t(k)], path, at_line(lines.line()));
+    for (std::size_t k = 3; k < t.size(); ++k) coordinate<double>(t[k], path, at_line(lines.line()));
+    x.vertex_tails.set(std::size_t(i), tail_after(lines.raw(), t[2]));
     if (!finite3(c)) throw InputError(path, non_finite(i), at_line(lines.line()));
     mesh.vertices.row(Eigen::Index(i)) << c[0], c[1], c[2];
   }
   std::deque<std::uint32_t> corners;
   mesh.face_start.reserve(std::size_t(nf) + 1);
   for (std::uint64_t f = 0; f < nf; ++f) {
-    if (!lines.next_content(t))
+    if (!content())
       throw InputError(path, "malformed OFF: truncated in face " + std::to_string(f) + " of " + std::to_string(nf));
     std::uint64_t k = 0;
     if (!parse_number(t[0], k) || k < 3)
@@ -64,11 +81,15 @@ BasicMesh<T> read_off(Reader& reader, const std::string& path) {
       corners.push_back(std::uint32_t(v));
     }
     for (std::size_t j = std::size_t(k) + 1; j < t.size(); ++j) coordinate<T>(t[j], path, at_line(lines.line()));
+    x.face_tails.set(std::size_t(f), tail_after(lines.raw(), t[std::size_t(k)]));
     mesh.face_start.push_back(std::uint32_t(corners.size()));
   }
-  if (lines.next_content(t)) throw InputError(path, "malformed OFF: data after the last face", at_line(lines.line()));
+  if (content()) throw InputError(path, "malformed OFF: data after the last face", at_line(lines.line()));
   if (nv == 0) throw InputError(path, "no vertices");
   mesh.face_indices = to_vector(corners);
+  x.vertex_tails.finish(std::size_t(nv));
+  x.face_tails.finish(std::size_t(nf));
+  mesh.extras.off = std::move(x);
   return mesh;
 }
 

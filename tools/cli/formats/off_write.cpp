@@ -1,4 +1,5 @@
-// The OFF writer: "OFF", the counts, the vertices, then the faces (each its corner count, then the corners).
+// The OFF writer: "OFF", the counts, the vertices, then the faces (each its corner count, then the corners);
+// a mesh read from an OFF file keeps its keyword and its vertex and face colours (OffExtras).
 #include "tools/cli/formats/writer.hpp"
 
 namespace mlsdeform::cli::formats {
@@ -7,13 +8,15 @@ template <class O, class T>
 std::string encode_off(const BasicMesh<T>& m) {
   TextOut o;
   o.s.reserve(std::size_t(m.vertex_count()) * 35 + m.face_indices.size() * 8);
-  o << "OFF\n# " << comment() << '\n';
+  const OffExtras* x = m.extras.off ? &*m.extras.off : nullptr;
+  o << (x ? std::string_view(x->keyword) : "OFF") << "\n# " << comment() << '\n';
   o.num(std::uint64_t(m.vertex_count()));
   o << ' ';
   o.num(std::uint64_t(m.face_count()));
   o << " 0\n";
   for (Eigen::Index i = 0; i < m.vertex_count(); ++i) {
     o.xyz<O>(m.vertices, i);
+    if (x) o << x->vertex_tails[std::size_t(i)];
     o << '\n';
   }
   for (std::size_t f = 0; f < m.face_count(); ++f) {
@@ -22,6 +25,7 @@ std::string encode_off(const BasicMesh<T>& m) {
       o << ' ';
       o.num(std::uint64_t(m.face_indices[c]));
     }
+    if (x) o << x->face_tails[f];
     o << '\n';
   }
   return std::move(o.s);

@@ -1,5 +1,6 @@
 // The PLY reader: ASCII, binary little- and big-endian; a vertex element with x, y, z and a face element with
-// one list property of vertex indices; other elements and properties are read past.
+// one list property of vertex indices; every element and property is kept with its type (PlyLayout), the
+// values in the file's types, so that the writer gives them back bit for bit.
 #include "tools/cli/formats/reader.hpp"
 
 #include <bit>
@@ -7,139 +8,41 @@
 namespace mlsdeform::cli::formats {
 namespace {
 
-enum class Scalar { i8, u8, i16, u16, i32, u32, f32, f64 };
-
-std::size_t size_of(Scalar s) {
-  switch (s) {
-    case Scalar::i8:
-    case Scalar::u8:
-      return 1;
-    case Scalar::i16:
-    case Scalar::u16:
-      return 2;
-    case Scalar::i32:
-    case Scalar::u32:
-    case Scalar::f32:
-      return 4;
-    case Scalar::f64:
-      return 8;
-  }
-  return 0;
+std::size_t min_bytes(const PlyElement& el, bool binary) {  // the smallest an item can be in the body
+  std::size_t b = 0;
+  for (const auto& p : el.properties) b += binary ? (p.list ? size_of(p.count_type) : size_of(p.type)) : 2;
+  return b;
 }
-
-bool scalar_type(std::string_view t, Scalar& s) {
-  if (t == "char" || t == "int8")
-    s = Scalar::i8;
-  else if (t == "uchar" || t == "uint8")
-    s = Scalar::u8;
-  else if (t == "short" || t == "int16")
-    s = Scalar::i16;
-  else if (t == "ushort" || t == "uint16")
-    s = Scalar::u16;
-  else if (t == "int" || t == "int32")
-    s = Scalar::i32;
-  else if (t == "uint" || t == "uint32")
-    s = Scalar::u32;
-  else if (t == "float" || t == "float32")
-    s = Scalar::f32;
-  else if (t == "double" || t == "float64")
-    s = Scalar::f64;
-  else
-    return false;
-  return true;
-}
-
-struct PlyProperty {
-  std::string name;
-  Scalar type = Scalar::f32;
-  bool list = false;
-  Scalar count_type = Scalar::u8;
-};
-
-struct PlyElement {
-  std::string name;
-  std::uint64_t count = 0;
-  std::vector<PlyProperty> properties;
-  std::size_t min_bytes(bool binary) const {  // the smallest an item can be in the body
-    std::size_t b = 0;
-    for (const auto& p : properties) b += binary ? (p.list ? size_of(p.count_type) : size_of(p.type)) : 2;
-    return b;
-  }
-};
-
-bool is_integer(Scalar s) { return s != Scalar::f32 && s != Scalar::f64; }
 
 /// Whether the integer v is a value of type s (an ASCII body may write anything).
-bool fits(Scalar s, std::int64_t v) {
+bool fits(PlyScalar s, std::int64_t v) {
   switch (s) {
-    case Scalar::i8:
+    case PlyScalar::i8:
       return v >= -128 && v <= 127;
-    case Scalar::u8:
+    case PlyScalar::u8:
       return v >= 0 && v <= 255;
-    case Scalar::i16:
+    case PlyScalar::i16:
       return v >= -32768 && v <= 32767;
-    case Scalar::u16:
+    case PlyScalar::u16:
       return v >= 0 && v <= 65535;
-    case Scalar::i32:
+    case PlyScalar::i32:
       return v >= std::numeric_limits<std::int32_t>::min() && v <= std::numeric_limits<std::int32_t>::max();
-    case Scalar::u32:
+    case PlyScalar::u32:
       return v >= 0 && v <= std::int64_t(std::numeric_limits<std::uint32_t>::max());
     default:
       return true;
   }
 }
 
-/// One value of type s from a binary body in either byte order; false if the body ends first. Integer types
-/// give exact doubles; float is widened exactly.
-bool read_binary(Reader& reader, Scalar s, bool big_endian, double& out) {
+/// One value of type s from a binary body in either byte order, appended to `data` in the machine's order
+/// (kept as the file's bits); false if the body ends first. `out`: the value, exact.
+bool read_binary(Reader& reader, PlyScalar s, bool big_endian, std::vector<unsigned char>& data, double& out) {
   const std::size_t n = size_of(s);
   unsigned char raw[8];
   if (!reader.bytes(reinterpret_cast<char*>(raw), n)) return false;
   if (big_endian != (std::endian::native == std::endian::big)) std::reverse(raw, raw + n);
-  switch (s) {
-    case Scalar::i8:
-      out = double(std::int8_t(raw[0]));
-      break;
-    case Scalar::u8:
-      out = double(raw[0]);
-      break;
-    case Scalar::i16: {
-      std::int16_t v;
-      std::memcpy(&v, raw, 2);
-      out = v;
-      break;
-    }
-    case Scalar::u16: {
-      std::uint16_t v;
-      std::memcpy(&v, raw, 2);
-      out = v;
-      break;
-    }
-    case Scalar::i32: {
-      std::int32_t v;
-      std::memcpy(&v, raw, 4);
-      out = v;
-      break;
-    }
-    case Scalar::u32: {
-      std::uint32_t v;
-      std::memcpy(&v, raw, 4);
-      out = v;
-      break;
-    }
-    case Scalar::f32: {
-      float v;
-      std::memcpy(&v, raw, 4);
-      out = v;
-      break;
-    }
-    case Scalar::f64: {
-      double v;
-      std::memcpy(&v, raw, 8);
-      out = v;
-      break;
-    }
-  }
+  data.insert(data.end(), raw, raw + n);
+  out = ply_load(s, raw);
   return true;
 }
 
@@ -153,21 +56,31 @@ BasicMesh<T> read_ply(Reader& reader, const std::string& path) {
   // Header.
   std::size_t line_no = 0;
   std::vector<std::string_view> t;
+  std::string_view raw;
   auto header_line = [&]() {
-    std::string_view l;
-    if (!reader.line(l)) throw malformed("the header has no end_header line");
+    if (!reader.line(raw)) throw malformed("the header has no end_header line");
     ++line_no;
-    split(l, t);  // no comments here: '#' is a character like any other in a PLY header
+    split(raw, t);  // no comments here: '#' is a character like any other in a PLY header
   };
   if (reader.skip_prefix(kBom))
     throw malformed("the file starts with a UTF-8 byte-order mark; the first line must be 'ply' (remove the mark)", 1);
   header_line();
   if (t.size() != 1 || t[0] != "ply") throw malformed("the first line is not 'ply'", 1);
-  std::string format;
-  std::vector<PlyElement> elements;
+  PlyLayout layout;
+  std::string& format = layout.format;
+  std::vector<PlyElement>& elements = layout.elements;
+  std::size_t declarations = 0;  // element and property lines so far: where a comment stands
   for (;;) {
     header_line();
-    if (t.empty() || t[0] == "comment" || t[0] == "obj_info") continue;
+    if (t.empty()) continue;
+    if (t[0] == "comment" || t[0] == "obj_info") {
+      // Kept verbatim but for a line end's '\r' and this writer's own stamp (written anew).
+      std::string_view text = raw;
+      while (!text.empty() && text.back() == '\r') text.remove_suffix(1);
+      if (!(t[0] == "comment" && t.size() > 3 && t[1] == "written" && t[2] == "by" && t[3] == "mlsdeform"))
+        layout.header.push_back({declarations, std::string(text)});
+      continue;
+    }
     if (t[0] == "end_header") break;
     if (t[0] == "format") {
       if (t.size() != 3 || t[2] != "1.0" ||
@@ -182,15 +95,16 @@ BasicMesh<T> read_ply(Reader& reader, const std::string& path) {
       for (const auto& other : elements)
         if (other.name == e.name) throw malformed("element " + shown(e.name) + " declared twice", line_no);
       elements.push_back(e);
+      ++declarations;
     } else if (t[0] == "property") {
       if (elements.empty()) throw malformed("a property before any element", line_no);
       PlyProperty p;
       if (t.size() == 5 && t[1] == "list") {
         p.list = true;
-        if (!scalar_type(t[2], p.count_type) || !scalar_type(t[3], p.type) || !is_integer(p.count_type))
+        if (!parse_scalar(t[2], p.count_type) || !parse_scalar(t[3], p.type) || !is_integer(p.count_type))
           throw malformed("bad list property types", line_no);
         p.name = std::string(t[4]);
-      } else if (t.size() == 3 && scalar_type(t[1], p.type)) {
+      } else if (t.size() == 3 && parse_scalar(t[1], p.type)) {
         p.name = std::string(t[2]);
       } else {
         throw malformed("expected 'property TYPE NAME' or 'property list COUNT_TYPE TYPE NAME'", line_no);
@@ -198,6 +112,7 @@ BasicMesh<T> read_ply(Reader& reader, const std::string& path) {
       for (const auto& other : elements.back().properties)
         if (other.name == p.name) throw malformed("property " + shown(p.name) + " declared twice", line_no);
       elements.back().properties.push_back(p);
+      ++declarations;
     } else {
       throw malformed("unknown header line " + shown(t[0]), line_no);
     }
@@ -209,7 +124,8 @@ BasicMesh<T> read_ply(Reader& reader, const std::string& path) {
   const bool big_endian = format == "binary_big_endian";
 
   // What we read: vertex x, y, z and face vertex_indices (or vertex_index).
-  int vertex_element = -1, face_element = -1;
+  int& vertex_element = layout.vertex_element;
+  int& face_element = layout.face_element;
   int xyz[3] = {-1, -1, -1}, indices = -1;
   for (std::size_t e = 0; e < elements.size(); ++e) {
     const auto& el = elements[e];
@@ -235,8 +151,8 @@ BasicMesh<T> read_ply(Reader& reader, const std::string& path) {
   const std::size_t body = reader.remaining();
   std::size_t min_total = 0;
   for (const auto& el : elements) {
-    check_count(el.count, el.min_bytes(binary), body, el.name + " elements", path, "header");
-    min_total += std::size_t(el.count) * el.min_bytes(binary);
+    check_count(el.count, min_bytes(el, binary), body, el.name + " elements", path, "header");
+    min_total += std::size_t(el.count) * min_bytes(el, binary);
   }
   if (min_total > body)
     throw InputError(path,
@@ -250,8 +166,9 @@ BasicMesh<T> read_ply(Reader& reader, const std::string& path) {
   // 2^32 - 1) needs double's 53 bits, like a double: written back as float it would be rounded.
   mesh.stored_type = CoordinateType::float32;
   for (int c = 0; c < 3; ++c) {
-    const Scalar type = vertex_properties[std::size_t(xyz[c])].type;
-    if (type == Scalar::f64 || type == Scalar::i32 || type == Scalar::u32) mesh.stored_type = CoordinateType::float64;
+    const PlyScalar type = vertex_properties[std::size_t(xyz[c])].type;
+    if (type == PlyScalar::f64 || type == PlyScalar::i32 || type == PlyScalar::u32)
+      mesh.stored_type = CoordinateType::float64;
   }
   const std::uint64_t nv = elements[std::size_t(vertex_element)].count;
   mesh.vertices.resize(Eigen::Index(nv), 3);
@@ -260,7 +177,13 @@ BasicMesh<T> read_ply(Reader& reader, const std::string& path) {
   Lines ascii(reader, line_no + 1);
   std::vector<double> values;
   for (std::size_t e = 0; e < elements.size(); ++e) {
-    const auto& el = elements[e];
+    auto& el = elements[e];
+    // Stored in the file's types: at most 8 bytes per value, and the counts were checked against the body.
+    const bool lists = el.has_lists();
+    std::vector<std::size_t> offsets;
+    for (std::size_t k = 0; !lists && k < el.properties.size(); ++k) offsets.push_back(el.offset(k));
+    const std::size_t stride = lists ? 0 : el.stride();
+    if (!lists) el.data.reserve(std::size_t(el.count) * stride);
     for (std::uint64_t i = 0; i < el.count; ++i) {
       // Built only for a message: most elements are fine.
       auto item = [&] { return el.name + " " + std::to_string(i); };
@@ -269,32 +192,44 @@ BasicMesh<T> read_ply(Reader& reader, const std::string& path) {
       auto truncated = [&] {
         return malformed("truncated in " + el.name + " " + std::to_string(i) + " of " + std::to_string(el.count));
       };
-      // Each property's values, lists flattened after their count.
+      // Each property's values, lists flattened after their count; stored in el.data as they are read.
       values.clear();
       std::size_t list_begin = 0, list_size = 0;
-      if (binary) {
+      if (binary && !lists) {
+        // A fixed-size item (every vertex element): its bytes at once, each value then put in the machine's
+        // order where the file's is the other.
+        const std::size_t at = el.data.size();
+        el.data.resize(at + stride);
+        if (!reader.bytes(reinterpret_cast<char*>(el.data.data() + at), stride)) throw truncated();
+        for (std::size_t k = 0; k < el.properties.size(); ++k) {
+          unsigned char* b = el.data.data() + at + offsets[k];
+          if (big_endian != (std::endian::native == std::endian::big))
+            std::reverse(b, b + size_of(el.properties[k].type));
+          values.push_back(ply_load(el.properties[k].type, b));
+        }
+      } else if (binary) {
         for (std::size_t k = 0; k < el.properties.size(); ++k) {
           const auto& p = el.properties[k];
           double v = 0;
           if (!p.list) {
-            if (!read_binary(reader, p.type, big_endian, v)) throw truncated();
+            if (!read_binary(reader, p.type, big_endian, el.data, v)) throw truncated();
             values.push_back(v);
             continue;
           }
-          if (!read_binary(reader, p.count_type, big_endian, v)) throw truncated();
+          if (!read_binary(reader, p.count_type, big_endian, el.data, v)) throw truncated();
           if (v < 0) throw malformed("negative list length in " + item());
           const auto n = std::uint64_t(v);
           if (n * size_of(p.type) > reader.remaining()) throw truncated();
           if (int(k) == indices) list_begin = values.size(), list_size = std::size_t(n);
           for (std::uint64_t j = 0; j < n; ++j) {
-            if (!read_binary(reader, p.type, big_endian, v)) throw truncated();
+            if (!read_binary(reader, p.type, big_endian, el.data, v)) throw truncated();
             values.push_back(v);
           }
         }
       } else {
         if (!ascii.next_content(t)) throw truncated();
         std::size_t tok = 0;
-        auto take = [&](Scalar s) {
+        auto take = [&](PlyScalar s) {
           if (tok >= t.size()) throw InputError(path, "too few values for " + item(), where());
           double v = 0;
           std::errc ec;
@@ -303,7 +238,7 @@ BasicMesh<T> read_ply(Reader& reader, const std::string& path) {
             ec = read_number(t[tok], n);
             if (ec == std::errc() && !fits(s, n)) ec = std::errc::result_out_of_range;
             v = double(n);
-          } else if (s == Scalar::f32) {
+          } else if (s == PlyScalar::f32) {
             float f = 0;  // parsed as float: correctly rounded once (decimal -> double -> float could round twice)
             ec = read_number(t[tok], f);
             v = f;
@@ -314,6 +249,9 @@ BasicMesh<T> read_ply(Reader& reader, const std::string& path) {
             throw InputError(path, shown(t[tok]) + " in " + item() + " is out of the range of its type", where());
           if (ec != std::errc()) throw InputError(path, "not a number: " + shown(t[tok]) + " in " + item(), where());
           ++tok;
+          // Stored as its type: exact (an integer that fits, or the float or double just parsed).
+          el.data.resize(el.data.size() + size_of(s));
+          ply_store(s, v, el.data.data() + el.data.size() - size_of(s));
           return v;
         };
         for (std::size_t k = 0; k < el.properties.size(); ++k) {
@@ -360,6 +298,7 @@ BasicMesh<T> read_ply(Reader& reader, const std::string& path) {
                            : "data after the last element (" + at_line(ascii.line()) + ")");
   if (nv == 0) throw InputError(path, "no vertices");
   mesh.face_indices = to_vector(corners);
+  mesh.extras.ply = std::move(layout);
   return mesh;
 }
 

@@ -171,6 +171,7 @@ class Lines {
     std::string_view l;
     if (!reader_.line(l)) return false;
     ++line_;
+    raw_ = l;
     if (const auto hash = l.find('#'); hash != std::string_view::npos) l = l.substr(0, hash);
     split(l, tokens);
     return true;
@@ -182,10 +183,13 @@ class Lines {
     return false;
   }
   std::size_t line() const { return line_; }
+  /// The last line as read (comment included), valid until the next call; tokens are views into it.
+  std::string_view raw() const { return raw_; }
 
  private:
   Reader& reader_;
   std::size_t line_;
+  std::string_view raw_;
 };
 
 /// The blocks' contents as one array; the blocks are freed.
@@ -201,6 +205,13 @@ std::vector<T> to_vector(std::deque<T>& blocks) {
 template <class T>
 bool finite3(const T* c) {
   return std::isfinite(c[0]) && std::isfinite(c[1]) && std::isfinite(c[2]);
+}
+
+/// What follows `last` (a token of `raw`) on the line, without trailing blanks or a line end's '\r'.
+inline std::string_view tail_after(std::string_view raw, std::string_view last) {
+  std::string_view tail = raw.substr(std::size_t(last.data() + last.size() - raw.data()));
+  while (!tail.empty() && (tail.back() == '\r' || tail.back() == ' ' || tail.back() == '\t')) tail.remove_suffix(1);
+  return tail;
 }
 
 /// The message for a vertex with an infinite or NaN coordinate.

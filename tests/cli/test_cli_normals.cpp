@@ -1,0 +1,220 @@
+// Input normals carried through each vertex's linear part (transform_normals, tools/cli/attributes_ops.cpp):
+// n' = L^-T n renormalised, against a long-double reference; OBJ normals split per vertex where corners of
+// vertices with different linear parts share one; what the program drops is named, and --strict-attributes
+// refuses it.
+#include "tests/cli/cube_fixture.hpp"
+
+#include "tools/cli/file_io.hpp"
+#include "tools/cli/mesh.hpp"
+
+#include <Eigen/Dense>
+#include <catch2/catch.hpp>
+
+#include <cmath>
+#include <random>
+
+using namespace mlsdeform;
+using namespace mlsdeform::cli;
+using cli_test::ScratchDir;
+using cli_test::write_text;
+
+namespace {
+
+using Mat = Eigen::Matrix<long double, 3, 3>;
+using Vec = Eigen::Matrix<long double, 3, 1>;
+
+// The reference: L^-T n / |L^-T n| in long double, from the float matrix as stored.
+Vec reference(const float* l, const double* n) {
+  Mat m;
+  for (int r = 0; r < 3; ++r)
+    for (int c = 0; c < 3; ++c) m(r, c) = l[3 * r + c];
+  const Vec v = m.inverse().transpose() * Vec(n[0], n[1], n[2]);
+  return v / v.norm();
+}
+
+// transform_normals computes in double: the cofactors (two products and a difference, each rounded once: at
+// most 3 u of entries of magnitude <= 1 for the well-conditioned L used here), their product with a unit
+// vector (three terms and two sums: <= 12 u), and the renormalisation (a square root, a division and the
+// scaling: <= 4 u relative): under 16 u per component; 32 u leaves room for the reference's own rounding and
+// for L^-T's norm of up to 2 in the similarity and affine cases (u = 2^-53).
+const double kTolerance = 32 * std::ldexp(1.0, -53);
+
+// Linear parts: rotations about different axes, a similarity (2 R), an affine map with det < 0, by vertex.
+std::vector<float> linear_parts(std::size_t n, std::uint64_t seed) {
+  std::mt19937_64 rng(seed);
+  std::uniform_real_distribution<float> angle(-3.1f, 3.1f);
+  std::vector<float> l(9 * n);
+  for (std::size_t i = 0; i < n; ++i) {
+    const Eigen::Vector3f axis = Eigen::Vector3f::Random().normalized();
+    Eigen::Matrix3f m = Eigen::AngleAxisf(angle(rng), axis).toRotationMatrix();
+    if (i % 3 == 1) m *= 2.0f;
+    if (i % 3 == 2) m = m * Eigen::Vector3f(1.0f, -1.5f, 0.75f).asDiagonal();  // det < 0, non-uniform
+    for (int r = 0; r < 3; ++r)
+      for (int c = 0; c < 3; ++c) l[9 * i + std::size_t(3 * r + c)] = m(r, c);
+  }
+  return l;
+}
+
+const char* cube_with_normals =
+    "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nv 0 0 1\nv 1 0 1\nv 1 1 1\nv 0 1 1\n"
+    "vn 0 0 -1\nvn 0 0 1\nvn 0 -1 0\nvn 1 0 0\nvn 0 1 0\nvn -1 0 0\n"
+    "f 1//1 4//1 3//1 2//1\nf 5//2 6//2 7//2 8//2\nf 1//3 2//3 6//3 5//3\n"
+    "f 2//4 3//4 7//4 6//4\nf 3//5 4//5 8//5 7//5\nf 4//6 1//6 5//6 8//6\n";
+
+}  // namespace
+
+TEST_CASE("OBJ normals: each corner's normal is its vertex's L^-T n, split per vertex", "[cli][attributes]") {
+  ScratchDir dir;
+  write_text(dir / "cube.obj", cube_with_normals);
+  const Mesh rest = read_mesh(dir / "cube.obj");
+  const std::uint64_t seed = std::random_device{}();
+  INFO("seed " << seed);
+  const std::vector<float> l = linear_parts(8, seed);
+  Mesh m = rest;
+  transform_normals(m, l.data());
+  const ObjExtras& x = *m.extras.obj;
+  CHECK(x.normals_rewritten);
+  // Every vertex is in 3 faces with 3 different normals: 24 (vn, vertex) pairs, 24 normals.
+  CHECK(x.normals.size() == 3 * 24);
+  for (std::size_t c = 0; c < m.face_indices.size(); ++c) {
+    const std::size_t v = m.face_indices[c], k = rest.extras.obj->corner_normals[c];
+    const Vec want = reference(&l[9 * v], &rest.extras.obj->normals[3 * k]);
+    for (int r = 0; r < 3; ++r)
+      CHECK(std::fabs(double(x.normals[3 * x.corner_normals[c] + std::size_t(r)] - want(r))) <= kTolerance);
+  }
+  // Written and read back: the corners name the normals written, as floats (the mesh's type: the shortest
+  // text of each float, which reads back to that float).
+  write_mesh(m, dir / "out.obj", {true});
+  const Mesh back = read_mesh(dir / "out.obj");
+  REQUIRE(back.extras.obj->corner_normals.size() == m.face_indices.size());
+  for (std::size_t c = 0; c < m.face_indices.size(); ++c)
+    for (int r = 0; r < 3; ++r)
+      CHECK(float(back.extras.obj->normals[3 * back.extras.obj->corner_normals[c] + std::size_t(r)]) ==
+            float(x.normals[3 * x.corner_normals[c] + std::size_t(r)]));
+  CHECK(back.face_indices == rest.face_indices);
+}
+
+TEST_CASE("OBJ normals: one vn shared by the corners of one vertex stays one", "[cli][attributes]") {
+  ScratchDir dir;
+  // Every corner of vertex i names vn i (smooth shading): 8 pairs, 8 normals, whatever the linear parts.
+  std::string smooth = "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nv 0 0 1\nv 1 0 1\nv 1 1 1\nv 0 1 1\n";
+  for (int i = 0; i < 8; ++i) smooth += "vn " + std::to_string(i & 1 ? 1 : -1) + " 1 0\n";
+  smooth += "f 1//1 4//4 3//3 2//2\nf 5//5 6//6 7//7 8//8\nf 1//1 2//2 6//6 5//5\n";
+  write_text(dir / "smooth.obj", smooth);
+  Mesh m = read_mesh(dir / "smooth.obj");
+  const std::vector<float> l = linear_parts(8, 7);
+  transform_normals(m, l.data());
+  CHECK(m.extras.obj->normals.size() == 3 * 8);
+}
+
+TEST_CASE("PLY normals: nx ny nz become L^-T n, renormalised; degenerate L keeps n", "[cli][attributes]") {
+  ScratchDir dir;
+  const std::uint64_t seed = std::random_device{}();
+  INFO("seed " << seed);
+  std::mt19937_64 rng(seed);
+  const std::size_t n = 30;
+  std::string ply = "ply\nformat ascii 1.0\nelement vertex " + std::to_string(n) +
+                    "\nproperty float x\nproperty float y\nproperty float z\nproperty double nx\nproperty double ny\n"
+                    "property double nz\nproperty uchar red\nend_header\n";
+  std::normal_distribution<double> g;
+  std::vector<double> normals;
+  for (std::size_t i = 0; i < n; ++i) {
+    const double v[3] = {g(rng), g(rng), g(rng)};
+    normals.insert(normals.end(), v, v + 3);
+    ply += "0 0 " + std::to_string(i) + " " + std::to_string(v[0]) + " " + std::to_string(v[1]) + " " +
+           std::to_string(v[2]) + " 9\n";
+  }
+  write_text(dir / "cloud.ply", ply);
+  const Mesh rest = read_mesh(dir / "cloud.ply");
+  for (std::size_t i = 0; i < n; ++i)  // the normals as read (std::to_string rounded them to 6 decimals)
+    for (int c = 0; c < 3; ++c)
+      normals[3 * i + std::size_t(c)] = rest.extras.ply->vertices().get(i, std::size_t(3 + c));
+  std::vector<float> l = linear_parts(n, seed);
+  std::fill(l.begin(), l.begin() + 9, 0.0f);                      // vertex 0: L = 0, no direction to give
+  for (int k : {0, 1, 2, 3, 4, 5}) l[9 + std::size_t(k)] = 0.0f;  // vertex 1: rank 1
+  l[9 + 6] = 1.0f;
+  Mesh m = rest;
+  transform_normals(m, l.data());
+  const PlyElement& v = m.extras.ply->vertices();
+  for (std::size_t i = 0; i < n; ++i) {
+    INFO("vertex " << i);
+    const double* n0 = &normals[3 * i];
+    Vec want;
+    if (i < 2)  // kept, unit length
+      want = Vec(n0[0], n0[1], n0[2]).normalized();
+    else
+      want = reference(&l[9 * i], n0);
+    for (int c = 0; c < 3; ++c) CHECK(std::fabs(double(v.get(i, std::size_t(3 + c)) - want(c))) <= kTolerance);
+    CHECK(v.get(i, 6) == 9);  // the colour passes through
+  }
+}
+
+TEST_CASE("attributes another format cannot keep are named; --strict-attributes refuses them", "[cli][attributes]") {
+  const std::string cube_ply =
+      "ply\nformat ascii 1.0\nelement vertex 8\nproperty float x\nproperty float y\nproperty float z\n"
+      "property uchar red\nelement face 6\nproperty list uchar int vertex_indices\nend_header\n"
+      "0 0 0 1\n1 0 0 2\n1 1 0 3\n0 1 0 4\n0 0 1 5\n1 0 1 6\n1 1 1 7\n0 1 1 8\n"
+      "4 0 3 2 1\n4 4 5 6 7\n4 0 1 5 4\n4 1 2 6 5\n4 2 3 7 6\n4 3 0 4 7\n";
+  cli_test::Fixture f;
+  write_text(f.in + "/cube.ply", cube_ply);
+  const auto kept = cli_test::deform(f.in + "/cube.ply", f.in + "/shear.json", f.out + "/a.ply");
+  CHECK(kept.exit_code == 0);
+  CHECK(kept.err.empty());
+  CHECK(kept.out.find("attributes: kept vertex properties red\n") != std::string::npos);
+  const auto dropped = cli_test::deform(f.in + "/cube.ply", f.in + "/shear.json", f.out + "/b.obj", {"-q"});
+  CHECK(dropped.exit_code == 0);
+  CHECK(dropped.err == "mlsdeform: dropped from " + f.in + "/cube.ply: vertex properties red\n");
+  cli_test::Fixture g;  // its output folder stays empty
+  write_text(g.in + "/cube.ply", cube_ply);
+  cli_test::require_bad_input(
+      g,
+      {"deform", "-m", g.in + "/cube.ply", "-H", g.in + "/shear.json", "-o", g.out + "/c.obj", "--strict-attributes"},
+      g.in + "/cube.ply: the output " + g.out + "/c.obj cannot keep: vertex properties red (--strict-attributes)");
+}
+
+TEST_CASE("normals computed on request: area-weighted, in place of the input's or added", "[cli][attributes]") {
+  cli_test::Fixture f;
+  // The cube has no normals: none are written by default, one per vertex on request (OBJ: f v//vn).
+  const auto plain = cli_test::deform(f.in + "/cube.obj", f.in + "/shear.json", f.out + "/a.obj", {"-q"});
+  REQUIRE(plain.exit_code == 0);
+  CHECK(cli_test::read_text(f.out + "/a.obj").find("\nvn ") == std::string::npos);
+  const auto computed =
+      cli_test::deform(f.in + "/cube.obj", f.in + "/shear.json", f.out + "/b.obj", {"-q", "--normals", "computed"});
+  REQUIRE(computed.exit_code == 0);
+  const Mesh b = read_mesh(f.out + "/b.obj");
+  CHECK(b.extras.obj->normals.size() == 3 * 8);
+  CHECK(cli_test::read_text(f.out + "/b.obj").find("\nf 1//1 4//4 3//3 2//2\n") != std::string::npos);
+  // A PLY with colours and no normals gets three new properties after its own, the colours kept.
+  write_text(f.in + "/c.ply",
+             "ply\nformat ascii 1.0\nelement vertex 4\nproperty float x\nproperty float y\nproperty float z\n"
+             "property uchar red\nelement face 2\nproperty list uchar int vertex_indices\nend_header\n"
+             "0 0 0 1\n1 0 0 2\n1 1 0 3\n0 1 0 4\n3 0 1 2\n3 0 2 3\n");
+  write_text(f.in + "/still.json", R"({"points": [{"vertex": 0}, {"vertex": 2}]})");
+  const auto ply = cli_test::deform(f.in + "/c.ply", f.in + "/still.json", f.out + "/c.ply",
+                                    {"-q", "--normals", "computed", "--ply-ascii"});
+  REQUIRE(ply.exit_code == 0);
+  const std::string text = cli_test::read_text(f.out + "/c.ply");
+  CHECK(text.find("property uchar red\nproperty float nx\nproperty float ny\nproperty float nz\n") !=
+        std::string::npos);
+  CHECK(text.find("\n0 0 0 1 0 0 1\n") != std::string::npos);  // the unit normal of the square in z = 0
+}
+
+TEST_CASE("an affine fit has no linear part: the input's normals are dropped and named", "[cli][attributes]") {
+  cli_test::Fixture f;
+  std::string ply =
+      "ply\nformat ascii 1.0\nelement vertex 8\nproperty float x\nproperty float y\nproperty float z\n"
+      "property float nx\nproperty float ny\nproperty float nz\nend_header\n";
+  for (int i = 0; i < 8; ++i)
+    ply += std::to_string(i & 1) + " " + std::to_string((i >> 1) & 1) + " " + std::to_string(i >> 2) + " 0 0 1\n";
+  write_text(f.in + "/cloud.ply", ply);
+  const auto r = cli_test::deform(f.in + "/cloud.ply", f.in + "/shear.json", f.out + "/a.ply",
+                                  {"-q", "-t", "affine", "--ply-ascii"});
+  REQUIRE(r.exit_code == 0);
+  CHECK(r.err == "mlsdeform: dropped from " + f.in +
+                     "/cloud.ply: normals (nx ny nz) (no linear part to transform them by: affine fits)\n");
+  CHECK(cli_test::read_text(f.out + "/a.ply").find(" nx\n") == std::string::npos);
+  const auto strict = cli_test::deform(f.in + "/cloud.ply", f.in + "/shear.json", f.out + "/b.ply",
+                                       {"-t", "affine", "--strict-attributes"});
+  CHECK(strict.exit_code == 2);
+  CHECK(!std::filesystem::exists(f.out + "/b.ply"));
+}

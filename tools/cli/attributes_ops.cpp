@@ -1,0 +1,276 @@
+// What the program does with a mesh's attributes (attributes.hpp): normals transformed by each vertex's linear
+// part, and the report of what a write keeps, transforms and drops.
+#include "tools/cli/error.hpp"
+#include "tools/cli/file_io.hpp"
+#include "tools/cli/mesh.hpp"
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <unordered_map>
+
+namespace mlsdeform::cli {
+namespace {
+
+/// v / |v|, scaled first by its largest component so that no square overflows or underflows; false (v left
+/// alone) for a zero or non-finite v.
+bool normalise(double* v) {
+  const double big = std::max(std::max(std::fabs(v[0]), std::fabs(v[1])), std::fabs(v[2]));
+  if (!(big > 0) || !std::isfinite(big)) return false;
+  const double inv = 1 / big, s[3] = {v[0] * inv, v[1] * inv, v[2] * inv};
+  const double inv_len = 1 / std::sqrt(s[0] * s[0] + s[1] * s[1] + s[2] * s[2]);
+  for (int r = 0; r < 3; ++r) v[r] = s[r] * inv_len;
+  return true;
+}
+
+/// n' = L^-T n renormalised, through the cofactor matrix: cof(L) = det(L) L^-T, so L^-T n points along
+/// sign(det L) cof(L) n, which needs no division and stays defined for a singular L of rank 2 (the normal of
+/// the plane L flattens onto). The input is made unit first (any finite normal, however long, then transforms
+/// without overflow). Where the result is zero or not finite (L of rank < 2, or non-finite), the input normal
+/// is kept, unit length: there is no transformed direction to give. A zero or non-finite input is kept as
+/// it is. In double: float input is exact in it, and the rounding to the output type comes once, at the end.
+template <class T>
+void transformed(const T* l, const double* n, double* out) {
+  double u[3] = {n[0], n[1], n[2]};
+  if (!normalise(u)) {
+    std::copy(n, n + 3, out);
+    return;
+  }
+  const double a = double(l[0]), b = double(l[1]), c = double(l[2]);
+  const double d = double(l[3]), e = double(l[4]), f = double(l[5]);
+  const double g = double(l[6]), h = double(l[7]), i = double(l[8]);
+  const double cof[9] = {e * i - f * h, f * g - d * i, d * h - e * g,   // row 0 of cof(L)
+                         c * h - b * i, a * i - c * g, b * g - a * h,   // row 1
+                         b * f - c * e, c * d - a * f, a * e - b * d};  // row 2
+  const double det = a * cof[0] + b * cof[1] + c * cof[2];
+  const double sign = det < 0 ? -1.0 : 1.0;
+  double m[3];
+  for (int r = 0; r < 3; ++r) m[r] = sign * (cof[3 * r] * u[0] + cof[3 * r + 1] * u[1] + cof[3 * r + 2] * u[2]);
+  if (!normalise(m)) {
+    std::copy(u, u + 3, out);
+    return;
+  }
+  std::copy(m, m + 3, out);
+}
+
+std::string joined(const std::vector<std::string>& names, std::size_t most = 12) {
+  std::string s;
+  for (std::size_t i = 0; i < names.size() && i < most; ++i) s += (i ? ", " : "") + names[i];
+  if (names.size() > most) s += ", ... (" + std::to_string(names.size()) + " in all)";
+  return s;
+}
+
+std::string counted(std::uint64_t n, const std::string& what) { return std::to_string(n) + " " + what; }
+
+}  // namespace
+
+template <class T>
+void transform_normals(BasicMesh<T>& mesh, const T* linear) {
+  if (auto& ply = mesh.extras.ply) {
+    const auto k = ply_normals(*ply);
+    if (!k) return;
+    PlyElement& v = ply->vertices();
+    const std::size_t stride = v.stride();
+    std::size_t at[3];
+    PlyScalar type[3];
+    for (int c = 0; c < 3; ++c)
+      at[c] = v.offset((*k)[std::size_t(c)]), type[c] = v.properties[(*k)[std::size_t(c)]].type;
+    for (std::size_t i = 0; i < std::size_t(v.count); ++i) {
+      unsigned char* item = v.data.data() + i * stride;
+      const double n[3] = {ply_load(type[0], item + at[0]), ply_load(type[1], item + at[1]),
+                           ply_load(type[2], item + at[2])};
+      double out[3];
+      transformed(linear + 9 * i, n, out);
+      for (int c = 0; c < 3; ++c) ply_store(type[c], out[c], item + at[c]);
+    }
+  }
+  if (auto& obj = mesh.extras.obj; obj && !obj->corner_normals.empty()) {
+    // A vn is a normal of face corners, and corners of different vertices may share it: each (vn, vertex)
+    // pair that a corner names becomes one new vn, in the order corners first name them.
+    std::unordered_map<std::uint64_t, std::uint32_t> made;
+    std::vector<double> normals;
+    std::vector<std::uint32_t> corners(obj->corner_normals.size(), ObjExtras::kNone);
+    for (std::size_t c = 0; c < corners.size(); ++c) {
+      const std::uint32_t k = obj->corner_normals[c];
+      if (k == ObjExtras::kNone) continue;
+      const std::uint32_t vertex = mesh.face_indices[c];
+      const auto [it, fresh] = made.try_emplace(std::uint64_t(k) << 32 | vertex, std::uint32_t(normals.size() / 3));
+      if (fresh) {
+        double out[3];
+        transformed(linear + 9 * std::size_t(vertex), &obj->normals[3 * std::size_t(k)], out);
+        normals.insert(normals.end(), out, out + 3);
+      }
+      corners[c] = it->second;
+    }
+    obj->normals = std::move(normals);
+    obj->corner_normals = std::move(corners);
+    obj->normals_rewritten = true;
+  }
+}
+
+template <class T>
+FrameDonors frame_donors(const BasicMesh<T>& mesh, const Points<T>& handles) {
+  // Exact positions: the deformer snaps a vertex to a point handle only at distance 0 (snap.hpp). +0.0 makes
+  // -0 and 0 one key.
+  auto key = [](T x, T y, T z) { return std::array<T, 3>{x + T(0), y + T(0), z + T(0)}; };
+  std::vector<std::array<T, 3>> points;
+  for (Eigen::Index i = 0; i < handles.rows(); ++i) points.push_back(key(handles(i, 0), handles(i, 1), handles(i, 2)));
+  std::sort(points.begin(), points.end());
+  const auto n = std::size_t(mesh.vertex_count());
+  std::vector<bool> on_handle(n, false);
+  std::size_t count = 0;
+  for (std::size_t v = 0; v < n; ++v) {
+    const auto& p = mesh.vertices;
+    on_handle[v] = std::binary_search(points.begin(), points.end(),
+                                      key(p(Eigen::Index(v), 0), p(Eigen::Index(v), 1), p(Eigen::Index(v), 2)));
+    count += on_handle[v];
+  }
+  FrameDonors d;
+  if (count == 0) return d;
+  auto distance2 = [&](std::size_t a, std::size_t b) {
+    return (mesh.vertices.row(Eigen::Index(a)).template cast<double>() -
+            mesh.vertices.row(Eigen::Index(b)).template cast<double>())
+        .squaredNorm();
+  };
+  // The nearest face neighbour (the previous and next corner of each polygon) not on a handle.
+  std::vector<std::int64_t> donor(n, -1);
+  for (std::size_t f = 0; f < mesh.face_count(); ++f) {
+    const auto b = mesh.face_start[f], e = mesh.face_start[f + 1];
+    for (auto c = b; c < e; ++c) {
+      const std::size_t v = mesh.face_indices[c];
+      if (!on_handle[v]) continue;
+      for (const std::size_t w : {mesh.face_indices[c + 1 < e ? c + 1 : b], mesh.face_indices[c > b ? c - 1 : e - 1]})
+        if (!on_handle[w] && (donor[v] < 0 || distance2(v, w) < distance2(v, std::size_t(donor[v]))))
+          donor[v] = std::int64_t(w);
+    }
+  }
+  // Else (a point cloud, or every neighbour on a handle) the nearest vertex not on a handle.
+  for (std::size_t v = 0; v < n; ++v) {
+    if (!on_handle[v]) continue;
+    if (donor[v] < 0)
+      for (std::size_t w = 0; w < n; ++w)
+        if (!on_handle[w] && (donor[v] < 0 || distance2(v, w) < distance2(v, std::size_t(donor[v]))))
+          donor[v] = std::int64_t(w);
+    if (donor[v] < 0)
+      ++d.orphans;
+    else
+      d.pairs.emplace_back(std::uint32_t(v), std::uint32_t(donor[v]));
+  }
+  return d;
+}
+
+template <class T>
+void drop_normals(BasicMesh<T>& mesh) {
+  if (auto& ply = mesh.extras.ply) {
+    const auto k = ply_normals(*ply);
+    if (!k) return;
+    PlyElement& v = ply->vertices();
+    std::vector<bool> keep(v.properties.size(), true);
+    for (std::size_t c : *k) keep[c] = false;
+    std::vector<std::size_t> offsets;
+    for (std::size_t j = 0; j <= v.properties.size(); ++j) offsets.push_back(v.offset(j));
+    const std::size_t stride = v.stride();
+    std::vector<unsigned char> data;
+    data.reserve(std::size_t(v.count) * (stride - size_of(v.properties[(*k)[0]].type) * 3));
+    for (std::size_t i = 0; i < std::size_t(v.count); ++i)
+      for (std::size_t j = 0; j < keep.size(); ++j)
+        if (keep[j])
+          data.insert(data.end(), v.data.begin() + std::ptrdiff_t(i * stride + offsets[j]),
+                      v.data.begin() + std::ptrdiff_t(i * stride + offsets[j + 1]));
+    std::vector<PlyProperty> properties;
+    for (std::size_t j = 0; j < keep.size(); ++j)
+      if (keep[j]) properties.push_back(v.properties[j]);
+    v.properties = std::move(properties);
+    v.data = std::move(data);
+  }
+  if (auto& obj = mesh.extras.obj; obj && !obj->corner_normals.empty()) {
+    obj->normals.clear();
+    std::fill(obj->corner_normals.begin(), obj->corner_normals.end(), ObjExtras::kNone);
+    obj->normals_rewritten = true;
+  }
+}
+
+template <class T>
+AttributeReport attribute_report(const BasicMesh<T>& mesh, const std::string& out_path, NormalsOut normals,
+                                 InputNormals fate) {
+  AttributeReport r;
+  const std::string out = format_extension(out_path);
+  const MeshExtras& x = mesh.extras;
+  const bool computed = normals == NormalsOut::computed && out != "off";
+  if (computed) r.transformed.push_back("normals computed from the deformed faces");
+  auto normals_went = [&](const std::string& what) {
+    if (computed)
+      r.dropped.push_back(what + " (replaced by computed ones)");
+    else if (fate == InputNormals::transformed)
+      r.transformed.push_back(what);
+    else if (fate == InputNormals::untransformable)
+      r.dropped.push_back(what + " (no linear part to transform them by: affine fits)");
+    else
+      r.kept.push_back(what);
+  };
+  if (x.ply) {
+    const auto n = ply_normals(*x.ply);
+    std::vector<std::string> items;
+    for (std::size_t e = 0; e < x.ply->elements.size(); ++e) {
+      const PlyElement& el = x.ply->elements[e];
+      const bool is_vertex = int(e) == x.ply->vertex_element, is_face = int(e) == x.ply->face_element;
+      std::vector<std::string> names;
+      for (const PlyProperty& p : el.properties) {
+        const bool position = p.name == "x" || p.name == "y" || p.name == "z";
+        const bool normal = n && (p.name == "nx" || p.name == "ny" || p.name == "nz");
+        const bool corners = p.list && (p.name == "vertex_indices" || p.name == "vertex_index");
+        if (!(is_vertex && (position || normal)) && !(is_face && corners)) names.push_back(p.name);
+      }
+      if (is_vertex || is_face) {
+        if (!names.empty()) items.push_back((is_vertex ? "vertex properties " : "face properties ") + joined(names));
+      } else {
+        items.push_back("element " + el.name + " (" + std::to_string(el.count) + ")");
+      }
+    }
+    if (!x.ply->header.empty()) items.push_back(counted(x.ply->header.size(), "comment/obj_info lines"));
+    for (auto& s : items) (out == "ply" ? r.kept : r.dropped).push_back(s);
+    if (n) {
+      if (out == "ply")
+        normals_went("normals (nx ny nz)");
+      else if (!computed)
+        r.dropped.push_back("normals (nx ny nz)");
+    }
+  }
+  if (x.obj) {
+    std::vector<std::string> items;
+    if (x.obj->texture_coordinates) items.push_back(counted(x.obj->texture_coordinates, "vt"));
+    if (!x.obj->vertex_tails.empty())
+      items.push_back(counted(x.obj->vertex_tails.non_empty(), "vertex colours (text after v x y z)"));
+    if (x.obj->other_lines)
+      items.push_back(counted(x.obj->other_lines, "other statements (mtllib, usemtl, g, o, s, vp, l, p)"));
+    for (auto& s : items) (out == "obj" ? r.kept : r.dropped).push_back(s);
+    if (x.obj->normal_lines) {
+      const std::string vn = counted(x.obj->normal_lines, "vn");
+      if (out != "obj")
+        r.dropped.push_back(vn);
+      else if (computed || x.has_normals())
+        normals_went(vn);
+      else
+        r.kept.push_back(vn + " (no face names them)");
+    }
+  }
+  if (x.off) {
+    std::vector<std::string> items;
+    if (!x.off->vertex_tails.empty()) items.push_back(counted(x.off->vertex_tails.non_empty(), "vertex colours"));
+    if (!x.off->face_tails.empty()) items.push_back(counted(x.off->face_tails.non_empty(), "face colours"));
+    for (auto& s : items) (out == "off" ? r.kept : r.dropped).push_back(s);
+    if (x.off->comments) r.dropped.push_back(counted(x.off->comments, "comment lines"));
+  }
+  return r;
+}
+
+#define MLSDEFORM_CLI_ATTRIBUTES(T)                                         \
+  template void transform_normals(BasicMesh<T>&, const T*);                 \
+  template void drop_normals(BasicMesh<T>&);                                \
+  template FrameDonors frame_donors(const BasicMesh<T>&, const Points<T>&); \
+  template AttributeReport attribute_report(const BasicMesh<T>&, const std::string&, NormalsOut, InputNormals);
+MLSDEFORM_CLI_ATTRIBUTES(float)
+MLSDEFORM_CLI_ATTRIBUTES(double)
+#undef MLSDEFORM_CLI_ATTRIBUTES
+
+}  // namespace mlsdeform::cli

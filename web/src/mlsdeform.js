@@ -1,0 +1,114 @@
+// mlsdeform in JavaScript: the library's WebAssembly module (build-web/web/mlsdeform_wasm.mjs, the C API of
+// web/src/api_session.cpp) as an ES module. Vertices go in once and come out through Float32Array views on
+// the module's memory: a frame copies nothing and allocates nothing (docs/web.md).
+//
+//   import { loadMlsdeform } from './mlsdeform.js';
+//   const mls = await loadMlsdeform();
+//   const s = mls.createSession({ vertices, triangles, points, transform: 'rigid' });
+//   s.targets.set(moved); s.deform(); use(s.output); s.delete();
+
+const TRANSFORMS = { rigid: 0, similarity: 1, affine: 2 };
+const CENTROIDS = { mls: 0, rbf: 1 };
+
+export async function loadMlsdeform(options = {}) {
+  const moduleOptions = { ...(options.moduleOptions ?? {}) };
+  if (typeof process === 'object' && process.versions?.node) {
+    // emscripten 3.1.6's ES module still reads CommonJS globals under Node and takes the .wasm's file: URL for
+    // a path: give it the globals and the path.
+    const { createRequire } = await import('node:module');
+    const { dirname, join } = await import('node:path');
+    const { fileURLToPath } = await import('node:url');
+    const here = dirname(fileURLToPath(import.meta.url));
+    globalThis.require ??= createRequire(import.meta.url);
+    globalThis.__dirname ??= here;
+    moduleOptions.locateFile ??= (file) => join(here, file);
+  }
+  const factory = options.factory ?? (await import('./mlsdeform_wasm.mjs')).default;
+  const M = await factory(moduleOptions);
+  const fail = () => {
+    throw new Error(M.UTF8ToString(M._mls_last_error()));
+  };
+  // Copies a typed array into a fresh block of the module's memory; the caller frees it.
+  const copyIn = (array, Type) => {
+    if (!array || array.length === 0) return 0;
+    const ptr = M._malloc(array.length * Type.BYTES_PER_ELEMENT);
+    if (!ptr) throw new Error('out of memory');
+    new Type(M.HEAPU8.buffer, ptr, array.length).set(array);
+    return ptr;
+  };
+
+  class Session {
+    constructor(opts) {
+      const { vertices, triangles = null, points = null, segmentsA = null, segmentsB = null } = opts;
+      const transform = TRANSFORMS[opts.transform ?? 'rigid'];
+      const centroids = CENTROIDS[opts.centroids ?? 'mls'];
+      if (transform === undefined) throw new TypeError(`transform must be one of ${Object.keys(TRANSFORMS)}`);
+      if (centroids === undefined) throw new TypeError(`centroids must be one of ${Object.keys(CENTROIDS)}`);
+      for (const [name, a] of [['vertices', vertices], ['points', points], ['segmentsA', segmentsA], ['segmentsB', segmentsB]])
+        if (a !== null && a.length % 3 !== 0) throw new RangeError(`${name}: length ${a.length} is not a multiple of 3`);
+      if (triangles !== null && triangles.length % 3 !== 0)
+        throw new RangeError(`triangles: length ${triangles.length} is not a multiple of 3`);
+      if ((segmentsA?.length ?? 0) !== (segmentsB?.length ?? 0))
+        throw new RangeError('segmentsA and segmentsB must have the same length');
+      const ptrs = [
+        copyIn(Float32Array.from(vertices), Float32Array),
+        copyIn(triangles && Int32Array.from(triangles), Int32Array),
+        copyIn(points && Float32Array.from(points), Float32Array),
+        copyIn(segmentsA && Float32Array.from(segmentsA), Float32Array),
+        copyIn(segmentsB && Float32Array.from(segmentsB), Float32Array),
+      ];
+      try {
+        this._s = M._mls_session_create(ptrs[0], vertices.length / 3, ptrs[1], (triangles?.length ?? 0) / 3,
+          ptrs[2], (points?.length ?? 0) / 3, ptrs[3], ptrs[4], (segmentsA?.length ?? 0) / 3, transform,
+          opts.weightExponent ?? 2, centroids, opts.arapIterations ?? 0, opts.scalar ? 0 : -1);
+      } finally {
+        for (const p of ptrs) if (p) M._free(p);
+      }
+      if (!this._s) fail();
+      this.vertexCount = M._mls_session_vertex_count(this._s);
+      this.pointCount = M._mls_session_point_count(this._s);
+      this.segmentCount = M._mls_session_segment_count(this._s);
+      this._views();
+    }
+    // The views are remade only when the module's memory grew (which detaches the old buffer).
+    _views() {
+      const buffer = M.HEAPF32.buffer;
+      if (this._buffer === buffer) return;
+      this._buffer = buffer;
+      const k = this.pointCount, s = this.segmentCount;
+      this._targets = new Float32Array(buffer, M._mls_session_targets(this._s), 3 * (k + 2 * s));
+      this._output = new Float32Array(buffer, M._mls_session_output(this._s), 3 * this.vertexCount);
+    }
+    _alive() {
+      if (!this._s) throw new Error('mlsdeform: the session was deleted');
+    }
+    /** The handles' targets, xyz: the point handles, then the segments' first ends, then their second ends. */
+    get targets() {
+      this._alive();
+      this._views();
+      return this._targets;
+    }
+    /** The deformed vertices, xyz, written by deform(). */
+    get output() {
+      this._alive();
+      this._views();
+      return this._output;
+    }
+    /** Deforms with the current targets into output; throws an Error with the library's message. */
+    deform() {
+      this._alive();
+      if (M._mls_session_deform(this._s) !== 0) fail();
+      return this.output;
+    }
+    delete() {
+      if (this._s) M._mls_session_delete(this._s);
+      this._s = 0;
+      this._targets = this._output = this._buffer = null;
+    }
+  }
+
+  return {
+    createSession: (opts) => new Session(opts),
+    module: M,
+  };
+}

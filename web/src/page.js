@@ -1,0 +1,353 @@
+// The page (docs/web.md): a mesh and its handles, the library's deformer in WebAssembly, three.js to show and
+// drag. ?mesh=<url>&handles=<url> opens a pose (defaults: the bundled human bending); window.mlsdeformPage is
+// the automation interface the browser tests use.
+import * as THREE from 'three';
+import { OrbitControls } from 'three/addons/controls/OrbitControls.js';
+import { TransformControls } from 'three/addons/controls/TransformControls.js';
+import { loadMlsdeform } from './mlsdeform.js';
+import { parseObj, encodeObj, encodePly, parseHandles, encodeHandles, InputError } from './formats.js';
+import { benchmark } from './bench.js';
+import { installInteraction } from './interaction.js';
+
+const $ = (id) => document.getElementById(id);
+const showError = (e) => {
+  $('error').textContent = e ? String(e.message ?? e) : '';
+};
+
+// --- view -----------------------------------------------------------------------------------------------
+const renderer = new THREE.WebGLRenderer({ antialias: true, preserveDrawingBuffer: true });
+renderer.setPixelRatio(window.devicePixelRatio);
+$('view').appendChild(renderer.domElement);
+const scene = new THREE.Scene();
+scene.background = new THREE.Color(0x20242a);
+scene.add(new THREE.HemisphereLight(0xffffff, 0x404050, 1.2));
+const sun = new THREE.DirectionalLight(0xffffff, 1.6);
+sun.position.set(2, 3, 4);
+scene.add(sun);
+const camera = new THREE.PerspectiveCamera(40, 1, 0.01, 100);
+const orbit = new OrbitControls(camera, renderer.domElement);
+const gizmo = new TransformControls(camera, renderer.domElement);
+gizmo.setSize(0.7);
+scene.add(gizmo.getHelper());
+gizmo.addEventListener('dragging-changed', (e) => {
+  orbit.enabled = !e.value;
+  if (e.value) pushUndo();
+});
+const resize = () => {
+  const w = window.innerWidth, h = window.innerHeight;
+  renderer.setSize(w, h);
+  camera.aspect = w / h;
+  camera.updateProjectionMatrix();
+};
+window.addEventListener('resize', resize);
+resize();
+
+// --- state ----------------------------------------------------------------------------------------------
+const state = { mls: null, mesh: null, handles: null, session: null, object: null, markers: [], selected: -1, group: [], frameMs: [] };
+const undoStack = [], redoStack = [];
+const snapshot = () => JSON.stringify(state.handles);
+
+function options() {
+  return {
+    transform: $('transform').value,
+    weightExponent: Number($('u').value),
+    centroids: $('centroids').value,
+    arapIterations: Math.max(0, Math.floor(Number($('arap').value))),
+  };
+}
+
+const flat = (list) => list.flat();
+
+/** A new session for the current mesh, handles and switches (the rest pose changed, or an option did). */
+function rebuild() {
+  const { mesh, handles } = state;
+  const o = options();
+  const session = state.mls.createSession({
+    vertices: mesh.vertices,
+    triangles: o.arapIterations > 0 ? mesh.triangles : null,
+    points: flat(handles.points.map((p) => p.rest)),
+    segmentsA: flat(handles.segments.map((s) => s.restA)),
+    segmentsB: flat(handles.segments.map((s) => s.restB)),
+    ...o,
+  });
+  state.session?.delete();
+  state.session = session;
+  deform();
+}
+
+/** Copies the targets into the session, deforms, and shows the result. */
+function deform() {
+  const { session, handles } = state;
+  const t = session.targets;
+  const k = handles.points.length, s = handles.segments.length;
+  handles.points.forEach((p, i) => t.set(p.target, 3 * i));
+  handles.segments.forEach((g, i) => {
+    t.set(g.targetA, 3 * (k + i));
+    t.set(g.targetB, 3 * (k + s + i));
+  });
+  const t0 = performance.now();
+  session.deform();
+  const ms = performance.now() - t0;
+  state.frameMs.push(ms);
+  if (state.frameMs.length > 60) state.frameMs.shift();
+  const mean = state.frameMs.reduce((a, b) => a + b, 0) / state.frameMs.length;
+  $('timing').textContent = `deform: ${ms.toFixed(3)} ms (mean of ${state.frameMs.length}: ${mean.toFixed(3)} ms)`;
+  const position = state.object.geometry.attributes.position;
+  position.array.set(session.output);
+  position.needsUpdate = true;
+  state.object.geometry.computeVertexNormals();
+  state.object.geometry.computeBoundingSphere();
+  placeMarkers();
+}
+
+/** The handles' markers at their targets: moved in place while the handles stay the same (the gizmo holds one). */
+function placeMarkers() {
+  const { handles } = state;
+  const k = handles.points.length;
+  if (state.markers.length !== k + handles.segments.length || state.markerRadius !== state.radius) {
+    for (const m of state.markers) scene.remove(m);
+    state.markers = [];
+    state.markerRadius = state.radius;
+    const r = state.radius * 0.012;
+    handles.points.forEach((p, i) => {
+      const m = new THREE.Mesh(new THREE.SphereGeometry(r, 16, 12), new THREE.MeshBasicMaterial());
+      m.userData.handle = i;
+      scene.add(m);
+      state.markers.push(m);
+    });
+    for (let i = 0; i < handles.segments.length; ++i) {
+      const line = new THREE.Line(new THREE.BufferGeometry().setFromPoints([new THREE.Vector3(), new THREE.Vector3()]),
+        new THREE.LineBasicMaterial({ color: 0x40c4ff }));
+      scene.add(line);
+      state.markers.push(line);
+    }
+  }
+  handles.points.forEach((p, i) => {
+    const m = state.markers[i];
+    if (m !== gizmo.object || !gizmo.dragging) m.position.fromArray(p.target);
+    m.material.color.set(i === state.selected || state.group.includes(i) ? 0xffd54f : 0xff5252);
+  });
+  handles.segments.forEach((g, i) => {
+    const position = state.markers[k + i].geometry.attributes.position;
+    position.array.set(g.targetA, 0);
+    position.array.set(g.targetB, 3);
+    position.needsUpdate = true;
+  });
+  if (state.selected >= 0 && gizmo.object !== state.markers[state.selected]) gizmo.attach(state.markers[state.selected]);
+}
+
+gizmo.addEventListener('objectChange', () => {
+  if (state.selected < 0) return;
+  const p = gizmo.object.position;
+  state.handles.points[state.selected].target = [Math.fround(p.x), Math.fround(p.y), Math.fround(p.z)];
+  try {
+    deform();
+    showError(null);
+  } catch (e) {
+    showError(e);
+  }
+});
+
+function select(i) {
+  state.selected = i;
+  if (i >= 0) gizmo.setMode('translate');
+  if (i < 0) gizmo.detach();
+  placeMarkers();
+}
+
+// --- opening files --------------------------------------------------------------------------------------
+async function bytesOf(source, name) {
+  // .gz: the browser's own gzip (the module has no zlib).
+  let stream = source instanceof Blob ? source.stream() : source.body;
+  if (/\.gz$/i.test(name)) stream = stream.pipeThrough(new DecompressionStream('gzip'));
+  try {
+    return await new Response(stream).text();
+  } catch (e) {
+    throw new InputError(name, `cannot read: ${e.message}`);
+  }
+}
+
+async function fetchText(url) {
+  const r = await fetch(url);
+  if (!r.ok) throw new InputError(url, `cannot open: HTTP ${r.status}`);
+  return bytesOf(r, url);
+}
+
+/** Shows a mesh with its handles (or, without, one handle at the first vertex); all or nothing. */
+function open(mesh, handles, name) {
+  const geometry = new THREE.BufferGeometry();
+  geometry.setAttribute('position', new THREE.BufferAttribute(Float32Array.from(mesh.vertices), 3));
+  geometry.setIndex(new THREE.BufferAttribute(mesh.triangles, 1));
+  const object = new THREE.Mesh(geometry, new THREE.MeshStandardMaterial({ color: 0xc8b49a, roughness: 0.7, side: THREE.DoubleSide }));
+  const previous = { ...state };
+  Object.assign(state, { mesh, handles, object, selected: -1, group: [] });
+  geometry.computeBoundingSphere();
+  state.radius = geometry.boundingSphere.radius;
+  try {
+    rebuild();
+  } catch (e) {
+    Object.assign(state, previous);
+    throw e;
+  }
+  if (previous.object) scene.remove(previous.object);
+  scene.add(object);
+  gizmo.detach();
+  undoStack.length = redoStack.length = 0;
+  const c = geometry.boundingSphere.center;
+  orbit.target.copy(c);
+  camera.position.set(c.x, c.y, c.z + 2.8 * state.radius);
+  camera.near = state.radius / 100;
+  camera.far = state.radius * 100;
+  camera.updateProjectionMatrix();
+  $('status').textContent = `${name}: ${mesh.vertices.length / 3} vertices, ${mesh.triangles.length / 3} triangles; ` +
+    `${handles.points.length} point and ${handles.segments.length} segment handles`;
+}
+
+function defaultHandles(mesh) {
+  const v = Array.from(mesh.vertices.subarray(0, 3));
+  return { points: [{ rest: v, target: v, vertex: 0, name: '' }], segments: [] };
+}
+
+async function openFiles(meshText, meshName, handlesText, handlesName) {
+  const mesh = parseObj(meshText, meshName);
+  const handles = handlesText ? parseHandles(handlesText, handlesName, mesh) : defaultHandles(mesh);
+  open(mesh, handles, meshName);
+}
+
+async function openDropped(files) {
+  try {
+    const meshFile = files.find((f) => /\.obj(\.gz)?$/i.test(f.name));
+    const handlesFile = files.find((f) => /\.json$/i.test(f.name));
+    const unknown = files.find((f) => f !== meshFile && f !== handlesFile);
+    if (unknown) throw new InputError(unknown.name, 'unknown format (readable: .obj, .obj.gz, and a handles file .json)');
+    if (meshFile) {
+      await openFiles(await bytesOf(meshFile, meshFile.name), meshFile.name,
+        handlesFile && (await bytesOf(handlesFile, handlesFile.name)), handlesFile?.name);
+    } else if (handlesFile) {
+      const handles = parseHandles(await bytesOf(handlesFile, handlesFile.name), handlesFile.name, state.mesh);
+      pushUndo();
+      const before = state.handles;
+      state.handles = handles;
+      state.selected = -1;
+      try {
+        rebuild();
+      } catch (e) {
+        state.handles = before;  // the library refused them: the page keeps the pose it had
+        undoStack.pop();
+        throw e;
+      }
+    }
+    showError(null);
+  } catch (e) {
+    showError(e);
+  }
+}
+
+$('file').addEventListener('change', (e) => openDropped([...e.target.files]));
+window.addEventListener('dragover', (e) => {
+  e.preventDefault();
+  document.body.classList.add('dragging');
+});
+window.addEventListener('dragleave', () => document.body.classList.remove('dragging'));
+window.addEventListener('drop', (e) => {
+  e.preventDefault();
+  document.body.classList.remove('dragging');
+  openDropped([...e.dataTransfer.files]);
+});
+
+// --- editing ----------------------------------------------------------------------------------------------
+function pushUndo() {
+  undoStack.push(snapshot());
+  redoStack.length = 0;
+}
+function restore(from, to) {
+  if (!from.length) return;
+  to.push(snapshot());
+  const before = JSON.parse(from.pop());
+  const restChanged = JSON.stringify(before.points.map((p) => p.rest)) !== JSON.stringify(state.handles.points.map((p) => p.rest));
+  state.handles = before;
+  state.selected = Math.min(state.selected, before.points.length - 1);
+  if (state.group.length) interaction.setGroup([]);
+  restChanged ? rebuild() : deform();
+}
+$('undo').onclick = () => restore(undoStack, redoStack);
+$('redo').onclick = () => restore(redoStack, undoStack);
+window.addEventListener('keydown', (e) => {
+  if ((e.ctrlKey || e.metaKey) && e.key === 'z') restore(undoStack, redoStack);
+  if ((e.ctrlKey || e.metaKey) && e.key === 'y') restore(redoStack, undoStack);
+});
+for (const id of ['transform', 'u', 'centroids', 'arap'])
+  $(id).addEventListener('change', () => {
+    try {
+      rebuild();
+      showError(null);
+    } catch (e) {
+      showError(e);
+    }
+  });
+
+const interaction = installInteraction({
+  state, scene, camera, renderer, gizmo, orbit, rebuild, deform, pushUndo, select, showError, placeMarkers,
+  undoLast: () => (state.handles = JSON.parse(undoStack.pop())),
+});
+
+// --- export -----------------------------------------------------------------------------------------------
+const exportObj = () => encodeObj(state.mesh, state.session.output);
+const exportHandles = () => encodeHandles(state.handles.points, state.handles.segments);
+function save(text, name) {
+  const a = document.createElement('a');
+  a.href = URL.createObjectURL(new Blob([text], { type: 'application/octet-stream' }));
+  a.download = name;
+  a.click();
+  URL.revokeObjectURL(a.href);
+}
+$('export-obj').onclick = () => save(exportObj(), 'posed.obj');
+$('export-handles').onclick = () => save(exportHandles(), 'handles.json');
+$('export-ply').onclick = () => save(encodePly(state.mesh, state.session.output), 'posed.ply');
+
+// --- start ------------------------------------------------------------------------------------------------
+let frames = 0, fpsStart = performance.now();
+function loop() {
+  orbit.update();
+  renderer.render(scene, camera);
+  ++frames;
+  requestAnimationFrame(loop);
+}
+
+const ready = (async () => {
+  state.mls = await loadMlsdeform();
+  const params = new URLSearchParams(location.search);
+  const meshUrl = params.get('mesh') ?? 'human_man.obj';
+  const handlesUrl = params.get('handles') ?? (params.has('mesh') ? null : 'human_bend.json');
+  await openFiles(await fetchText(meshUrl), meshUrl, handlesUrl && (await fetchText(handlesUrl)), handlesUrl);
+  requestAnimationFrame(loop);
+})();
+ready.catch((e) => {
+  $('status').textContent = 'failed to open';
+  showError(e);
+});
+
+window.mlsdeformPage = {
+  ready,
+  exportObj,
+  exportHandles,
+  /** Frames rendered per second since the last call (the display rate while something is dragged). */
+  renderRate() {
+    const now = performance.now(), rate = (1000 * frames) / (now - fpsStart);
+    frames = 0;
+    fpsStart = now;
+    return rate;
+  },
+  /** Moves point handle i's target to xyz and deforms, as a drag does. */
+  moveHandle(i, xyz) {
+    state.handles.points[i].target = xyz.map(Math.fround);
+    deform();
+  },
+  handleCount: () => state.handles.points.length,
+  benchmark: (opts) => benchmark(state.mls, state.mesh, state.handles, opts),
+  /** Selects point handles as a group (two or more: the gizmo rotates them about their centroid). */
+  selectGroup: (members) => interaction.setGroup(members),
+  camera,
+  gizmo,
+  state,
+};
