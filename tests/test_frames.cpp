@@ -61,7 +61,8 @@ double quaternion_distance(const double* q, const Eigen::Vector4d& q0) {
 
 }  // namespace
 
-TEMPLATE_TEST_CASE("frames: the positions are bitwise those of deform() without frames", "[frames]", float, double) {
+TEMPLATE_TEST_CASE("frames: the positions are bitwise those of deform() without frames, any thread count", "[frames]",
+                   float, double) {
   using T = TestType;
   const IsaGuard guard;
   std::mt19937_64 g(11);
@@ -106,6 +107,12 @@ TEMPLATE_TEST_CASE("frames: the positions are bitwise those of deform() without 
           d.deform(with, f3.out());
           CHECK(with == plain);
           CHECK((f3.q == f.q && f3.l == f.l));
+          // One thread gives the same bits as all of them.
+          Options o1 = o;
+          o1.threads = 1;
+          AllFrames<T> f1(d.vertex_count());
+          Deformer<T>(k->vertices, k->rest, o1).deform(k->moved, with, f1.out());
+          CHECK((f1.q == f.q && f1.r == f.r && f1.s == f.s && f1.l == f.l));
           // Rigid: scale 1 and linear = R exactly (mu = 1 multiplies nothing).
           if (tr == Transform::rigid) {
             CHECK(std::all_of(f.s.begin(), f.s.end(), [](T s) { return s == T(1); }));
