@@ -44,7 +44,7 @@
 // snap.hpp derives the rule) take the map's limit at that handle (precompute_table.cpp). At a point handle, or a
 // segment with exact_integral weights: omega = 1 on that point handle (or 1 - t, t on the ends of that segment, t the
 // closest point) and vhat = 0, so v' = q* exactly; at a segment A = 0 and D = 0 (H = 0, the identity), at a point
-// handle (rigid, similarity, with another handle) A and D the fit's limit there, for the frames (frames.hpp). At a
+// handle (rigid, similarity, with another handle) A the fit's limit there, for the frames' rotation (frames.hpp). At a
 // segment with paper_constant weights: the coefficients of that segment alone with constant weight (omega = 1/2 at each
 // end), as if every other handle's weight had vanished.
 //

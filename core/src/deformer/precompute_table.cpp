@@ -75,8 +75,8 @@ void precompute_block(DeformerData<T>& data, std::size_t b, const Points<T>& ver
     // rotation the map has around the handle rather than the identity of H = 0. As v -> p_n the weights
     // relative to the nearest handle make H = sum_j (q_j - c) A_j^T tend to the direction of
     //   sum_{j != n} w_j (q_j - q_n)(p_j - p_n)^T,   w_j = (d_2 / |p_j - p_n|)^u (segments: their moments),
-    // with d_2 the distance to the second-nearest handle; D likewise. The position q* + mu R vhat is q_n
-    // whatever R and mu are (vhat = 0): the same bits as with A = 0.
+    // with d_2 the distance to the second-nearest handle (D stays 0: scale 1). The position q* + mu R vhat
+    // is q_n for any finite R (vhat = 0, mu = 1): the same bits as with A = 0.
     const bool limit = snapped && nearest < k && !affine && near.d_second > 0 &&
                        near.d_second < std::numeric_limits<double>::infinity();
     const bool interpolate = snapped && (nearest < k || exact) && !limit;
@@ -155,8 +155,9 @@ void precompute_block(DeformerData<T>& data, std::size_t b, const Points<T>& ver
       for (std::size_t j = 0; j < J; ++j) sum_A += A[j];
       for (std::size_t j = 0; j < J; ++j) A[j] -= omega[j] * sum_A;
       vhat = limit ? Vec3d::Zero() : Vec3d(v - p_star);
-      // Sec. 6.1: D = sum_i w_i |phat_i|^2 / S (segments: int w |phat(t)|^2 / S).
-      D = G.trace();
+      // Sec. 6.1: D = sum_i w_i |phat_i|^2 / S (segments: int w |phat(t)|^2 / S). At a point handle's limit
+      // D = 0 (mu = 1): a similarity scale beyond T's range must not reach the position as inf * 0.
+      D = limit ? 0.0 : G.trace();
       G_vertex = 0.5 * (G + G.transpose());
     }
     // H matters only up to a positive factor (the rotation fit is scale-invariant and mu = trace(R^T H) / D,
