@@ -16,6 +16,7 @@ add_library(mlsdeform_cli STATIC
   ${_cli}/attributes.cpp
   ${_cli}/attributes_ops.cpp
   ${_cli}/formats/reader.cpp
+  ${_cli}/formats/numbers.cpp
   ${_cli}/formats/obj_read.cpp
   ${_cli}/formats/off_read.cpp
   ${_cli}/formats/ply_read.cpp
