@@ -11,6 +11,7 @@ set(_cli ${CMAKE_CURRENT_SOURCE_DIR}/cli)
 # one translation unit (main.cpp): it is slow to compile.
 add_library(mlsdeform_cli STATIC
   ${_cli}/file_read.cpp
+  ${_cli}/memory_source.cpp
   ${_cli}/file_write.cpp
   ${_cli}/mesh_read.cpp
   ${_cli}/attributes.cpp
