@@ -31,12 +31,6 @@ RealParse portable_from_chars(const char* first, const char* last, double& out);
 char* portable_to_chars(char* first, char* last, float v);
 char* portable_to_chars(char* first, char* last, double v);
 
-#if defined(__cpp_lib_to_chars) && __cpp_lib_to_chars >= 201611L
-inline constexpr bool kStdRealChars = true;
-#else
-inline constexpr bool kStdRealChars = false;
-#endif
-
 /// The standard library's from_chars for R where it has one, else the portable twin.
 template <class R>
 RealParse real_from_chars(const char* first, const char* last, R& out) {
