@@ -15,6 +15,7 @@
 
 #include <catch2/catch.hpp>
 
+#include <Eigen/Eigenvalues>
 #include <Eigen/Geometry>
 
 #include <cmath>
@@ -61,7 +62,8 @@ double quaternion_distance(const double* q, const Eigen::Vector4d& q0) {
 
 }  // namespace
 
-TEMPLATE_TEST_CASE("frames: the positions are bitwise those of deform() without frames", "[frames]", float, double) {
+TEMPLATE_TEST_CASE("frames: the positions are bitwise those of deform() without frames, any thread count", "[frames]",
+                   float, double) {
   using T = TestType;
   const IsaGuard guard;
   std::mt19937_64 g(11);
@@ -106,6 +108,12 @@ TEMPLATE_TEST_CASE("frames: the positions are bitwise those of deform() without 
           d.deform(with, f3.out());
           CHECK(with == plain);
           CHECK((f3.q == f.q && f3.l == f.l));
+          // One thread gives the same bits as all of them.
+          Options o1 = o;
+          o1.threads = 1;
+          AllFrames<T> f1(d.vertex_count());
+          Deformer<T>(k->vertices, k->rest, o1).deform(k->moved, with, f1.out());
+          CHECK((f1.q == f.q && f1.r == f.r && f1.s == f.s && f1.l == f.l));
           // Rigid: scale 1 and linear = R exactly (mu = 1 multiplies nothing).
           if (tr == Transform::rigid) {
             CHECK(std::all_of(f.s.begin(), f.s.end(), [](T s) { return s == T(1); }));
@@ -188,6 +196,64 @@ TEMPLATE_TEST_CASE("frames: a rigid or similarity motion of every handle gives t
           CHECK(failures == 0);
           CHECK(checked >= c.vertices.rows() * 9 / 10);
         }
+}
+
+TEMPLATE_TEST_CASE("frames: a vertex on a point handle takes the fit's limit rotation (precomputed weights)",
+                   "[frames]", float, double) {
+  using T = TestType;
+  const IsaGuard guard;
+  std::mt19937_64 g(8);
+  testing::DeformCase<T> c = testing::random_case<T>(g, 120, 9);
+  const Eigen::Index k = c.rest.point_count();
+  for (Eigen::Index j = 0; j < k; ++j) c.vertices.row(j) = c.rest.points.row(j);  // vertex j on handle j
+  const double eps = std::numeric_limits<T>::epsilon(), orth = 1.5 * double(testing::c_o) * eps;
+  const Eigen::Vector3d axis = Eigen::Vector3d(-0.5, 0.2, 1).normalized(), shift(0.3, 0.1, -0.7);
+  for (Isa isa : supported_isas())
+    for (Transform tr : {Transform::rigid, Transform::similarity})
+      for (double angle : {1.0, std::numbers::pi}) {
+        INFO("isa " << to_string(isa) << " transform " << int(tr) << " angle " << angle);
+        const double s = tr == Transform::similarity ? 0.6 : 1.0;
+        const Eigen::Matrix3d R0 = Eigen::AngleAxisd(angle, axis).toRotationMatrix();
+        Options o;
+        o.isa = isa;
+        o.transform = tr;
+        o.weight_storage = WeightStorage::precomputed;
+        const Handles<T> moved = moved_by(c.rest, s, R0, shift);
+        const Deformer<T> d(c.vertices, c.rest, o);
+        Points<T> out, plain;
+        AllFrames<T> f(d.vertex_count());
+        d.deform(moved, out, f.out());
+        d.deform(moved, plain);
+        CHECK(out == plain);
+        for (Eigen::Index n = 0; n < k; ++n) {
+          CHECK(out.row(n) == moved.points.row(n));  // interpolated, as without frames
+          // The limit's H = s R0 C, C = sum_{j != n} w_j (p_j - p_n)(p_j - p_n)^T, w_j = |p_j - p_n|^-2 (any
+          // positive factor: the fit is scale-invariant), in long double; its gap s2 + s3 is C's. The table
+          // rounds each A_j = w_j (p_j - p_n) to T and the kernel sums H over J terms: |dH|_F <= (J + 16) eps
+          // sum_j |A_j| (|q_j - c| + |q_j|) <= (J + 16) eps 2 sum_{j != n} |A_j| 3 max |q_j| (A_n = -sum of the
+          // others, |c| <= max |q_j|); then the fit's bound as in the rigid-motion case above.
+          using LD = long double;
+          Eigen::Matrix<LD, 3, 3> C = Eigen::Matrix<LD, 3, 3>::Zero();
+          LD a_sum = 0, q_max = 0;
+          for (Eigen::Index j = 0; j < k; ++j) {
+            q_max = std::max(q_max, LD(moved.points.row(j).template cast<double>().norm()));
+            if (j == n) continue;
+            const Eigen::Matrix<LD, 3, 1> p =
+                (c.rest.points.row(j) - c.rest.points.row(n)).transpose().template cast<LD>();
+            C += p * p.transpose() / p.squaredNorm();
+            a_sum += 1 / p.norm();
+          }
+          const Eigen::SelfAdjointEigenSolver<Eigen::Matrix<LD, 3, 3>> es(C);
+          const double gap = double(s * (es.eigenvalues()(0) + es.eigenvalues()(1)));
+          const double dH = double((k + 16) * 6 * a_sum * q_max) * eps, H = double(s * C.norm());
+          const double tol_R = 2 * (dH + 16 * eps * H) / gap + orth;
+          Eigen::Matrix3d R;
+          for (int e = 0; e < 9; ++e) R(e / 3, e % 3) = double(f.r[9 * std::size_t(n) + std::size_t(e)]);
+          INFO("vertex " << n << " |R - R0| " << (R - R0).norm() << " bound " << tol_R);
+          CHECK((R - R0).norm() <= tol_R);
+          CHECK(f.s[std::size_t(n)] == T(1));  // the table's D is 0 there: mu = 1 (precompute_table.cpp)
+        }
+      }
 }
 
 TEMPLATE_TEST_CASE("frames: a region's frames are its own deformation's, the identity outside", "[frames][region]",

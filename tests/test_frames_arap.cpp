@@ -50,6 +50,12 @@ TEMPLATE_TEST_CASE("frames: ARAP's refined rotations of a rigid motion are that 
   std::vector<T> q_alone(q.size());
   d.deform(moved, out, FramesOut<T>{q_alone, {}, {}, {}});
   CHECK(q_alone == q);
+  // One thread gives the same bits as all of them.
+  Options o1 = o;
+  o1.threads = 1;
+  std::vector<T> r1(r.size());
+  Deformer<T>(t.v.template cast<T>(), t.f, rest, o1).deform(moved, out, FramesOut<T>{{}, r1, {}, {}});
+  CHECK(r1 == r);
 
   // Bound. The refiner's S_i = sum_j w_ij (x_i - x_j)(p_i - p_j)^T, with x the refined positions, is
   // R0 C_i + E_i, C_i = sum_j w_ij p_ij p_ij^T (symmetric, positive semi-definite: its polar factor is I)

@@ -11,11 +11,13 @@ set(_cli ${CMAKE_CURRENT_SOURCE_DIR}/cli)
 # one translation unit (main.cpp): it is slow to compile.
 add_library(mlsdeform_cli STATIC
   ${_cli}/file_read.cpp
+  ${_cli}/memory_source.cpp
   ${_cli}/file_write.cpp
   ${_cli}/mesh_read.cpp
   ${_cli}/attributes.cpp
   ${_cli}/attributes_ops.cpp
   ${_cli}/formats/reader.cpp
+  ${_cli}/formats/numbers.cpp
   ${_cli}/formats/obj_read.cpp
   ${_cli}/formats/off_read.cpp
   ${_cli}/formats/ply_read.cpp

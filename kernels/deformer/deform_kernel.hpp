@@ -140,8 +140,8 @@ struct DeformKernel {
     rotate_and_apply(fr, h, qs, vh, D, res);
     if (any(snapped)) {
       snap_to_handles(fr, snap, res.out);
-      // The frame of a vertex on a handle is the table's there (data.hpp: H = 0, R = I, mu = 1), not the
-      // infinite weights' NaN.
+      // The frame of a vertex on a handle: the identity, not the infinite weights' NaN (the table holds the
+      // fit's limit there instead: data.hpp).
       for (int i = 0; i < 9; ++i) res.r[i] = select(snapped, V(T(i % 4 == 0 ? 1 : 0)), res.r[i]);
       res.mu = select(snapped, V(T(1)), res.mu);
     }

@@ -19,7 +19,8 @@ namespace mlsdeform {
 /// With Options::arap_iterations > 0 the rotation is the ARAP refinement's local rotation of the result (the
 /// rotation of its one-ring, as a local step computes it), the scale 1 and the linear part that rotation.
 /// Outside Options::region the identity (scale 1). A vertex on a point handle (snapped: data.hpp) takes the
-/// identity: there the map interpolates the handle's target and its fit has no data (docs/api.md, "Frames").
+/// rotation of the fit's limit at the handle with precomputed weights (scale 1), the identity with on-the-fly
+/// weights (docs/api.md, "Frames").
 /// Affine sessions have no rotation: quaternions, rotations and scales are refused, and so is linear (the
 /// affine coefficient table holds alpha_j = A_j . G^-1 vhat, not the matrix).
 template <class T>

@@ -43,9 +43,10 @@
 // Snapped vertices (closer to a handle than 64 eps(T) times their distance to the second-nearest handle;
 // snap.hpp derives the rule) take the map's limit at that handle (precompute_table.cpp). At a point handle, or a
 // segment with exact_integral weights: omega = 1 on that point handle (or 1 - t, t on the ends of that segment, t the
-// closest point), A = 0, vhat = 0 and D = 0: H = 0, fit_rotation gives the identity, and v' = q* exactly. At a segment
-// with paper_constant weights: the coefficients of that segment alone with constant weight (omega = 1/2 at each end),
-// as if every other handle's weight had vanished.
+// closest point) and vhat = 0, so v' = q* exactly; at a segment A = 0 and D = 0 (H = 0, the identity), at a point
+// handle (rigid, similarity, with another handle) A the fit's limit there, for the frames' rotation (frames.hpp). At a
+// segment with paper_constant weights: the coefficients of that segment alone with constant weight (omega = 1/2 at each
+// end), as if every other handle's weight had vanished.
 //
 // Layout. Vertices are grouped in blocks of kLanes = 16 (padded; padding lanes carry omega = 0, A = 0,
 // vhat = 0, D = 0, alpha = 0). All arrays are 64-byte aligned.

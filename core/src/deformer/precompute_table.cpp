@@ -70,7 +70,16 @@ void precompute_block(DeformerData<T>& data, std::size_t b, const Points<T>& ver
     //     midpoints, H = (d - c)(b - a)^T / 12. Rigid maps a stretched segment rigidly, not onto c..d, so
     //     interpolating there would be a jump; similarity and affine reproduce (1 - t) c + t d.
     const bool snapped = snaps<T>(d_min, near.d_second);
-    const bool interpolate = snapped && (nearest < k || exact);
+    // At a point handle (rigid, similarity, another handle at a distance): q* = q_n and vhat = 0 as below,
+    // but A and D hold the fit's limit there, so that the vertex's frame (FramesOut, frames.hpp) is the
+    // rotation the map has around the handle rather than the identity of H = 0. As v -> p_n the weights
+    // relative to the nearest handle make H = sum_j (q_j - c) A_j^T tend to the direction of
+    //   sum_{j != n} w_j (q_j - q_n)(p_j - p_n)^T,   w_j = (d_2 / |p_j - p_n|)^u (segments: their moments),
+    // with d_2 the distance to the second-nearest handle (D stays 0: scale 1). The position q* + mu R vhat
+    // is q_n for any finite R (vhat = 0, mu = 1): the same bits as with A = 0.
+    const bool limit = snapped && nearest < k && !affine && near.d_second > 0 &&
+                       near.d_second < std::numeric_limits<double>::infinity();
+    const bool interpolate = snapped && (nearest < k || exact) && !limit;
     if (interpolate) {
       // All weight on the nearest handle, A = 0, vhat = 0.
       if (nearest < k) {
@@ -86,16 +95,18 @@ void precompute_block(DeformerData<T>& data, std::size_t b, const Points<T>& ver
     } else {
       // Weights relative to the nearest handle (weights.hpp): the nearest has weight 1, all are in [0, 1].
       // Snapped to a paper_constant segment: only that segment, with relative weight 1 (the limit above).
+      // At a point handle's limit: the other handles, relative to the second-nearest.
       double S = 0;
+      const double d_ref = limit ? near.d_second : d_min;
       for (std::size_t p = 0; p < k; ++p) {
-        omega[p] = snapped ? 0.0 : relative_weight(d_min / dist[p], u);
+        omega[p] = (snapped && !limit) || (limit && p == nearest) ? 0.0 : relative_weight(d_ref / dist[p], u);
         S += omega[p];
       }
       for (std::size_t q = 0; q < s; ++q) {
-        if (snapped)
+        if (snapped && !limit)
           mom[q] = q + k == nearest ? segment_moments_of_constant(1.0, geo[q].tc) : SegmentMoments{};
         else
-          mom[q] = exact ? segment_moments_exact(geo[q], d_min, u) : segment_moments_constant(geo[q], d_min, u);
+          mom[q] = exact ? segment_moments_exact(geo[q], d_ref, u) : segment_moments_constant(geo[q], d_ref, u);
         S += mom[q].I0 + 2 * mom[q].I1 + mom[q].I2;
       }
       // Weighted centroid p* (eq. 2; Sec. 6.2: segment end points weighted by int w (1-t) and int w t).
@@ -106,6 +117,7 @@ void precompute_block(DeformerData<T>& data, std::size_t b, const Points<T>& ver
       }
       p_star.setZero();
       for (std::size_t j = 0; j < J; ++j) p_star += omega[j] * rh.P[j];
+      if (limit) p_star = rh.P[nearest];  // phat_j = p_j - p_n
       // A_j (data.hpp): sum_j q_j A_j^T = sum_i w_i qhat_i phat_i^T / S, with the segments' W_i.
       // Segments about their closest point pc = p(tc): phat(t) = g + (t - tc) e with g = pc - p* and e = b - a,
       // so A_c = int w (1 - t) phat / S = (g (I0 + I1) + e ((1 - tc) J1 - J2)) / S and
@@ -133,12 +145,19 @@ void precompute_block(DeformerData<T>& data, std::size_t b, const Points<T>& ver
       // small (omega_j tiny or phat_j tiny), that common error would dominate H = sum q_j A_j^T. Project it
       // out: A_j -= omega_j sum_k A_k removes any error of the form -omega_j d (sum_j omega_j = 1), so what
       // remains of each A_j is its own relative rounding.
+      // At a point handle's limit, q* is the handle's target (omega its interpolation) and the projection
+      // makes A_n = -sum_{j != n} A_j: H = sum_{j != n} (q_j - q_n) A_j^T, whatever c is.
+      if (limit) {
+        std::fill(omega.begin(), omega.end(), 0.0);
+        omega[nearest] = 1;
+      }
       Vec3d sum_A = Vec3d::Zero();
       for (std::size_t j = 0; j < J; ++j) sum_A += A[j];
       for (std::size_t j = 0; j < J; ++j) A[j] -= omega[j] * sum_A;
-      vhat = v - p_star;
-      // Sec. 6.1: D = sum_i w_i |phat_i|^2 / S (segments: int w |phat(t)|^2 / S).
-      D = G.trace();
+      vhat = limit ? Vec3d::Zero() : Vec3d(v - p_star);
+      // Sec. 6.1: D = sum_i w_i |phat_i|^2 / S (segments: int w |phat(t)|^2 / S). At a point handle's limit
+      // D = 0 (mu = 1): a similarity scale beyond T's range must not reach the position as inf * 0.
+      D = limit ? 0.0 : G.trace();
       G_vertex = 0.5 * (G + G.transpose());
     }
     // H matters only up to a positive factor (the rotation fit is scale-invariant and mu = trace(R^T H) / D,
@@ -157,7 +176,7 @@ void precompute_block(DeformerData<T>& data, std::size_t b, const Points<T>& ver
     // projection above: it concerns p*, not q*). At a handle the interpolation is kept as it is: g interpolates
     // there too, and f(p_i) = q_i stays exact.
     const std::vector<double>* centroid = &omega;
-    if (rbf && !interpolate) {
+    if (rbf && !interpolate && !limit) {
       rbf->weights(p_star, rbf_weights, rbf_rhs);
       centroid = &rbf_weights;
     }
