@@ -18,8 +18,9 @@ foreach(src ${_cli_tests})
   add_dependencies(${name} mlsdeform)
   catch_discover_tests(${name} TEST_PREFIX "${name}:" PROPERTIES TIMEOUT 600 LABELS cli)
 endforeach()
-# Normals against the MLS reference's bound (tests/support).
+# Normals against the MLS reference's bound (tests/support); splats from its generator, against that bound.
 target_link_libraries(test_cli_normals_motion PRIVATE mlsdeform_test_support)
+target_link_libraries(test_cli_splats PRIVATE mlsdeform_test_support)
 
 # The fuzz targets: clang++ -fsanitize=fuzzer (libFuzzer from Debian's libclang-rt-14-dev), built by a plain
 # custom command because the main build uses g++. Not in the sanitizer build: it is its own ASan/UBSan build,

@@ -35,6 +35,7 @@ add_library(mlsdeform_cli STATIC
   ${_cli}/figures/centroids.cpp
   ${_cli}/figures/figures.cpp
   ${_cli}/figures/measures.cpp
+  ${_cli}/splats.cpp
   ${_cli}/cmd_deform.cpp
   ${_cli}/cmd_demo.cpp
   ${_cli}/cmd_figures.cpp)
