@@ -62,6 +62,9 @@ export interface Mlsdeform {
   readMesh(data: Uint8Array | ArrayBuffer | string, name: string): MeshFile;
   /** Reads a handles file against the mesh's vertices as `mlsdeform deform` does; throws the program's message. */
   readHandles(text: Uint8Array | string, name: string, vertices: ArrayLike<number>): HandlesFile;
+  /** The batched rotation fit (fit_rotations_interleaved, float): n row-major 3 x 3 matrices one after the other
+   * (9 n values); returns `out` (or a new array) with the rotation fit to each; throws the library's message. */
+  fitRotations(H: ArrayLike<number>, out?: Float32Array | null): Float32Array;
   /** The emscripten module. */
   module: unknown;
 }

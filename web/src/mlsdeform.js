@@ -167,8 +167,29 @@ export async function loadMlsdeform(options = {}) {
     return JSON.parse(M.UTF8ToString(json));
   }
 
+  /**
+   * The batched rotation fit (fit_rotations_interleaved): `H` holds n 3 x 3 matrices row-major one after the
+   * other (9 n values, numpy's (n, 3, 3) layout); returns `out` (a new Float32Array of the same length if not
+   * given) holding the rotation fit to each, as the native library computes it in float. Throws an Error with
+   * the library's message (a non-finite entry, named as H[i, r, c]).
+   */
+  function fitRotations(H, out = null) {
+    if (H.length % 9 !== 0) throw new RangeError(`H: length ${H.length} is not a multiple of 9`);
+    const result = out ?? new Float32Array(H.length);
+    if (result.length !== H.length) throw new RangeError(`out: length ${result.length}, expected ${H.length}`);
+    const ptr = copyIn(Float32Array.from(H), Float32Array);
+    try {
+      if (ptr && M._mls_fit_rotations(ptr, ptr, H.length / 9) !== 0) fail();
+      if (ptr) result.set(new Float32Array(M.HEAPU8.buffer, ptr, H.length));
+    } finally {
+      if (ptr) M._free(ptr);
+    }
+    return result;
+  }
+
   return {
     createSession: (opts) => new Session(opts),
+    fitRotations,
     readMesh,
     readHandles,
     module: M,

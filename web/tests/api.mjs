@@ -101,4 +101,28 @@ for (let k = 0; k < 20; ++k) {
   } catch {}
 }
 check(M._mls_heap_in_use() === heapRead, `20 refused meshes leave the heap in use at ${heapRead} bytes`);
+
+// The batched rotation fit: H_i = R_i diag(3, 2, 1) for 1,000 random rotations R_i fits R_i. Bound: H_i rounded
+// to float moves the fit by at most eps(float) ||H|| / (smallest gap of H's singular values) = 3 eps, and the fit
+// itself is orthonormal to 64 eps (rotation.hpp): 64 eps x 3 with eps = 2^-24.
+const fits = 1000, H = new Float32Array(9 * fits), R0 = new Float64Array(9 * fits);
+for (let i = 0; i < fits; ++i) {
+  let [w, x, y, z] = [Math.sin(7 * i + 1), Math.cos(3 * i), Math.sin(5 * i + 2), Math.cos(11 * i + 3)];
+  const q = Math.hypot(w, x, y, z);
+  [w, x, y, z] = [w / q, x / q, y / q, z / q];
+  const R = [1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y),
+    2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x),
+    2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)];
+  R0.set(R, 9 * i);
+  for (let r = 0; r < 3; ++r) for (let c = 0; c < 3; ++c) H[9 * i + 3 * r + c] = R[3 * r + c] * (3 - c);
+}
+const fitted = mls.fitRotations(H);
+const fitBound = 64 * 2 ** -24 * 3;
+const fitError = fitted.reduce((m, v, k) => Math.max(m, Math.abs(v - R0[k])), 0);
+check(fitError <= fitBound, `fitRotations: 1,000 rotations recovered to ${fitError.toExponential(2)} <= ${fitBound.toExponential(2)}`);
+const again = new Float32Array(H.length);
+check(mls.fitRotations(H, again) === again && again.every((v, k) => v === fitted[k]), 'fitRotations: into `out`, the same bits');
+H[9 * 7 + 5] = NaN;
+throws(() => mls.fitRotations(H), /H\[7, 1, 2\]/, 'fitRotations: a NaN entry is named');
+throws(() => mls.fitRotations(new Float32Array(10)), /multiple of 9/, 'fitRotations: a length that is not 9 n');
 process.exit(failures ? 1 : 0);
