@@ -41,11 +41,7 @@ int deform(const DeformArgs& a) {
   // What the output keeps of the input's attributes, named before any work (--strict-attributes refuses then).
   const bool same_format = format_extension(a.mesh) == format_extension(a.out);
   const bool transform_normals_wanted = a.normals == NormalsOut::input && same_format && mesh.extras.has_normals();
-  // The library gives no linear part for affine fits (FramesOut): written as read, the normals would be wrong.
-  const bool affine = a.options.transform == Transform::affine;
-  const InputNormals fate = !transform_normals_wanted ? InputNormals::kept
-                            : affine                  ? InputNormals::untransformable
-                                                      : InputNormals::transformed;
+  const InputNormals fate = transform_normals_wanted ? InputNormals::transformed : InputNormals::kept;
   const AttributeReport report = attribute_report(mesh, a.out, a.normals, fate);
   if (!report.dropped.empty()) {
     std::string list;
@@ -110,11 +106,11 @@ int deform(const DeformArgs& a) {
   }
 
   BasicMesh<T> result = mesh;
-  if (fate == InputNormals::untransformable) drop_normals(result);
   const WriteOptions write{a.force, a.ply_ascii ? PlyEncoding::ascii : PlyEncoding::binary, a.normals, a.output_type};
   const bool narrowed = std::is_same_v<T, double> && output_type(mesh, write) == CoordinateType::float32;
   Points<T> out(rest.rows(), 3);
-  // Each vertex's linear part (R, s R, or ARAP's refined rotation), to carry the input's normals through.
+  // Each vertex's linear part (R, s R, the affine fit's matrix, or ARAP's refined rotation), to carry the input's
+  // normals through.
   std::vector<T> linear(fate == InputNormals::transformed ? std::size_t(rest.rows()) * 9 : 0);
   FramesOut<T> frames;
   frames.linear = std::span<T>(linear);
