@@ -253,3 +253,30 @@ TEMPLATE_TEST_CASE("affine frames: a vertex where p* is the vertex itself (vhat 
     }
   }
 }
+
+TEMPLATE_TEST_CASE("affine frames: a region's matrices are its own deformation's, the identity outside",
+                   "[frames][affine]", float, double) {
+  using T = TestType;
+  std::mt19937_64 g(31);
+  const testing::DeformCase<T> c = testing::random_case<T>(g, 300, 8);
+  Handles<T> moved = c.rest;
+  for (Eigen::Index j = 0; j < moved.point_count(); ++j)
+    moved.points.row(j) += (0.3 * testing::random_vector(g)).cast<T>().transpose();
+  Options o;
+  o.transform = Transform::affine;
+  for (Eigen::Index i = 0; i < c.vertices.rows(); i += 2) o.region.push_back(i);
+  const Deformer<T> d(c.vertices, c.rest, o);
+  Points<T> plain, with;
+  d.deform(moved, plain);
+  std::vector<T> l(9 * std::size_t(c.vertices.rows()), T(-7));
+  d.deform(moved, with, FramesOut<T>{{}, {}, {}, l});
+  CHECK(with == plain);
+  for (Eigen::Index i = 0; i < c.vertices.rows(); ++i) {
+    INFO("vertex " << i);
+    const Eigen::Matrix3d L = row(l, i);
+    if (i % 2)
+      CHECK(L == Eigen::Matrix3d::Identity());
+    else
+      CHECK((L.allFinite() && L != Eigen::Matrix3d::Identity()));
+  }
+}
