@@ -18,8 +18,9 @@ foreach(src ${_cli_tests})
   add_dependencies(${name} mlsdeform)
   catch_discover_tests(${name} TEST_PREFIX "${name}:" PROPERTIES TIMEOUT 600 LABELS cli)
 endforeach()
-# Normals against the MLS reference's bound (tests/support).
+# Normals against the MLS reference's bound (tests/support); splats from its generator, against that bound.
 target_link_libraries(test_cli_normals_motion PRIVATE mlsdeform_test_support)
+target_link_libraries(test_cli_splats PRIVATE mlsdeform_test_support)
 
 # The fuzz targets: clang++ -fsanitize=fuzzer (libFuzzer from Debian's libclang-rt-14-dev), built by a plain
 # custom command because the main build uses g++. Not in the sanitizer build: it is its own ASan/UBSan build,
@@ -79,16 +80,17 @@ if(NOT MLSDEFORM_SANITIZE)
     endfunction()
 
     mlsdeform_fuzz_binary(fuzz_handles ${_fuzz_dir}/fuzz_handles.cpp ${_cli_dir}/handles/parse.cpp
-                          ${_cli_dir}/handles/resolve.cpp ${_cli_dir}/file_read.cpp)
+                          ${_cli_dir}/handles/resolve.cpp ${_cli_dir}/file_read.cpp ${_cli_dir}/memory_source.cpp)
     mlsdeform_fuzz_test(fuzz_handles fuzz_handles ${_fuzz_dir}/corpus ${_fuzz_dir}/handles.dict 20000 2048)
     # The mesh readers and writers, one per format, and what they share.
-    set(_cli_formats ${_cli_dir}/attributes.cpp ${_cli_dir}/attributes_ops.cpp ${_cli_dir}/formats/reader.cpp ${_cli_dir}/formats/obj_read.cpp ${_cli_dir}/formats/off_read.cpp
+    set(_cli_formats ${_cli_dir}/attributes.cpp ${_cli_dir}/attributes_ops.cpp ${_cli_dir}/formats/reader.cpp ${_cli_dir}/formats/numbers.cpp ${_cli_dir}/formats/obj_read.cpp ${_cli_dir}/formats/off_read.cpp
                      ${_cli_dir}/formats/ply_read.cpp ${_cli_dir}/formats/obj_write.cpp
                      ${_cli_dir}/formats/off_write.cpp ${_cli_dir}/formats/ply_write.cpp)
     # One target per mesh reader, and one for gzip input (FUZZ_MESH_FORMAT picks it); each round-trips what it
     # reads through the writer.
     mlsdeform_fuzz_binary(fuzz_mesh ${_fuzz_dir}/fuzz_mesh.cpp ${_cli_dir}/mesh_read.cpp ${_cli_formats}
-                          ${_cli_dir}/mesh_write.cpp ${_cli_dir}/file_read.cpp ${_cli_dir}/file_write.cpp)
+                          ${_cli_dir}/mesh_write.cpp ${_cli_dir}/file_read.cpp ${_cli_dir}/memory_source.cpp
+                          ${_cli_dir}/file_write.cpp)
     foreach(fmt obj off ply)
       mlsdeform_fuzz_test(fuzz_mesh_${fmt} fuzz_mesh ${_fuzz_dir}/corpus_${fmt} ${_fuzz_dir}/mesh.dict 100000 4096
                           FUZZ_MESH_FORMAT=${fmt})

@@ -1,4 +1,4 @@
-// deform() and fit_rotations() allocate nothing once the output has its size. The C
+// deform(), fit_rotations() and the splat motions allocate nothing once the output has its size. The C
 // allocator itself is replaced by a counting one for this test binary (Eigen and std::aligned_alloc call
 // malloc directly; operator new ends there too), forwarding to glibc's __libc_* entry points. Not built with
 // the sanitizers, which interpose the allocator themselves (tests/CMakeLists.txt skips it when
@@ -214,4 +214,28 @@ TEMPLATE_TEST_CASE("ARAP refinement allocates nothing per iteration with each fa
     CHECK(allocations_during([&] { r.refine(v, targets, 3, out); }) > 0);
     CHECK(allocations_during([&] { r.refine(v, targets, 3, out); }) == 0);
   }
+}
+
+TEMPLATE_TEST_CASE("splat motions allocate nothing", "[allocation][splats]", float, double) {
+  using T = TestType;
+  std::mt19937_64 rng(7);
+  std::normal_distribution<double> g;
+  const std::size_t n = 1000;
+  std::vector<T> rot(4 * n), log_scales(3 * n), sh(45 * n), q(4 * n), s(n, T(1.5)), linear(9 * n);
+  for (T& x : rot) x = T(g(rng));
+  for (T& x : log_scales) x = T(g(rng));
+  for (T& x : sh) x = T(g(rng));
+  for (std::size_t i = 0; i < n; ++i) {
+    double a[4], length = 0;
+    for (double& x : a) {
+      x = g(rng);
+      length += x * x;
+    }
+    for (std::size_t j = 0; j < 4; ++j) q[4 * i + j] = T(a[j] / std::sqrt(length));
+    for (std::size_t j = 0; j < 9; ++j) linear[9 * i + j] = T((j % 4 == 0 ? 1 : 0) + 0.1 * g(rng));
+  }
+  const SplatArrays<T> a{rot.data(), log_scales.data(), sh.data(), 3};
+  rotate_splats<T>(a, n, q.data(), s.data());  // the steady state: TBB's first query of the cores allocates
+  CHECK(allocations_during([&] { rotate_splats<T>(a, n, q.data(), s.data()); }) == 0);
+  CHECK(allocations_during([&] { transform_splats_affine<T>(a, n, linear.data()); }) == 0);
 }

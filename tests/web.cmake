@@ -8,11 +8,12 @@ foreach(name test_stages test_deformer test_arap)
   set_tests_properties(web:${name} PROPERTIES LABELS "web;no_sanitizer" SKIP_RETURN_CODE 77 TIMEOUT 900)
 endforeach()
 # The page (build-web/site/) in headless Chromium: the human bending opened by URL against `mlsdeform deform`,
-# a click and a drag, a malformed file, a screenshot that shows the mesh.
-# (`compare` needs the program, and `interact` uses it: not in the builds without tools.)
+# a click and a drag, a malformed file (the program's message), a screenshot that shows the mesh, the program's
+# OFF, PLY and .gz outputs read by the page. (`compare` and `formats` need the program; `interact` and
+# `malformed` use it: not in the builds without tools.)
 set(_checks interact malformed screenshot)
 if(MLSDEFORM_BUILD_TOOLS)
-  list(APPEND _checks compare)
+  list(APPEND _checks compare formats)
 endif()
 foreach(check ${_checks})
   add_test(NAME web:page_${check} COMMAND bash ${PROJECT_SOURCE_DIR}/web/tests/run_browser_test.sh

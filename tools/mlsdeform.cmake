@@ -11,11 +11,13 @@ set(_cli ${CMAKE_CURRENT_SOURCE_DIR}/cli)
 # one translation unit (main.cpp): it is slow to compile.
 add_library(mlsdeform_cli STATIC
   ${_cli}/file_read.cpp
+  ${_cli}/memory_source.cpp
   ${_cli}/file_write.cpp
   ${_cli}/mesh_read.cpp
   ${_cli}/attributes.cpp
   ${_cli}/attributes_ops.cpp
   ${_cli}/formats/reader.cpp
+  ${_cli}/formats/numbers.cpp
   ${_cli}/formats/obj_read.cpp
   ${_cli}/formats/off_read.cpp
   ${_cli}/formats/ply_read.cpp
@@ -33,6 +35,7 @@ add_library(mlsdeform_cli STATIC
   ${_cli}/figures/centroids.cpp
   ${_cli}/figures/figures.cpp
   ${_cli}/figures/measures.cpp
+  ${_cli}/splats.cpp
   ${_cli}/cmd_deform.cpp
   ${_cli}/cmd_demo.cpp
   ${_cli}/cmd_figures.cpp)

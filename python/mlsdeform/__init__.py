@@ -16,9 +16,11 @@ from ._mlsdeform import (
     fit_points,
     fit_rotation,
     fit_rotations,
+    rotate_splats,
     set_isa,
     supported_isas,
     transform_normals,
+    transform_splats_affine,
     transform_tangents,
 )
 
@@ -29,8 +31,10 @@ __all__ = [
     "fit_points",
     "fit_rotation",
     "fit_rotations",
+    "rotate_splats",
     "set_isa",
     "supported_isas",
     "transform_normals",
+    "transform_splats_affine",
     "transform_tangents",
 ]

@@ -85,6 +85,23 @@ def fit_points(
     transform: Literal["rigid", "similarity"] = ...,
     method: _Method = ...,
 ) -> Union[Tuple[np.ndarray, np.ndarray], Tuple[np.ndarray, np.ndarray, float]]: ...
+def rotate_splats(
+    quaternions: _Array,
+    scales: Optional[_Array] = ...,
+    *,
+    rotations: Optional[np.ndarray] = ...,
+    log_scales: Optional[np.ndarray] = ...,
+    sh_rest: Optional[np.ndarray] = ...,
+    threads: int = ...,
+) -> None: ...
+def transform_splats_affine(
+    linear: _Array,
+    *,
+    rotations: Optional[np.ndarray] = ...,
+    log_scales: Optional[np.ndarray] = ...,
+    sh_rest: Optional[np.ndarray] = ...,
+    threads: int = ...,
+) -> None: ...
 def active_isa() -> str: ...
 def supported_isas() -> Sequence[str]: ...
 def set_isa(isa: Literal["scalar", "sse4_2", "avx2", "avx512"]) -> None: ...

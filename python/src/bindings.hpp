@@ -8,5 +8,6 @@ namespace mlsdeform::python {
 void bind_deformer(pybind11::module_& m);  // Deformer (bind_deformer.cpp)
 void bind_fits(pybind11::module_& m);      // fit_rotations, fit_rotation, fit_points (bind_fits.cpp)
 void bind_frames(pybind11::module_& m);    // transform_normals, transform_tangents (bind_frames.cpp)
+void bind_splats(pybind11::module_& m);    // rotate_splats, transform_splats_affine (bind_splats.cpp)
 
 }  // namespace mlsdeform::python

@@ -6,8 +6,9 @@
 // set-up, ARAP frames, large batches of fits) check for signals while they work (SignalWatch): Ctrl-C raises
 // KeyboardInterrupt promptly, leaving outputs untouched.
 // The parts by API area: bind_deformer.cpp (Deformer; the session itself in deformer.hpp), bind_fits.cpp (the
-// rotation fits), bind_frames.cpp (normals and tangents through the frames); arrays.hpp converts arguments, signals.hpp
-// watches for Ctrl-C; this file the module, its error translation and the instruction-set functions.
+// rotation fits), bind_frames.cpp (normals and tangents through the frames), bind_splats.cpp (the splats);
+// arrays.hpp converts arguments, signals.hpp watches for Ctrl-C; this file the module, its error translation and
+// the instruction-set functions.
 #include "python/src/bindings.hpp"
 #include "python/src/signals.hpp"
 
@@ -44,6 +45,7 @@ PYBIND11_MODULE(_mlsdeform, m) {
   python::bind_deformer(m);
   python::bind_fits(m);
   python::bind_frames(m);
+  python::bind_splats(m);
 
   m.def(
       "active_isa", [] { return std::string(to_string(active_isa())); },

@@ -177,6 +177,11 @@ AttributeReport attribute_report(const BasicMesh<T>& mesh, const std::string& ou
   };
   if (x.ply) {
     const auto n = ply_normals(*x.ply);
+    // A Gaussian splat file's rot_*, scale_* and f_rest_* turn with the splats (splats.hpp), named as such.
+    const bool splats = x.ply->vertex_element >= 0 && x.ply->vertices().find("rot_0") >= 0;
+    auto splat_property = [](const std::string& name) {
+      return name.rfind("rot_", 0) == 0 || name.rfind("scale_", 0) == 0 || name.rfind("f_rest_", 0) == 0;
+    };
     std::vector<std::string> items;
     for (std::size_t e = 0; e < x.ply->elements.size(); ++e) {
       const PlyElement& el = x.ply->elements[e];
@@ -186,7 +191,8 @@ AttributeReport attribute_report(const BasicMesh<T>& mesh, const std::string& ou
         const bool position = p.name == "x" || p.name == "y" || p.name == "z";
         const bool normal = n && (p.name == "nx" || p.name == "ny" || p.name == "nz");
         const bool corners = p.list && (p.name == "vertex_indices" || p.name == "vertex_index");
-        if (!(is_vertex && (position || normal)) && !(is_face && corners)) names.push_back(p.name);
+        const bool splat = splats && splat_property(p.name);
+        if (!(is_vertex && (position || normal || splat)) && !(is_face && corners)) names.push_back(p.name);
       }
       if (is_vertex || is_face) {
         if (!names.empty()) items.push_back((is_vertex ? "vertex properties " : "face properties ") + joined(names));
@@ -196,6 +202,7 @@ AttributeReport attribute_report(const BasicMesh<T>& mesh, const std::string& ou
     }
     if (!x.ply->header.empty()) items.push_back(counted(x.ply->header.size(), "comment/obj_info lines"));
     for (auto& s : items) (out == "ply" ? r.kept : r.dropped).push_back(s);
+    if (splats) (out == "ply" ? r.transformed : r.dropped).push_back("Gaussian splats (rot_*, scale_*, f_rest_*)");
     if (n) {
       if (out == "ply")
         normals_went("normals (nx ny nz)");

@@ -5,6 +5,7 @@
 #include "tools/cli/handles_file.hpp"
 #include "tools/cli/mesh.hpp"
 #include "tools/cli/progress.hpp"
+#include "tools/cli/splats.hpp"
 
 #include <algorithm>
 #include <chrono>
@@ -30,6 +31,12 @@ int deform(const DeformArgs& a) {
   const bool arap = a.options.arap_iterations > 0;
   if (arap && mesh.face_count() == 0)
     throw InputError(a.mesh, "--arap needs a surface, and the mesh has no faces (a point cloud?)");
+  // A 3D Gaussian splat file (docs/splats.md): each splat turns (and grows) by its centre's frame.
+  const std::optional<SplatLayout> splats = mesh.extras.ply ? splat_layout(*mesh.extras.ply, a.mesh) : std::nullopt;
+  if (splats && a.options.transform == Transform::affine)
+    throw InputError(a.mesh,
+                     "a Gaussian splat file needs --transform rigid or similarity: an affine fit gives no "
+                     "rotation to turn the splats by (docs/splats.md)");
   const HandlesFile handles = read_handles(a.handles);
 
   const std::size_t frame_count = handles.animated() ? handles.frames.size() : 1;
@@ -102,6 +109,10 @@ int deform(const DeformArgs& a) {
                 std::is_same_v<T, float> ? "float" : "double",
                 !a.options.isa ? ("simd (" + std::string(to_string(isa)) + ")").c_str() : "scalar", threads,
                 then_arap.c_str(), setup_ms, double(deformer->memory_bytes()) / (1 << 20));
+    if (splats)
+      std::printf("splats: %lld Gaussian splats, SH degree %d: rot_*%s and f_rest_* turned by each centre's frame\n",
+                  static_cast<long long>(mesh.vertex_count()), splats->sh_degree,
+                  a.options.transform == Transform::similarity ? ", scale_*" : "");
     std::fflush(stdout);  // seen before a long first frame, also through a pipe
   }
 
@@ -114,6 +125,13 @@ int deform(const DeformArgs& a) {
   std::vector<T> linear(fate == InputNormals::transformed ? std::size_t(rest.rows()) * 9 : 0);
   FramesOut<T> frames;
   frames.linear = std::span<T>(linear);
+  // A splat file's: each centre's rotation, and its scale for similarity fits.
+  const bool grows = a.options.transform == Transform::similarity;
+  std::vector<T> splat_turns(splats ? 4 * std::size_t(rest.rows()) : 0),
+      splat_scales(splats && grows ? std::size_t(rest.rows()) : 0);
+  frames.quaternions = std::span<T>(splat_turns);
+  frames.scales = std::span<T>(splat_scales);
+  double splat_ms = 0;
   // Vertices on point handles get no frame from MLS (the identity): their normals take a neighbour's. ARAP's
   // refined rotations cover every vertex.
   const FrameDonors donors =
@@ -146,12 +164,25 @@ int deform(const DeformArgs& a) {
       }
       deform_ms.push_back(ms_since(t0));
       result.vertices = out;
-      if (frames.any()) {
+      // A frame lent by a donor: `width` values a vertex (none where that output is not wanted).
+      auto lend = [&donors](std::vector<T>& values, std::size_t width) {
+        if (values.empty()) return;
         for (const auto& [v, from] : donors.pairs)
-          std::copy_n(linear.begin() + std::ptrdiff_t(9 * std::size_t(from)), 9,
-                      linear.begin() + std::ptrdiff_t(9 * std::size_t(v)));
+          std::copy_n(values.begin() + std::ptrdiff_t(width * std::size_t(from)), width,
+                      values.begin() + std::ptrdiff_t(width * std::size_t(v)));
+      };
+      if (!linear.empty()) {
+        lend(linear, 9);
         result.extras = mesh.extras;  // each frame's normals from the input's
         transform_normals(result, linear.data());
+      }
+      if (splats) {  // each frame's splats from the input's
+        t0 = Clock::now();
+        lend(splat_turns, 4);
+        lend(splat_scales, 1);
+        transform_splats(*mesh.extras.ply, *result.extras.ply, splat_turns.data(),
+                         grows ? splat_scales.data() : static_cast<const T*>(nullptr), a.options.threads, a.mesh);
+        splat_ms += ms_since(t0);
       }
       // The library refuses a result T cannot hold; here only a double result beyond float, the coordinate
       // type of the mesh written, is left to refuse.
@@ -182,6 +213,7 @@ int deform(const DeformArgs& a) {
     double total = 0;
     for (double d : deform_ms) total += d;
     const auto [lo, hi] = std::minmax_element(deform_ms.begin(), deform_ms.end());
+    if (splats) std::printf("splats turned in %.3f ms (all frames)\n", splat_ms);
     if (frame_count == 1)
       std::printf("deformed in %.3f ms -> %s\n", total, a.out.c_str());
     else

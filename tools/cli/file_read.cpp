@@ -41,58 +41,23 @@ std::string read_file(const std::string& path, std::size_t max_bytes) {
   return data;
 }
 
-bool is_gzip_path(std::string_view path) {
-  if (path.size() < 3) return false;
-  std::string tail(path.substr(path.size() - 3));
-  std::transform(tail.begin(), tail.end(), tail.begin(), [](unsigned char c) { return char(std::tolower(c)); });
-  return tail == ".gz";
-}
-
-std::string format_extension(std::string_view path) {
-  if (is_gzip_path(path)) path.remove_suffix(3);
-  const auto slash = path.find_last_of('/');
-  const auto name = slash == std::string_view::npos ? path : path.substr(slash + 1);
-  const auto dot = name.find_last_of('.');
-  if (dot == std::string_view::npos || dot == 0) return {};
-  std::string ext(name.substr(dot + 1));
-  std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return char(std::tolower(c)); });
-  return ext;
-}
-
 namespace {
 
 std::string input_limit(std::size_t max_bytes) {
   return "the input limit of " + std::to_string(max_bytes >> 20) + " MiB (--max-input-mib raises it)";
 }
 
-class MemorySource final : public ByteSource {
- public:
-  explicit MemorySource(std::string_view data) : data_(data) {}
-  std::size_t size() const override { return data_.size(); }
-  std::size_t read(char* dst, std::size_t n) override {
-    n = std::min(n, data_.size() - pos_);
-    if (n > 0) std::memcpy(dst, data_.data() + pos_, n);  // an empty view's data() may be null
-    pos_ += n;
-    return n;
-  }
-  void rewind() override { pos_ = 0; }
-
- private:
-  std::string_view data_;
-  std::size_t pos_ = 0;
-};
-
 /// For inputs that are not regular files (a pipe, /dev/stdin): read whole, within the limit, to know the size.
 class OwnedMemorySource final : public ByteSource {
  public:
-  explicit OwnedMemorySource(std::string data) : data_(std::move(data)), view_(data_) {}
-  std::size_t size() const override { return view_.size(); }
-  std::size_t read(char* dst, std::size_t n) override { return view_.read(dst, n); }
-  void rewind() override { view_.rewind(); }
+  explicit OwnedMemorySource(std::string data) : data_(std::move(data)), view_(memory_source(data_)) {}
+  std::size_t size() const override { return view_->size(); }
+  std::size_t read(char* dst, std::size_t n) override { return view_->read(dst, n); }
+  void rewind() override { view_->rewind(); }
 
  private:
   std::string data_;
-  MemorySource view_;
+  std::unique_ptr<ByteSource> view_;
 };
 
 class FileSource final : public ByteSource {
@@ -202,8 +167,6 @@ class GzipSource final : public ByteSource {
 };
 
 }  // namespace
-
-std::unique_ptr<ByteSource> memory_source(std::string_view data) { return std::make_unique<MemorySource>(data); }
 
 std::unique_ptr<ByteSource> gunzip_source(std::unique_ptr<ByteSource> compressed, const std::string& path,
                                           std::size_t max_bytes) {

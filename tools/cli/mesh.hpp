@@ -72,6 +72,9 @@ Triangles fan_triangles(const BasicMesh<T>& mesh, const std::string& path);
 ///   before allocating), data after the last element, no vertices, or a file (or its decompressed data) larger
 ///   than `max_bytes`.
 inline constexpr std::size_t kDefaultMaxInputBytes = std::size_t(1) << 30;
+/// The format read_mesh reads `path` as ("obj", "off" or "ply", by its extension through a ".gz"); throws
+/// InputError naming `path` for any other.
+std::string mesh_format(const std::string& path);
 template <class T = float>
 BasicMesh<T> read_mesh(const std::string& path, std::size_t max_bytes = kDefaultMaxInputBytes);
 /// read_mesh's parser on any source of bytes (a file, gzip data, memory: see file_io.hpp), for `format` "obj",

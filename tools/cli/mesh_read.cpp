@@ -22,12 +22,17 @@ std::string readable_formats() {
   return "obj, off, ply (ASCII or binary), and each gzip-compressed (.obj.gz, .off.gz, .ply.gz)";
 }
 
-template <class T>
-BasicMesh<T> read_mesh(const std::string& path, std::size_t max_bytes) {
+std::string mesh_format(const std::string& path) {
   const std::string ext = format_extension(path);
   if (ext != "obj" && ext != "off" && ext != "ply")
     throw InputError(path, "unknown mesh format" + (ext.empty() ? std::string() : " " + shown("." + ext)) +
                                " (readable: " + readable_formats() + ")");
+  return ext;
+}
+
+template <class T>
+BasicMesh<T> read_mesh(const std::string& path, std::size_t max_bytes) {
+  const std::string ext = mesh_format(path);
   const auto source = open_input(path, max_bytes);
   return parse_mesh<T>(*source, ext, path);
 }

@@ -74,11 +74,12 @@ EMSCRIPTEN_KEEPALIVE const char* mls_last_error() { return mlsdeform::web::last_
 
 /// A session over n vertices (xyz interleaved), m triangles (null and 0 without: no ARAP), k point handles and
 /// s segment handles (ends a and b). transform: 0 rigid, 1 similarity, 2 affine; centroids: 0 MLS, 1 RBF;
-/// isa: -1 the active one (WebAssembly SIMD), 0 the scalar reference.
+/// isa: -1 the active one (WebAssembly SIMD), 0 the scalar reference. region: the region_count vertices that
+/// may move (Options::region; none: all).
 EMSCRIPTEN_KEEPALIVE Session* mls_session_create(const float* vertices, int n, const int* triangles, int m,
                                                  const float* points, int k, const float* seg_a, const float* seg_b,
                                                  int s, int transform, double weight_exponent, int centroids,
-                                                 int arap_iterations, int isa) {
+                                                 int arap_iterations, int isa, const int* region, int region_count) {
   using namespace mlsdeform;
   return guarded<Session*>(nullptr, [&] {
     if (transform < 0 || transform > 2) throw std::invalid_argument("transform must be 0, 1 or 2");
@@ -91,6 +92,8 @@ EMSCRIPTEN_KEEPALIVE Session* mls_session_create(const float* vertices, int n, c
     o.arap_iterations = arap_iterations;
     if (isa == 0) o.isa = Isa::scalar;
     o.threads = 1;
+    if (region_count < 0 || (region_count > 0 && !region)) throw std::invalid_argument("bad region");
+    o.region.assign(region, region + region_count);
     Handles<float> h;
     h.points = web::rows(points, k);
     h.segment_a = web::rows(seg_a, s);

@@ -39,7 +39,7 @@ export async function loadMlsdeform(options = {}) {
 
   class Session {
     constructor(opts) {
-      const { vertices, triangles = null, points = null, segmentsA = null, segmentsB = null } = opts;
+      const { vertices, triangles = null, points = null, segmentsA = null, segmentsB = null, region = null } = opts;
       const transform = TRANSFORMS[opts.transform ?? 'rigid'];
       const centroids = CENTROIDS[opts.centroids ?? 'mls'];
       if (transform === undefined) throw new TypeError(`transform must be one of ${Object.keys(TRANSFORMS)}`);
@@ -56,11 +56,13 @@ export async function loadMlsdeform(options = {}) {
         copyIn(points && Float32Array.from(points), Float32Array),
         copyIn(segmentsA && Float32Array.from(segmentsA), Float32Array),
         copyIn(segmentsB && Float32Array.from(segmentsB), Float32Array),
+        copyIn(region && Int32Array.from(region), Int32Array),
       ];
       try {
         this._s = M._mls_session_create(ptrs[0], vertices.length / 3, ptrs[1], (triangles?.length ?? 0) / 3,
           ptrs[2], (points?.length ?? 0) / 3, ptrs[3], ptrs[4], (segmentsA?.length ?? 0) / 3, transform,
-          opts.weightExponent ?? 2, centroids, opts.arapIterations ?? 0, opts.scalar ? 0 : -1);
+          opts.weightExponent ?? 2, centroids, opts.arapIterations ?? 0, opts.scalar ? 0 : -1, ptrs[5],
+          region?.length ?? 0);
       } finally {
         for (const p of ptrs) if (p) M._free(p);
       }
@@ -107,8 +109,68 @@ export async function loadMlsdeform(options = {}) {
     }
   }
 
+  // Bytes (a string is taken as UTF-8) and a NUL-terminated name in the module's memory, for the readers.
+  const bytesIn = (data) => {
+    const bytes = typeof data === 'string' ? new TextEncoder().encode(data) : data instanceof Uint8Array ? data : new Uint8Array(data);
+    const ptr = M._malloc(Math.max(bytes.length, 1));
+    if (!ptr) throw new Error('out of memory');
+    M.HEAPU8.set(bytes, ptr);
+    return [ptr, bytes.length];
+  };
+  const nameIn = (name) => bytesIn(new TextEncoder().encode(`${name}\0`))[0];
+  const u32 = (ptr, n) => new Uint32Array(M.HEAPU8.buffer, ptr, n).slice();
+
+  /**
+   * Reads a mesh with the program's strict reader (OBJ, OFF, PLY ASCII or binary; the format by the name's
+   * extension, through a ".gz": hand over the decompressed bytes). Throws an Error with the program's message.
+   */
+  function readMesh(data, name) {
+    const [ptr, size] = bytesIn(data);
+    const namePtr = nameIn(name);
+    let m = 0;
+    try {
+      m = M._mls_mesh_read(ptr, size, namePtr);
+    } finally {
+      M._free(ptr);
+      M._free(namePtr);
+    }
+    if (!m) fail();
+    try {
+      const n = M._mls_mesh_vertex_count(m);
+      const vertices = new Float32Array(M.HEAPU8.buffer, M._mls_mesh_vertices(m), 3 * n).slice();
+      const triangles = u32(M._mls_mesh_triangles(m), 3 * M._mls_mesh_triangle_count(m));
+      const start = u32(M._mls_mesh_face_start(m), M._mls_mesh_face_count(m) + 1);
+      const corners = u32(M._mls_mesh_face_indices(m), M._mls_mesh_face_index_count(m));
+      const faces = [];
+      for (let f = 0; f + 1 < start.length; ++f) faces.push(Array.from(corners.subarray(start[f], start[f + 1])));
+      return { vertices, triangles, faces };
+    } finally {
+      M._mls_mesh_delete(m);
+    }
+  }
+
+  /**
+   * Reads a handles file (the program's JSON) against a mesh's vertices, as `mlsdeform deform` does: the rest
+   * positions and the first frame's targets (groups' motions applied). Throws an Error with the program's message.
+   */
+  function readHandles(text, name, vertices) {
+    const [ptr, size] = bytesIn(text);
+    const namePtr = nameIn(name);
+    const v = copyIn(Float32Array.from(vertices), Float32Array);
+    let json = 0;
+    try {
+      json = M._mls_handles_read(ptr, size, namePtr, v, vertices.length / 3);
+    } finally {
+      for (const p of [ptr, namePtr, v]) if (p) M._free(p);
+    }
+    if (!json) fail();
+    return JSON.parse(M.UTF8ToString(json));
+  }
+
   return {
     createSession: (opts) => new Session(opts),
+    readMesh,
+    readHandles,
     module: M,
   };
 }

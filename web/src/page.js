@@ -5,7 +5,7 @@ import * as THREE from 'three';
 import { OrbitControls } from 'three/addons/controls/OrbitControls.js';
 import { TransformControls } from 'three/addons/controls/TransformControls.js';
 import { loadMlsdeform } from './mlsdeform.js';
-import { parseObj, encodeObj, encodePly, parseHandles, encodeHandles, InputError } from './formats.js';
+import { encodeObj, encodePly, encodeHandles, InputError } from './formats.js';
 import { benchmark } from './bench.js';
 import { installInteraction } from './interaction.js';
 
@@ -68,6 +68,7 @@ function rebuild() {
     points: flat(handles.points.map((p) => p.rest)),
     segmentsA: flat(handles.segments.map((s) => s.restA)),
     segmentsB: flat(handles.segments.map((s) => s.restB)),
+    region: handles.region?.length ? handles.region : null,
     ...o,
   });
   state.session?.delete();
@@ -156,18 +157,19 @@ function select(i) {
 }
 
 // --- opening files --------------------------------------------------------------------------------------
+/** The file's bytes; a .gz decompressed by the browser's own gzip (the module has no zlib). */
 async function bytesOf(source, name) {
-  // .gz: the browser's own gzip (the module has no zlib).
+  const gz = /\.gz$/i.test(name);
   let stream = source instanceof Blob ? source.stream() : source.body;
-  if (/\.gz$/i.test(name)) stream = stream.pipeThrough(new DecompressionStream('gzip'));
+  if (gz) stream = stream.pipeThrough(new DecompressionStream('gzip'));
   try {
-    return await new Response(stream).text();
+    return new Uint8Array(await new Response(stream).arrayBuffer());
   } catch (e) {
-    throw new InputError(name, `cannot read: ${e.message}`);
+    throw new InputError(name, gz ? `corrupt gzip data (${e.message})` : `cannot read: ${e.message}`);
   }
 }
 
-async function fetchText(url) {
+async function fetchBytes(url) {
   const r = await fetch(url);
   if (!r.ok) throw new InputError(url, `cannot open: HTTP ${r.status}`);
   return bytesOf(r, url);
@@ -205,26 +207,38 @@ function open(mesh, handles, name) {
 
 function defaultHandles(mesh) {
   const v = Array.from(mesh.vertices.subarray(0, 3));
-  return { points: [{ rest: v, target: v, vertex: 0, name: '' }], segments: [] };
+  return { points: [{ rest: v, target: v, vertex: 0, name: '' }], segments: [], region: [] };
 }
 
-async function openFiles(meshText, meshName, handlesText, handlesName) {
-  const mesh = parseObj(meshText, meshName);
-  const handles = handlesText ? parseHandles(handlesText, handlesName, mesh) : defaultHandles(mesh);
+/** A handles file read by the program's reader against the mesh: the page's handles (names are not kept). */
+function readHandles(bytes, name, mesh) {
+  const h = state.mls.readHandles(bytes, name, mesh.vertices);
+  return {
+    points: h.points.map((p) => ({ ...p, name: '' })),
+    segments: h.segments.map((s) => ({ ...s, name: '' })),
+    region: h.region,
+  };
+}
+
+/** Opens a mesh (and its handles file): both read by the program's readers, compiled into the module. */
+async function openFiles(meshBytes, meshName, handlesBytes, handlesName) {
+  const mesh = state.mls.readMesh(meshBytes, meshName);
+  const handles = handlesBytes ? readHandles(handlesBytes, handlesName, mesh) : defaultHandles(mesh);
   open(mesh, handles, meshName);
 }
 
 async function openDropped(files) {
   try {
-    const meshFile = files.find((f) => /\.obj(\.gz)?$/i.test(f.name));
+    const meshFile = files.find((f) => /\.(obj|off|ply)(\.gz)?$/i.test(f.name));
     const handlesFile = files.find((f) => /\.json$/i.test(f.name));
     const unknown = files.find((f) => f !== meshFile && f !== handlesFile);
-    if (unknown) throw new InputError(unknown.name, 'unknown format (readable: .obj, .obj.gz, and a handles file .json)');
+    if (unknown)
+      throw new InputError(unknown.name, 'unknown format (readable: .obj, .off, .ply, each also .gz, and a handles file .json)');
     if (meshFile) {
       await openFiles(await bytesOf(meshFile, meshFile.name), meshFile.name,
         handlesFile && (await bytesOf(handlesFile, handlesFile.name)), handlesFile?.name);
     } else if (handlesFile) {
-      const handles = parseHandles(await bytesOf(handlesFile, handlesFile.name), handlesFile.name, state.mesh);
+      const handles = readHandles(await bytesOf(handlesFile, handlesFile.name), handlesFile.name, state.mesh);
       pushUndo();
       const before = state.handles;
       state.handles = handles;
@@ -293,7 +307,7 @@ const interaction = installInteraction({
 
 // --- export -----------------------------------------------------------------------------------------------
 const exportObj = () => encodeObj(state.mesh, state.session.output);
-const exportHandles = () => encodeHandles(state.handles.points, state.handles.segments);
+const exportHandles = () => encodeHandles(state.handles.points, state.handles.segments, state.handles.region);
 function save(text, name) {
   const a = document.createElement('a');
   a.href = URL.createObjectURL(new Blob([text], { type: 'application/octet-stream' }));
@@ -319,7 +333,7 @@ const ready = (async () => {
   const params = new URLSearchParams(location.search);
   const meshUrl = params.get('mesh') ?? 'human_man.obj';
   const handlesUrl = params.get('handles') ?? (params.has('mesh') ? null : 'human_bend.json');
-  await openFiles(await fetchText(meshUrl), meshUrl, handlesUrl && (await fetchText(handlesUrl)), handlesUrl);
+  await openFiles(await fetchBytes(meshUrl), meshUrl, handlesUrl && (await fetchBytes(handlesUrl)), handlesUrl);
   requestAnimationFrame(loop);
 })();
 ready.catch((e) => {

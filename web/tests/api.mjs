@@ -75,4 +75,30 @@ const big = M._malloc(64 << 20);
 check(s.output !== before && s.output.length === 3 * n, 'the views are remade after the memory grew');
 M._free(big);
 s.delete();
+
+// The program's readers: a quad in OBJ and in OFF, polygons kept and fanned into triangles; errors in the
+// program's words; nothing leaks when a file is refused.
+const obj = mls.readMesh('# a quad\nv 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0.5\nf 1 2 3 4\n', 'quad.obj');
+check(obj.vertices.length === 12 && obj.vertices[11] === 0.5, 'readMesh: the OBJ quad\'s 4 vertices, in order');
+check(JSON.stringify(obj.faces) === '[[0,1,2,3]]', `readMesh: the OBJ quad's face ${JSON.stringify(obj.faces)}`);
+check(Array.from(obj.triangles).join() === '0,1,2,0,2,3', `readMesh: its fan triangles ${Array.from(obj.triangles)}`);
+const off = mls.readMesh(new TextEncoder().encode('OFF\n4 1 0\n0 0 0\n1 0 0\n1 1 0\n0 1 0.5\n4 0 1 2 3\n'), 'quad.off');
+check(off.vertices.every((x, i) => x === obj.vertices[i]) && JSON.stringify(off.faces) === '[[0,1,2,3]]',
+  'readMesh: the OFF quad reads as the OBJ one');
+throws(() => mls.readMesh('v 0 0 0\nv 1 0 zero\n', 'bad.obj'), /^bad\.obj: line 2: .*'zero'/, 'readMesh: a word for a number');
+throws(() => mls.readMesh('v 0 0 0\nv 1 0 1e39\n', 'big.obj'), /^big\.obj: line 2: number out of the range of float/,
+  'readMesh: 1e39 in float');
+throws(() => mls.readMesh('solid x\n', 'x.stl'), /^x\.stl: unknown mesh format/, 'readMesh: an unknown format');
+const handles = mls.readHandles('{"points": [{"vertex": 1, "offset": [0, 0, 1]}, {"rest": [0.5, 0.5, 0]}]}', 'h.json', obj.vertices);
+check(handles.points.length === 2 && handles.points[0].vertex === 1 && handles.points[0].target.join() === '1,0,1' &&
+  handles.points[1].vertex === -1, `readHandles: ${JSON.stringify(handles.points)}`);
+throws(() => mls.readHandles('{"points": [{"vertex": 9}]}', 'h.json', obj.vertices), /^h\.json: \/points\/0\/vertex: /,
+  'readHandles: a vertex out of range');
+const heapRead = M._mls_heap_in_use();
+for (let k = 0; k < 20; ++k) {
+  try {
+    mls.readMesh('v 0 0 0\nv 1 0 zero\n', 'bad.obj');
+  } catch {}
+}
+check(M._mls_heap_in_use() === heapRead, `20 refused meshes leave the heap in use at ${heapRead} bytes`);
 process.exit(failures ? 1 : 0);

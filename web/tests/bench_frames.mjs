@@ -10,12 +10,11 @@ import { pathToFileURL } from 'node:url';
 const site = resolve(process.argv[2]);
 const seconds = Number(process.argv[3] ?? 3);
 const { loadMlsdeform } = await import(pathToFileURL(join(site, 'mlsdeform.js')));
-const { parseObj, parseHandles } = await import(pathToFileURL(join(site, 'formats.js')));
-const mesh = parseObj(readFileSync(join(site, 'human_man.obj'), 'utf8'), 'human_man.obj');
-const text = readFileSync(join(site, 'human_bend.json'), 'utf8');
-const handles = parseHandles(text, 'human_bend.json', mesh);
-const frames = JSON.parse(text).frames;
 const mls = await loadMlsdeform();
+const mesh = mls.readMesh(readFileSync(join(site, 'human_man.obj')), 'human_man.obj');
+const text = readFileSync(join(site, 'human_bend.json'), 'utf8');
+const handles = mls.readHandles(text, 'human_bend.json', mesh.vertices);
+const frames = JSON.parse(text).frames;
 const s = mls.createSession({
   vertices: mesh.vertices,
   points: handles.points.flatMap((p) => p.rest),

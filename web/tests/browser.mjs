@@ -5,7 +5,11 @@
 //                                                     every vertex (the bounds: compare.mjs)
 //   node web/tests/browser.mjs SITE interact [DIR]    a click on the surface adds a handle; dragging it deforms;
 //                                                     with DIR, the page's OBJ and handles file are written there
-//   node web/tests/browser.mjs SITE malformed         a malformed OBJ shows its error; the page still works
+//   node web/tests/browser.mjs SITE malformed DIR     DIR/broken.obj opened shows its error, word for word
+//                                                     DIR/message.txt (`mlsdeform deform`'s) where there is one;
+//                                                     the page still works
+//   node web/tests/browser.mjs SITE formats DIR       DIR/human.{obj,off,off.gz,ply} (the program's outputs) opened
+//                                                     by URL give the same vertices and faces
 //   node web/tests/browser.mjs SITE screenshot PNG    the mesh is drawn (not blank); the screenshot is kept
 //   node web/tests/browser.mjs SITE bench             the benchmarks of web/src/bench.js, as JSON
 // Exit 77 (skipped) where Chromium is not installed.
@@ -27,7 +31,7 @@ const require = createRequire(join(dirname(fileURLToPath(import.meta.url)), '..'
 const puppeteer = require('puppeteer-core');
 
 const types = { '.html': 'text/html', '.js': 'text/javascript', '.mjs': 'text/javascript', '.wasm': 'application/wasm', '.json': 'application/json' };
-const extra = new Map();  // path -> text, served beside the site (the malformed file)
+const extra = new Map();  // path -> bytes, served beside the site (the test's files)
 const server = createServer((req, res) => {
   const path = decodeURIComponent(new URL(req.url, 'http://x').pathname);
   if (extra.has(path)) return res.end(extra.get(path));
@@ -148,7 +152,8 @@ try {
     }
   } else if (check === 'malformed') {
     await open('');
-    extra.set('/broken.obj', 'v 0 0 0\nv 1 0 0\nv 0 1 zero\nf 1 2 3\n');
+    extra.set('/broken.obj', readFileSync(join(arg, 'broken.obj')));
+    const expected = existsSync(join(arg, 'message.txt')) ? readFileSync(join(arg, 'message.txt'), 'utf8').trim() : null;
     await page.evaluate(async () => {
       const text = await (await fetch('/broken.obj')).text();
       const input = document.getElementById('file');
@@ -161,12 +166,34 @@ try {
     const shown = await page.$eval('#error', (e) => e.textContent);
     console.log(`error shown: ${shown}`);
     if (!shown.includes('broken.obj') || !shown.includes('line 3')) fail(`the error does not name the file and line: ${shown}`);
+    if (expected !== null) {
+      console.log(`mlsdeform deform says: ${expected}`);
+      if (shown !== expected) fail('the page and `mlsdeform deform` word the error differently');
+    }
     const still = await page.evaluate(() => {
       const p = window.mlsdeformPage;
       p.moveHandle(3, [0.1, 1.5, 0.3]);
       return p.state.mesh.vertices.length / 3;
     });
     if (still !== 6890) fail(`after the error the page shows ${still} vertices, not the human's 6890`);
+  } else if (check === 'formats') {
+    const read = {};
+    for (const f of ['human.obj', 'human.off', 'human.off.gz', 'human.ply']) {
+      extra.set('/' + f, readFileSync(join(arg, f)));
+      await open(`?mesh=${f}`);
+      read[f] = await page.evaluate(() => {
+        const m = window.mlsdeformPage.state.mesh;
+        return { vertices: Array.from(m.vertices), faces: JSON.stringify(m.faces) };
+      });
+      console.log(`${f}: ${read[f].vertices.length / 3} vertices, ${JSON.parse(read[f].faces).length} faces`);
+    }
+    const ref = read['human.obj'];
+    if (ref.vertices.length !== 3 * 6890) fail(`human.obj: ${ref.vertices.length / 3} vertices, not 6890`);
+    for (const f of ['human.off', 'human.off.gz', 'human.ply']) {
+      const differ = read[f].vertices.findIndex((x, i) => !Object.is(x, ref.vertices[i]));
+      if (read[f].vertices.length !== ref.vertices.length || differ >= 0) fail(`${f}: vertices differ from the OBJ's (at ${differ})`);
+      if (read[f].faces !== ref.faces) fail(`${f}: faces differ from the OBJ's`);
+    }
   } else if (check === 'screenshot') {
     await open('?mesh=human_man.obj&handles=human_bend.json');
     await new Promise((r) => setTimeout(r, 500));

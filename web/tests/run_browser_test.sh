@@ -39,6 +39,28 @@ case "$check" in
       node "$root/web/tests/compare.mjs" "$tmp/page.obj" "$tmp/program.obj" "$root/data/human_man.obj" exact
     fi
     ;;
+  malformed)
+    # The message `mlsdeform deform` prints for the malformed file (run beside it, so that it names the file
+    # as the page does), which the page must show word for word.
+    printf 'v 0 0 0\nv 1 0 0\nv 0 1 zero\nf 1 2 3\n' >"$tmp/broken.obj"
+    if [ -n "$program" ]; then
+      (cd "$tmp" && ! "$program" deform -q -m broken.obj -H "$root/data/human_bend.json" -o out.obj 2>message.txt)
+      sed -i 's/^mlsdeform: error: //' "$tmp/message.txt"
+    fi
+    run malformed "$tmp"
+    ;;
+  formats)
+    # The human's first frame as the program writes it in each format (PLY binary, OFF also gzip-compressed):
+    # the page reads the same floats from each (its OBJ reader is the reference, the three are the program's).
+    [ -n "$program" ] || { echo "skipped: formats needs the program (MLSDEFORM_BUILD_TOOLS)"; exit 77; }
+    for f in obj off ply; do
+      "$program" deform -q -m "$root/data/human_man.obj" -H "$root/data/human_bend.json" -o "$tmp/human.$f"
+      mv "$tmp/human_0000.$f" "$tmp/human.$f"
+      rm -f "$tmp"/human_00*."$f"
+    done
+    gzip -k "$tmp/human.off"
+    run formats "$tmp"
+    ;;
   screenshot) run screenshot "${WEB_SCREENSHOT:-$tmp/page.png}" ;;
   *) run "$check" ;;
 esac

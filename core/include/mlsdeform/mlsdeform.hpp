@@ -10,5 +10,6 @@
 #include <mlsdeform/frames.hpp>
 #include <mlsdeform/point_fit.hpp>
 #include <mlsdeform/rotation.hpp>
+#include <mlsdeform/splats.hpp>
 #include <mlsdeform/types.hpp>
 #include <mlsdeform/version.hpp>

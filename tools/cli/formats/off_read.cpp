@@ -52,7 +52,7 @@ BasicMesh<T> read_off(Reader& reader, const std::string& path) {
     for (int k = 0; k < 3; ++k) c[k] = coordinate<T>(t[std::size_t(k)], path, at_line(lines.line()));
     for (std::size_t k = 3; k < t.size(); ++k) coordinate<double>(t[k], path, at_line(lines.line()));
     x.vertex_tails.set(std::size_t(i), tail_after(lines.raw(), t[2]));
-    if (!finite3(c)) throw InputError(path, non_finite(i), at_line(lines.line()));
+    if (!finite3(c)) throw InputError(path, non_finite(std::size_t(i)), at_line(lines.line()));
     mesh.vertices.row(Eigen::Index(i)) << c[0], c[1], c[2];
   }
   std::deque<std::uint32_t> corners;
@@ -66,7 +66,7 @@ BasicMesh<T> read_off(Reader& reader, const std::string& path) {
                        "face " + std::to_string(f) + ": expected a vertex count of at least 3, found " + shown(t[0]),
                        at_line(lines.line()));
     // k indices, then optionally a colour (3 or 4 numbers).
-    const std::size_t extra = t.size() - 1 >= k ? t.size() - 1 - k : std::size_t(-1);
+    const std::size_t extra = t.size() - 1 >= k ? t.size() - 1 - std::size_t(k) : std::size_t(-1);
     if (extra != 0 && extra != 3 && extra != 4)
       throw InputError(path,
                        "face " + std::to_string(f) + " promises " + std::to_string(k) + " vertices but has " +
@@ -77,7 +77,8 @@ BasicMesh<T> read_off(Reader& reader, const std::string& path) {
       const std::string_view tok = t[std::size_t(j + 1)];
       if (!parse_number(tok, v))
         throw InputError(path, "face " + std::to_string(f) + ": not an index: " + shown(tok), at_line(lines.line()));
-      if (v < 0 || std::uint64_t(v) >= nv) throw InputError(path, out_of_range(f, v, nv), at_line(lines.line()));
+      if (v < 0 || std::uint64_t(v) >= nv)
+        throw InputError(path, out_of_range(std::size_t(f), v, nv), at_line(lines.line()));
       corners.push_back(std::uint32_t(v));
     }
     for (std::size_t j = std::size_t(k) + 1; j < t.size(); ++j) coordinate<T>(t[j], path, at_line(lines.line()));

@@ -25,7 +25,7 @@ std::string shown(std::string_view token) {
 
 std::string shortest_text(double v) {
   char buf[32];
-  return std::string(buf, std::to_chars(buf, buf + sizeof buf, v).ptr);
+  return std::string(buf, real_to_chars(buf, buf + sizeof buf, v));
 }
 
 std::string non_finite(std::size_t vertex) {

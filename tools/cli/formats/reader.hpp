@@ -10,6 +10,7 @@
 
 #include "tools/cli/error.hpp"
 #include "tools/cli/file_io.hpp"
+#include "tools/cli/formats/numbers.hpp"
 #include "tools/cli/mesh.hpp"
 
 #include <algorithm>
@@ -43,9 +44,16 @@ std::errc read_number(std::string_view token, T& out) {
   if (token.empty()) return std::errc::invalid_argument;
   const char* first = token.data();
   if (*first == '+') ++first;  // from_chars refuses a leading '+', which text formats use
-  const auto r = std::from_chars(first, token.data() + token.size(), out);
-  if (r.ptr != token.data() + token.size()) return std::errc::invalid_argument;
-  return r.ec;
+  const char* const last = token.data() + token.size();
+  if constexpr (std::is_floating_point_v<T>) {
+    const RealParse r = real_from_chars(first, last, out);
+    if (r.ptr != last) return std::errc::invalid_argument;
+    return r.ec;
+  } else {
+    const auto r = std::from_chars(first, last, out);
+    if (r.ptr != last) return std::errc::invalid_argument;
+    return r.ec;
+  }
 }
 template <class T>
 bool parse_number(std::string_view token, T& out) {

@@ -3,6 +3,7 @@
 // naming the writer. mesh_write.cpp picks the writer by the file's extension.
 #pragma once
 
+#include "tools/cli/formats/numbers.hpp"
 #include "tools/cli/mesh.hpp"
 
 #include <mlsdeform/version.hpp>
@@ -26,8 +27,7 @@ struct TextOut {
   template <class R>
   void real(R v) {
     char buf[64];
-    const auto r = std::to_chars(buf, buf + sizeof buf, v);
-    s.append(buf, r.ptr);
+    s.append(buf, real_to_chars(buf, buf + sizeof buf, v));
   }
   void num(std::uint64_t v) {
     char buf[24];

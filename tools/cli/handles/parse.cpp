@@ -145,11 +145,12 @@ std::vector<std::size_t> parse_members(const Node& group, const char* key, std::
       item.fail(std::string(kind) + " " + std::to_string(i) + " out of range (the file has " +
                 std::to_string(owner.size()) + " " + kind + "s" +
                 (owner.empty() ? std::string() : ", 0 to " + std::to_string(owner.size() - 1)) + ")");
-    if (!owner[i].empty())
-      item.fail(std::string(kind) + " " + std::to_string(i) + " is already in a group (at " + owner[i] +
+    const std::size_t at = std::size_t(i);  // below owner.size(): fits
+    if (!owner[at].empty())
+      item.fail(std::string(kind) + " " + std::to_string(i) + " is already in a group (at " + owner[at] +
                 "); a handle can be in one group only");
-    owner[i] = item.path;
-    out.push_back(std::size_t(i));
+    owner[at] = item.path;
+    out.push_back(at);
   }
   return out;
 }
