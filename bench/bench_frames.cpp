@@ -6,6 +6,8 @@
 //   frames/<storage>/quaternions      positions + quaternions (n x 4)
 //   frames/<storage>/quaternions+linear  positions + quaternions + the linear part (n x 9)
 //   frames/<storage>/all              positions + quaternions, rotations, scales and linear
+//   frames/affine/positions, frames/affine/linear   Transform::affine (precomputed: its only storage), deform()
+//                                     alone and with the fit's matrix (n x 9: a second pass over the handles)
 // Counters: ms_per_frame, fps; the ratio to `positions` in the same run is the figure (docs/api.md, "Frames";
 // the target: at most 1.2). Each variant first checks that its positions are bitwise those of deform()
 // without frames.
@@ -28,18 +30,19 @@ const bench::DeformCase& scene() {
   return s;
 }
 
-enum class Wanted { positions, quaternions, quaternions_linear, all };
+enum class Wanted { positions, quaternions, quaternions_linear, all, linear };
 
-void bm(benchmark::State& state, WeightStorage storage, Wanted wanted) {
+void bm(benchmark::State& state, WeightStorage storage, Wanted wanted, bool affine = false) {
   mlsdeform::Options o = bench::deformer_options(std::nullopt, 1, storage);
   o.precompute_budget_bytes = std::size_t(1) << 30;  // 10^6 vertices x 10 handles x 16 bytes: 160 MB
+  if (affine) o.transform = mlsdeform::Transform::affine;
   const mlsdeform::Deformer<T> d(scene().vertices.cast<T>(), bench::point_handles<T>(scene().rest.points), o);
   const mlsdeform::Handles<T> moved = bench::point_handles<T>(scene().moved.points);
   const std::size_t n = std::size_t(d.vertex_count());
   std::vector<T> q(4 * n), r(9 * n), s(n), l(9 * n);
   mlsdeform::FramesOut<T> frames;
-  if (wanted != Wanted::positions) frames.quaternions = q;
-  if (wanted == Wanted::quaternions_linear || wanted == Wanted::all) frames.linear = l;
+  if (wanted != Wanted::positions && wanted != Wanted::linear) frames.quaternions = q;
+  if (wanted == Wanted::quaternions_linear || wanted == Wanted::all || wanted == Wanted::linear) frames.linear = l;
   if (wanted == Wanted::all) frames.rotations = r, frames.scales = s;
   mlsdeform::Points<T> out, plain;
   d.deform(moved, plain);
@@ -63,6 +66,10 @@ int main(int argc, char** argv) {
         bm(state, st, w);
       })->Unit(benchmark::kMillisecond);
   }
+  for (auto [w, name] : {std::pair{Wanted::positions, "positions"}, std::pair{Wanted::linear, "linear"}})
+    benchmark::RegisterBenchmark(("frames/affine/" + std::string(name)).c_str(), [=](benchmark::State& state) {
+      bm(state, WeightStorage::precomputed, w, true);
+    })->Unit(benchmark::kMillisecond);
   benchmark::Initialize(&argc, argv);
   benchmark::RunSpecifiedBenchmarks();
   benchmark::Shutdown();

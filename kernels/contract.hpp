@@ -33,6 +33,13 @@ static constexpr std::size_t table_offset(std::size_t b, std::size_t j, std::siz
   return (b * J + j) * table_components(transform) * kLanes;
 }
 
+/// Affine sessions' second table, the frames' linear part (data.hpp): per block and pseudo-handle the three
+/// components of B_j = G^-1 A_j, component c of lane l at offset + c * kLanes + l. Apart from the alpha table,
+/// so that the position pass reads what it read before.
+static constexpr std::size_t linear_table_offset(std::size_t b, std::size_t j, std::size_t J) {
+  return (b * J + j) * 3 * kLanes;
+}
+
 // ---------------------------------------------------------------------------------------------------------
 // Parameters of the axis/angle fit, the same in core/src/rotation/ and kernels/rotation/
 // ---------------------------------------------------------------------------------------------------------
@@ -68,11 +75,12 @@ struct DeformFrame {
   WeightSource weights;
 
   // Session data (rest pose).
-  std::size_t n;       ///< vertices (the last block may be partial)
-  std::size_t padded;  ///< kLanes * blocks
-  const T* table;      ///< WeightSource::table: the coefficient table (table_offset)
-  const T* vhat;       ///< rigid, similarity: vhat[c * padded + v]
-  const T* D;          ///< similarity: D[v]; else nullptr
+  std::size_t n;          ///< vertices (the last block may be partial)
+  std::size_t padded;     ///< kLanes * blocks
+  const T* table;         ///< WeightSource::table: the coefficient table (table_offset)
+  const T* vhat;          ///< rigid, similarity: vhat[c * padded + v]
+  const T* D;             ///< similarity: D[v]; else nullptr
+  const T* linear_table;  ///< affine: B_j = G^-1 A_j (linear_table_offset), read when `linear` is wanted
   // WeightSource::on_the_fly: weights from the rest distances, recomputed per frame.
   const T* v_local;  ///< rest vertices, local frame, SoA [c * padded + v]
   const T* dref2;    ///< squared nearest-handle distance [v]
@@ -94,9 +102,9 @@ struct DeformFrame {
   T* out;
   std::size_t out_vertex_stride, out_coord_stride;
 
-  // Frames (FramesOut, mlsdeform/frames.hpp), rigid and similarity, each row-major per vertex or nullptr:
-  // not wanted. Vertex v's unit quaternion (w, x, y, z) at quaternions[4 v], R at rotations[9 v], the
-  // similarity scale at scales[v], the linear part mu R at linear[9 v]. Unitless: no world_scale.
+  // Frames (FramesOut, mlsdeform/frames.hpp), each row-major per vertex or nullptr: not wanted (affine: only
+  // `linear`, the fit's matrix H G^-1). Vertex v's unit quaternion (w, x, y, z) at quaternions[4 v], R at rotations[9
+  // v], the similarity scale at scales[v], the linear part mu R at linear[9 v]. Unitless: no world_scale.
   T* quaternions;
   T* rotations;
   T* scales;

@@ -102,6 +102,18 @@ TEMPLATE_TEST_CASE("deform and fit_rotations allocate nothing in steady state", 
         CHECK(allocations_during([&] { d.deform(moved, out, FramesOut<T>{q, r, s, l}); }) == 0);
         CHECK(allocations_during([&] { d.deform(out, FramesOut<T>{q, {}, {}, {}}); }) == 0);
       }
+  // Affine (precomputed weights only): its frame, the fit's matrix, from the session's second table.
+  for (const std::optional<Isa> isa : {std::optional<Isa>(), std::optional<Isa>(Isa::scalar)}) {
+    Options o;
+    o.isa = isa;
+    o.transform = Transform::affine;
+    o.threads = 1;
+    Deformer<T> d(v, rest, o);
+    Points<T> out;
+    d.deform(moved, out);
+    std::vector<T> l(9 * 5000);
+    CHECK(allocations_during([&] { d.deform(moved, out, FramesOut<T>{{}, {}, {}, l}); }) == 0);
+  }
   // A region (Options::region): the kernels' output and the targets with the ring's fixed handles are the
   // session's scratch, sized at construction.
   for (const std::optional<Isa> isa : {std::optional<Isa>(), std::optional<Isa>(Isa::scalar)}) {

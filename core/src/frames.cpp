@@ -126,21 +126,22 @@ namespace detail {
 
 template <class T>
 void check_frames(const FramesOut<T>& frames, std::size_t n, Transform transform) {
-  const auto check = [&](std::span<T> s, std::size_t width, const char* name) {
+  const auto check = [&](std::span<T> s, std::size_t width, const char* name, bool affine_has_it = false) {
     if (s.empty()) return;
     if (s.size() != width * n)
       throw std::invalid_argument(std::string("Deformer: frames.") + name + " has " + std::to_string(s.size()) +
                                   " values but the model's " + std::to_string(n) + " vertices need " +
                                   std::to_string(width * n) + " (" + std::to_string(width) + " per vertex)");
-    if (transform == Transform::affine)
+    if (transform == Transform::affine && !affine_has_it)
       throw std::invalid_argument(std::string("Deformer: frames.") + name +
                                   " is not available for Transform::affine (an affine session computes no "
-                                  "rotation, and its table holds no linear part)");
+                                  "rotation: frames.linear gives its matrix, whose polar decomposition is the "
+                                  "caller's choice)");
   };
   check(frames.quaternions, 4, "quaternions");
   check(frames.rotations, 9, "rotations");
   check(frames.scales, 1, "scales");
-  check(frames.linear, 9, "linear");
+  check(frames.linear, 9, "linear", true);
 }
 
 template <class T>

@@ -7,7 +7,8 @@
 //   similarity_scale                         mu (similarity), else 1
 //   apply                                    v' = q* + mu R vhat
 //   store_frames (when wanted)               R, mu, mu R and rotation_quaternion(R) into the FramesOut rows
-// Affine: v' = sum_j alpha_j q_j. The pseudo-handles are visited in one order, so a vertex's sums see the same
+// Affine: v' = sum_j alpha_j q_j, and when `linear` is wanted L = sum_j (q_j - c) B_j^T (correlation_matrix
+// again). The pseudo-handles are visited in one order, so a vertex's sums see the same
 // terms in the same order whatever the width, thread or block schedule. Everything is in the local frame:
 // targets times local_scale as they are read, results times world_scale before they are stored.
 //
@@ -32,7 +33,8 @@ struct DeformKernel {
   static constexpr std::size_t W = L::W;
   static_assert(kLanes % W == 0, "a block holds a whole number of batches");
 
-  /// One vertex per lane: its position, and the frame (R, mu) that moved it (rigid, similarity).
+  /// One vertex per lane: its position, and the frame (R, mu) that moved it (rigid, similarity; affine: r the
+  /// fit's matrix L, mu 1, computed only when `linear` is wanted).
   struct Result {
     V out[3];
     V r[9];
@@ -64,13 +66,24 @@ struct DeformKernel {
     rotate_and_apply(fr, h, qs, vh, D, res);
   }
 
-  /// Affine: v' = sum_j alpha_j q_j for the W vertices from lane g of block b.
-  MLSDEFORM_KERNEL_INLINE static void affine(const DeformFrame<T>& fr, std::size_t b, std::size_t g, V (&out)[3]) {
+  /// Affine: v' = sum_j alpha_j q_j for the W vertices from lane g of block b; where `linear` is wanted also
+  /// the fit's matrix L = H G^-1 = sum_j (q_j - c) B_j^T (correlation_matrix with B_j = G^-1 A_j in A_j's
+  /// place, data.hpp) into res.r, with res.mu = 1 so that store_frames writes mu R = L. The position's sum is
+  /// the same whether or not L is wanted.
+  MLSDEFORM_KERNEL_INLINE static void affine(const DeformFrame<T>& fr, std::size_t b, std::size_t g, Result& res) {
     const std::size_t J = fr.k + 2 * fr.s;
-    for (V& x : out) x = V(T(0));
+    for (V& x : res.out) x = V(T(0));
     for_each_target(fr, [&](std::size_t j, T qx, T qy, T qz) {
-      weighted_centroid(out, L::load(fr.table + table_offset(b, j, J, fr.transform) + g), {V(qx), V(qy), V(qz)});
+      weighted_centroid(res.out, L::load(fr.table + table_offset(b, j, J, fr.transform) + g), {V(qx), V(qy), V(qz)});
     });
+    if (!fr.linear) return;
+    for (V& e : res.r) e = V(T(0));
+    for_each_target(fr, [&](std::size_t j, T qx, T qy, T qz) {
+      const T* bj = fr.linear_table + linear_table_offset(b, j, J) + g;
+      correlation_matrix(res.r, {V(qx - fr.centre[0]), V(qy - fr.centre[1]), V(qz - fr.centre[2])},
+                         {L::load(bj), L::load(bj + kLanes), L::load(bj + 2 * kLanes)});
+    });
+    res.mu = V(T(1));
   }
 
   /// The lanes of `snap` that sit on a handle (snap = its index, else -1) take its target exactly (Sec. 3:
@@ -200,15 +213,15 @@ struct DeformKernel {
   ///   Valid range: a frame the session built (finite targets, validated by the session; a vertex on a
   ///                handle takes its target exactly)
   static void run(const DeformFrame<T>& fr, std::size_t block_begin, std::size_t block_end) {
-    // Affine sessions have no frames (the session refuses them).
-    const bool frames = fr.transform != Transform::affine && (fr.quaternions || fr.rotations || fr.scales || fr.linear);
+    // Affine sessions have only `linear` (the session refuses the others).
+    const bool frames = fr.quaternions || fr.rotations || fr.scales || fr.linear;
     for (std::size_t b = block_begin; b < block_end; ++b)
       for (std::size_t g = 0; g < kLanes && b * kLanes + g < fr.n; g += W) {
         Result res;
         if (fr.weights == WeightSource::on_the_fly)
           on_the_fly(fr, b * kLanes + g, res);
         else if (fr.transform == Transform::affine)
-          affine(fr, b, g, res.out);
+          affine(fr, b, g, res);
         else
           table(fr, b, g, res);
         store(fr, b * kLanes + g, res.out);

@@ -106,9 +106,32 @@ def test_bad_frame_arrays_are_refused_before_writing():
         d.deform(points=P + 0.1, out=out, rotations=[[0.0] * 9] * len(V))
     assert np.all(out == 7) and np.all(good == 7)
     a = mlsdeform.Deformer(V, points=P, transform="affine")
-    with pytest.raises(ValueError, match="affine"):
-        a.deform(points=P + 0.1, out=out, linear=good)
+    with pytest.raises(ValueError, match="rotations is not available for Transform::affine"):
+        a.deform(points=P + 0.1, out=out, rotations=good)
     assert np.all(out == 7) and np.all(good == 7)
+
+
+@pytest.mark.parametrize("kind", ["general", "shear", "reflection"])
+def test_affine_linear_is_the_motions_matrix(kind):
+    # An affine motion x -> A x + t of every handle is reproduced by the affine fit: its matrix is A at every
+    # vertex (to the fixed 1e-9 of this file: the C++ test derives the per-vertex bound).
+    g = rng()
+    V, P, _, _ = scene(g, k=9)
+    A = {
+        "general": random_rotation(g) @ (np.eye(3) + 0.4 * g.uniform(-1, 1, (3, 3))),
+        "shear": np.array([[1, 0.8, 0], [0, 1, 0], [0, 0, 1]]),
+        "reflection": 1.7 * random_rotation(g) @ np.diag([1, -1, 1]),
+    }[kind]
+    d = mlsdeform.Deformer(V, points=P, transform="affine")
+    L = np.empty((len(V), 3, 3))
+    X = d.deform(points=P @ A.T + [0.5, -1, 2], linear=L)
+    assert np.array_equal(X, d.deform(points=P @ A.T + [0.5, -1, 2]))
+    assert np.abs(L - A).max() <= 1e-9
+    # Normals go by its inverse transpose.
+    N = g.normal(size=(len(V), 3))
+    ref = N @ np.linalg.inv(A)
+    ref /= np.linalg.norm(ref, axis=1)[:, None]
+    assert np.abs(mlsdeform.transform_normals(L, N) - ref).max() <= 1e-9
 
 
 def test_transform_normals_and_tangents():

@@ -1,7 +1,8 @@
 // The program on 3D Gaussian splat files (tools/cli/splats.cpp, docs/splats.md): a rigid or similarity motion of
 // every handle turns each splat's rot_* by that rotation and shifts its scale_* by log(s), to the fit's bound,
 // rotates its f_rest_*, and passes every other property through bit for bit; a region leaves the splats outside
-// it bit for bit; affine fits and files that are splat files only in part are refused.
+// it bit for bit; an affine fit maps each splat by its centre's matrix; files that are splat files only in part
+// are refused.
 #include "tests/cli/cli_test_util.hpp"
 #include "tests/support/accuracy_bounds.hpp"
 #include "tests/support/deform_cases.hpp"
@@ -193,24 +194,70 @@ TEST_CASE("splats: outside a region every splat keeps every bit", "[cli][splats]
   CHECK(turned > 0);  // the region's splats did move and turn
 }
 
-TEST_CASE("splats: affine fits and files that are splat files only in part are refused", "[cli][splats]") {
+TEST_CASE("splats: an affine fit maps each splat by the matrix the library fits at its centre", "[cli][splats]") {
+  // The program's part: it takes each centre's FramesOut::linear (held to the motion's matrix in
+  // tests/test_frames_affine.cpp) and the splat's rot_*, scale_*, f_rest_* as read, maps them by
+  // transform_splats_affine in double (held to M Sigma M^T in tests/test_splats_affine.cpp) and stores them in
+  // float: the same library calls here give the same bits.
+  ScratchDir dir;
+  const testing::SplatCloud cloud = testing::random_splat_cloud(300, 29);
+  testing::write_splat_ply(dir / "in.ply", cloud);
+  const std::string header = testing::splat_ply_header(cloud.n, 3);
+  const std::vector<float> in = records(cli_test::read_text(dir / "in.ply"), header, cloud.n);
+  const std::vector<Eigen::Vector3d> rest = handle_rests();
+  Eigen::Matrix3d A;
+  A << 1.2, 0.4, 0, 0, 0.9, 0.1, 0.2, 0, 1.1;  // a shear and a stretch
+  std::vector<Eigen::Vector3d> target;
+  for (const auto& p : rest) target.push_back(A * p + Eigen::Vector3d(0.3, -0.2, 0.1));
+  cli_test::write_text(dir / "h.json", handles_json(rest, target));
+  const auto r = cli_test::deform(dir / "in.ply", dir / "h.json", dir / "out.ply", {"--transform", "affine"});
+  REQUIRE(r.exit_code == 0);
+  CHECK(r.out.find("splats") != std::string::npos);
+  const std::vector<float> out = records(cli_test::read_text(dir / "out.ply"), header, cloud.n);
+  mlsdeform::Points<double> p_rest(Eigen::Index(rest.size()), 3), p_moved(Eigen::Index(rest.size()), 3);
+  for (std::size_t j = 0; j < rest.size(); ++j) {
+    p_rest.row(Eigen::Index(j)) = rest[j].transpose();
+    p_moved.row(Eigen::Index(j)) = target[j].transpose();
+  }
+  mlsdeform::Points<float> centres(Eigen::Index(cloud.n), 3);
+  for (std::size_t i = 0; i < cloud.n; ++i)
+    for (int k = 0; k < 3; ++k) centres(Eigen::Index(i), k) = cloud.positions[3 * i + std::size_t(k)];
+  mlsdeform::Options options;
+  options.transform = mlsdeform::Transform::affine;
+  const mlsdeform::Deformer<float> d(centres, testing::point_handles<float>(p_rest), options);
+  mlsdeform::Points<float> moved;
+  std::vector<float> linear(9 * cloud.n);
+  d.deform(testing::point_handles<float>(p_moved), moved, mlsdeform::FramesOut<float>{{}, {}, {}, linear});
+  for (std::size_t i = 0; i < cloud.n; ++i) {
+    INFO("splat " << i);
+    const float* p = in.data() + kPer * i;
+    const float* o = out.data() + kPer * i;
+    std::vector<double> rot(p + 58, p + 62), scale(p + 55, p + 58), sh(p + 9, p + 54), m(9);
+    std::copy_n(linear.data() + 9 * i, 9, m.begin());
+    mlsdeform::transform_splats_affine<double>({rot.data(), scale.data(), sh.data(), 3}, 1, m.data());
+    for (int k = 0; k < 4; ++k) CHECK(o[58 + k] == float(rot[std::size_t(k)]));
+    for (int k = 0; k < 3; ++k) CHECK(o[55 + k] == float(scale[std::size_t(k)]));
+    for (int k = 0; k < 45; ++k) CHECK(o[9 + k] == float(sh[std::size_t(k)]));
+    CHECK(std::memcmp(o + 3, p + 3, 6 * 4) == 0);  // nx ny nz (zeros), f_dc_*: as read
+    CHECK(std::memcmp(o + 54, p + 54, 4) == 0);    // opacity
+    // Not the identity: the covariance was mapped.
+    CHECK(std::memcmp(o + 55, p + 55, 7 * 4) != 0);
+  }
+}
+
+TEST_CASE("splats: files that are splat files only in part are refused", "[cli][splats]") {
   ScratchDir dir;
   const testing::SplatCloud cloud = testing::random_splat_cloud(50, 29);
   testing::write_splat_ply(dir / "in.ply", cloud);
   const std::vector<Eigen::Vector3d> rest = handle_rests();
   cli_test::write_text(dir / "h.json", handles_json(rest, rest));
-  auto r = cli_test::deform(dir / "in.ply", dir / "h.json", dir / "out.ply", {"--transform", "affine"});
-  CHECK(r.exit_code == 2);
-  CHECK(r.err.find("in.ply") != std::string::npos);
-  CHECK(r.err.find("splat") != std::string::npos);
-  CHECK(dir.files() == std::vector<std::string>{"h.json", "in.ply"});
   // rot_3 renamed: a splat file in part
   std::string bytes = cli_test::read_text(dir / "in.ply");
   const std::size_t at = bytes.find("property float rot_3\n");
   REQUIRE(at != std::string::npos);
   bytes.replace(at, 20, "property float rot_x");
   cli_test::write_text(dir / "half.ply", bytes);
-  r = cli_test::deform(dir / "half.ply", dir / "h.json", dir / "out.ply");
+  const auto r = cli_test::deform(dir / "half.ply", dir / "h.json", dir / "out.ply");
   CHECK(r.exit_code == 2);
   CHECK(r.err.find("half.ply") != std::string::npos);
   CHECK(r.err.find("rot_3") != std::string::npos);

@@ -160,37 +160,6 @@ FrameDonors frame_donors(const BasicMesh<T>& mesh, const Points<T>& handles) {
 }
 
 template <class T>
-void drop_normals(BasicMesh<T>& mesh) {
-  if (auto& ply = mesh.extras.ply) {
-    const auto k = ply_normals(*ply);
-    if (!k) return;
-    PlyElement& v = ply->vertices();
-    std::vector<bool> keep(v.properties.size(), true);
-    for (std::size_t c : *k) keep[c] = false;
-    std::vector<std::size_t> offsets;
-    for (std::size_t j = 0; j <= v.properties.size(); ++j) offsets.push_back(v.offset(j));
-    const std::size_t stride = v.stride();
-    std::vector<unsigned char> data;
-    data.reserve(std::size_t(v.count) * (stride - size_of(v.properties[(*k)[0]].type) * 3));
-    for (std::size_t i = 0; i < std::size_t(v.count); ++i)
-      for (std::size_t j = 0; j < keep.size(); ++j)
-        if (keep[j])
-          data.insert(data.end(), v.data.begin() + std::ptrdiff_t(i * stride + offsets[j]),
-                      v.data.begin() + std::ptrdiff_t(i * stride + offsets[j + 1]));
-    std::vector<PlyProperty> properties;
-    for (std::size_t j = 0; j < keep.size(); ++j)
-      if (keep[j]) properties.push_back(v.properties[j]);
-    v.properties = std::move(properties);
-    v.data = std::move(data);
-  }
-  if (auto& obj = mesh.extras.obj; obj && !obj->corner_normals.empty()) {
-    obj->normals.clear();
-    std::fill(obj->corner_normals.begin(), obj->corner_normals.end(), ObjExtras::kNone);
-    obj->normals_rewritten = true;
-  }
-}
-
-template <class T>
 AttributeReport attribute_report(const BasicMesh<T>& mesh, const std::string& out_path, NormalsOut normals,
                                  InputNormals fate) {
   AttributeReport r;
@@ -203,8 +172,6 @@ AttributeReport attribute_report(const BasicMesh<T>& mesh, const std::string& ou
       r.dropped.push_back(what + " (replaced by computed ones)");
     else if (fate == InputNormals::transformed)
       r.transformed.push_back(what);
-    else if (fate == InputNormals::untransformable)
-      r.dropped.push_back(what + " (no linear part to transform them by: affine fits)");
     else
       r.kept.push_back(what);
   };
@@ -273,7 +240,6 @@ AttributeReport attribute_report(const BasicMesh<T>& mesh, const std::string& ou
 
 #define MLSDEFORM_CLI_ATTRIBUTES(T)                                         \
   template void transform_normals(BasicMesh<T>&, const T*);                 \
-  template void drop_normals(BasicMesh<T>&);                                \
   template FrameDonors frame_donors(const BasicMesh<T>&, const Points<T>&); \
   template AttributeReport attribute_report(const BasicMesh<T>&, const std::string&, NormalsOut, InputNormals);
 MLSDEFORM_CLI_ATTRIBUTES(float)

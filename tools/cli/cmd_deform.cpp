@@ -33,10 +33,6 @@ int deform(const DeformArgs& a) {
     throw InputError(a.mesh, "--arap needs a surface, and the mesh has no faces (a point cloud?)");
   // A 3D Gaussian splat file (docs/splats.md): each splat turns (and grows) by its centre's frame.
   const std::optional<SplatLayout> splats = mesh.extras.ply ? splat_layout(*mesh.extras.ply, a.mesh) : std::nullopt;
-  if (splats && a.options.transform == Transform::affine)
-    throw InputError(a.mesh,
-                     "a Gaussian splat file needs --transform rigid or similarity: an affine fit gives no "
-                     "rotation to turn the splats by (docs/splats.md)");
   const HandlesFile handles = read_handles(a.handles);
 
   const std::size_t frame_count = handles.animated() ? handles.frames.size() : 1;
@@ -48,11 +44,7 @@ int deform(const DeformArgs& a) {
   // What the output keeps of the input's attributes, named before any work (--strict-attributes refuses then).
   const bool same_format = format_extension(a.mesh) == format_extension(a.out);
   const bool transform_normals_wanted = a.normals == NormalsOut::input && same_format && mesh.extras.has_normals();
-  // The library gives no linear part for affine fits (FramesOut): written as read, the normals would be wrong.
-  const bool affine = a.options.transform == Transform::affine;
-  const InputNormals fate = !transform_normals_wanted ? InputNormals::kept
-                            : affine                  ? InputNormals::untransformable
-                                                      : InputNormals::transformed;
+  const InputNormals fate = transform_normals_wanted ? InputNormals::transformed : InputNormals::kept;
   const AttributeReport report = attribute_report(mesh, a.out, a.normals, fate);
   if (!report.dropped.empty()) {
     std::string list;
@@ -116,22 +108,23 @@ int deform(const DeformArgs& a) {
     if (splats)
       std::printf("splats: %lld Gaussian splats, SH degree %d: rot_*%s and f_rest_* turned by each centre's frame\n",
                   static_cast<long long>(mesh.vertex_count()), splats->sh_degree,
-                  a.options.transform == Transform::similarity ? ", scale_*" : "");
+                  a.options.transform == Transform::rigid ? "" : ", scale_*");
     std::fflush(stdout);  // seen before a long first frame, also through a pipe
   }
 
   BasicMesh<T> result = mesh;
-  if (fate == InputNormals::untransformable) drop_normals(result);
   const WriteOptions write{a.force, a.ply_ascii ? PlyEncoding::ascii : PlyEncoding::binary, a.normals, a.output_type};
   const bool narrowed = std::is_same_v<T, double> && output_type(mesh, write) == CoordinateType::float32;
   Points<T> out(rest.rows(), 3);
-  // Each vertex's linear part (R, s R, or ARAP's refined rotation), to carry the input's normals through.
-  std::vector<T> linear(fate == InputNormals::transformed ? std::size_t(rest.rows()) * 9 : 0);
+  // Each vertex's linear part (R, s R, the affine fit's matrix, or ARAP's refined rotation), to carry the input's
+  // normals through.
+  // A splat file's: each centre's rotation, and its scale for similarity fits; for affine fits the linear part.
+  const bool affine_splats = splats && a.options.transform == Transform::affine;
+  std::vector<T> linear(fate == InputNormals::transformed || affine_splats ? std::size_t(rest.rows()) * 9 : 0);
   FramesOut<T> frames;
   frames.linear = std::span<T>(linear);
-  // A splat file's: each centre's rotation, and its scale for similarity fits.
   const bool grows = a.options.transform == Transform::similarity;
-  std::vector<T> splat_turns(splats ? 4 * std::size_t(rest.rows()) : 0),
+  std::vector<T> splat_turns(splats && !affine_splats ? 4 * std::size_t(rest.rows()) : 0),
       splat_scales(splats && grows ? std::size_t(rest.rows()) : 0);
   frames.quaternions = std::span<T>(splat_turns);
   frames.scales = std::span<T>(splat_scales);
@@ -175,8 +168,8 @@ int deform(const DeformArgs& a) {
           std::copy_n(values.begin() + std::ptrdiff_t(width * std::size_t(from)), width,
                       values.begin() + std::ptrdiff_t(width * std::size_t(v)));
       };
-      if (!linear.empty()) {
-        lend(linear, 9);
+      lend(linear, 9);
+      if (fate == InputNormals::transformed) {
         result.extras = mesh.extras;  // each frame's normals from the input's
         transform_normals(result, linear.data());
       }
@@ -184,8 +177,11 @@ int deform(const DeformArgs& a) {
         t0 = Clock::now();
         lend(splat_turns, 4);
         lend(splat_scales, 1);
-        transform_splats(*mesh.extras.ply, *result.extras.ply, splat_turns.data(),
-                         grows ? splat_scales.data() : static_cast<const T*>(nullptr), a.options.threads, a.mesh);
+        if (affine_splats)
+          transform_splats_linear(*mesh.extras.ply, *result.extras.ply, linear.data(), a.options.threads, a.mesh);
+        else
+          transform_splats(*mesh.extras.ply, *result.extras.ply, splat_turns.data(),
+                           grows ? splat_scales.data() : static_cast<const T*>(nullptr), a.options.threads, a.mesh);
         splat_ms += ms_since(t0);
       }
       // The library refuses a result T cannot hold; here only a double result beyond float, the coordinate

@@ -128,18 +128,13 @@ struct FrameDonors {
 template <class T>
 FrameDonors frame_donors(const BasicMesh<T>& mesh, const Points<T>& handle_points);
 
-/// Removes the input's normals (PLY nx ny nz, OBJ vn and the corners' references to them): for normals that
-/// cannot be transformed, which written as read would be wrong.
-template <class T>
-void drop_normals(BasicMesh<T>& mesh);
-
 /// What writing `mesh` to `out_path` keeps, transforms and drops of the input's attributes, each a short
 /// phrase ("vertex properties red, green, blue", "12 vt"), for the program's summary and its stderr line.
 struct AttributeReport {
   std::vector<std::string> kept, transformed, dropped;
 };
 /// What becomes of the input's normals in the output's format (when they are not replaced by computed ones).
-enum class InputNormals { kept, transformed, untransformable };
+enum class InputNormals { kept, transformed };
 template <class T>
 AttributeReport attribute_report(const BasicMesh<T>& mesh, const std::string& out_path, NormalsOut normals,
                                  InputNormals fate);

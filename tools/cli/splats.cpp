@@ -123,9 +123,13 @@ std::optional<SplatLayout> splat_layout(const PlyLayout& ply, const std::string&
   return s;
 }
 
-template <class T>
-void transform_splats(const PlyLayout& in, PlyLayout& out, const T* quaternions, const T* scales, int threads,
-                      const std::string& path) {
+namespace {
+
+/// The splats of `in`'s vertex element into `out`'s, kChunk at a time, gathered in double: `f(first, count,
+/// arrays)` transforms a chunk in place (rotate_splats or transform_splats_affine); a splat it refuses is named
+/// within the file.
+template <class F>
+void each_chunk(const PlyLayout& in, PlyLayout& out, const std::string& path, F&& f) {
   const SplatLayout from = *splat_layout(in, path), to = *splat_layout(out, path);
   const PlyElement& v = in.vertices();
   PlyElement& w = out.vertices();
@@ -139,26 +143,17 @@ void transform_splats(const PlyLayout& in, PlyLayout& out, const T* quaternions,
   const std::vector<std::size_t> rot_at = offsets(v, rot), scale_at = offsets(v, scale),
                                  sh_at = offsets(v, from.f_rest), out_rot_at = offsets(w, out_rot),
                                  out_scale_at = offsets(w, out_scale), out_sh_at = offsets(w, to.f_rest);
-  std::vector<double> r, s, sh, q(4 * kChunk), grow(kChunk);
+  std::vector<double> r, s, sh;
   for (std::size_t first = 0; first < v.count; first += kChunk) {
     const std::size_t count = std::min<std::size_t>(kChunk, std::size_t(v.count) - first);
     gather(v, rot, rot_at, first, count, r);
     gather(v, scale, scale_at, first, count, s);
     gather(v, from.f_rest, sh_at, first, count, sh);
-    // The fits' unit quaternions, renormalised in double: a float frame is a rotation to float's rounding,
-    // which rotate_splats<double> would take for a quaternion off unit length. The identity stays exact.
-    for (std::size_t i = 0; i < count; ++i) {
-      const T* t = quaternions + 4 * (first + i);
-      const double length =
-          std::sqrt(double(t[0]) * t[0] + double(t[1]) * t[1] + double(t[2]) * t[2] + double(t[3]) * t[3]);
-      for (std::size_t j = 0; j < 4; ++j) q[4 * i + j] = double(t[j]) / length;
-      if (scales) grow[i] = double(scales[first + i]);
-    }
     const SplatArrays<double> arrays{r.data(), s.data(), sh.empty() ? nullptr : sh.data(), from.sh_degree};
     try {
-      rotate_splats<double>(arrays, count, q.data(), scales ? grow.data() : nullptr, threads);
+      f(first, count, arrays);
     } catch (const std::invalid_argument& e) {
-      // rotate_splats names the splat within the chunk: name it within the file
+      // The library names the splat within the chunk: name it within the file
       std::string what = e.what();
       const std::size_t at = what.find("splat ");
       if (at != std::string::npos) {
@@ -174,9 +169,41 @@ void transform_splats(const PlyLayout& in, PlyLayout& out, const T* quaternions,
   }
 }
 
+}  // namespace
+
+template <class T>
+void transform_splats(const PlyLayout& in, PlyLayout& out, const T* quaternions, const T* scales, int threads,
+                      const std::string& path) {
+  std::vector<double> q(4 * kChunk), grow(kChunk);
+  each_chunk(in, out, path, [&](std::size_t first, std::size_t count, const SplatArrays<double>& arrays) {
+    // The fits' unit quaternions, renormalised in double: a float frame is a rotation to float's rounding,
+    // which rotate_splats<double> would take for a quaternion off unit length. The identity stays exact.
+    for (std::size_t i = 0; i < count; ++i) {
+      const T* t = quaternions + 4 * (first + i);
+      const double length =
+          std::sqrt(double(t[0]) * t[0] + double(t[1]) * t[1] + double(t[2]) * t[2] + double(t[3]) * t[3]);
+      for (std::size_t j = 0; j < 4; ++j) q[4 * i + j] = double(t[j]) / length;
+      if (scales) grow[i] = double(scales[first + i]);
+    }
+    rotate_splats<double>(arrays, count, q.data(), scales ? grow.data() : nullptr, threads);
+  });
+}
+
+template <class T>
+void transform_splats_linear(const PlyLayout& in, PlyLayout& out, const T* linear, int threads,
+                             const std::string& path) {
+  std::vector<double> m(9 * kChunk);
+  each_chunk(in, out, path, [&](std::size_t first, std::size_t count, const SplatArrays<double>& arrays) {
+    std::copy_n(linear + 9 * first, 9 * count, m.begin());
+    transform_splats_affine<double>(arrays, count, m.data(), threads);
+  });
+}
+
 template void transform_splats<float>(const PlyLayout&, PlyLayout&, const float*, const float*, int,
                                       const std::string&);
 template void transform_splats<double>(const PlyLayout&, PlyLayout&, const double*, const double*, int,
                                        const std::string&);
+template void transform_splats_linear<float>(const PlyLayout&, PlyLayout&, const float*, int, const std::string&);
+template void transform_splats_linear<double>(const PlyLayout&, PlyLayout&, const double*, int, const std::string&);
 
 }  // namespace mlsdeform::cli

@@ -1,6 +1,7 @@
 // mlsdeform CLI: 3D Gaussian splat files (the 3DGS PLY layout, docs/splats.md) recognised among PLY point clouds
 // and carried through the deformation: the centres are the mesh's vertices (moved by MLS); each splat's rot_*,
-// scale_* and f_rest_* are transformed by the rotation (and similarity scale) the deformer fits at its centre;
+// scale_* and f_rest_* are transformed by the rotation (and similarity scale) or the affine matrix the deformer
+// fits at its centre;
 // every other property passes through as read.
 #pragma once
 
@@ -37,5 +38,12 @@ std::optional<SplatLayout> splat_layout(const PlyLayout& ply, const std::string&
 template <class T>
 void transform_splats(const PlyLayout& in, PlyLayout& out, const T* quaternions, const T* scales, int threads,
                       const std::string& path);
+
+/// The same for affine fits: each splat mapped by its centre's linear part (n x 9 row-major, FramesOut::linear)
+/// through transform_splats_affine (mlsdeform/splats.hpp: covariance M Sigma M^T decomposed again, f_rest_* by
+/// M's polar rotation). Throws InputError naming `path` and the splat for what it refuses (a singular M).
+template <class T>
+void transform_splats_linear(const PlyLayout& in, PlyLayout& out, const T* linear, int threads,
+                             const std::string& path);
 
 }  // namespace mlsdeform::cli

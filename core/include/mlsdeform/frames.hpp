@@ -15,14 +15,20 @@ namespace mlsdeform {
 ///   quaternions  n x 4, (w, x, y, z): the vertex's rotation as a unit quaternion, w >= 0
 ///   rotations    n x 9: the rotation matrix R, row-major (R(r, c) at 9 v + 3 r + c)
 ///   scales       n: the similarity scale s (Transform::similarity); 1 for rigid; refused for affine
-///   linear       n x 9, row-major: the transform's linear part, x -> L x: R (rigid), s R (similarity)
+///   linear       n x 9, row-major: the transform's linear part, x -> L x: R (rigid), s R (similarity), the
+///                fit's matrix M (affine: Schaefer et al.'s M = G^-1 sum_j w_j phat_j^T qhat_j in their
+///                row-vector convention, transposed; not orthogonal, normals go by its inverse transpose)
 /// With Options::arap_iterations > 0 the rotation is the ARAP refinement's local rotation of the result (the
 /// rotation of its one-ring, as a local step computes it), the scale 1 and the linear part that rotation.
 /// Outside Options::region the identity (scale 1). A vertex on a point handle (snapped: data.hpp) takes the
-/// rotation of the fit's limit at the handle with precomputed weights (scale 1), the identity with on-the-fly
-/// weights (docs/api.md, "Frames").
-/// Affine sessions have no rotation: quaternions, rotations and scales are refused, and so is linear (the
-/// affine coefficient table holds alpha_j = A_j . G^-1 vhat, not the matrix).
+/// rotation (affine: the matrix) of the fit's limit at the handle with precomputed weights (scale 1), the
+/// identity with on-the-fly weights (docs/api.md, "Frames"). Affine, on a segment handle: with exact_integral
+/// weights the zero matrix (no frame there: transform_normals then keeps the normal), with paper_constant the
+/// fit to that segment alone, of rank 1.
+/// Affine sessions have no rotation: quaternions, rotations and scales are refused (a rotation of M, its polar
+/// factor or another, is the caller's choice). Their table holds M's coefficients for every session, 3 values
+/// per vertex and pseudo-handle beside alpha's 1 (the memory of a rigid session's table); computing linear
+/// costs a second pass over the pseudo-handles in deform (bench/bench_frames.cpp).
 template <class T>
 struct FramesOut {
   std::span<T> quaternions;

@@ -39,19 +39,26 @@
 //
 // Affine (Schaefer et al. 2006 normal equations, with G = sum_j A_j phat_j^T = sum_i int w phat phat^T / S):
 //   v' = q* + H G^-1 vhat = sum_j alpha_j q_j,   alpha_j = omega_j + A_j . (G^-1 vhat)   (precomputed)
+// and the fit's matrix, the frames' linear part (FramesOut::linear, x -> L x; Schaefer et al.'s M transposed):
+//   L = H G^-1 = sum_j (q_j - c) B_j^T,          B_j = G^-1 A_j                          (precomputed)
+// B_j does not depend on the per-vertex power of two (A and G both carry it), sums to 0 over j as A_j does
+// (projected likewise), and is stored beside alpha in its own table (linear_table), 3 values per vertex and
+// pseudo-handle: a session's table is 4 times the alpha table alone, the same size as a rigid one.
 //
 // Snapped vertices (closer to a handle than 64 eps(T) times their distance to the second-nearest handle;
 // snap.hpp derives the rule) take the map's limit at that handle (precompute_table.cpp). At a point handle, or a
 // segment with exact_integral weights: omega = 1 on that point handle (or 1 - t, t on the ends of that segment, t the
 // closest point) and vhat = 0, so v' = q* exactly; at a segment A = 0 and D = 0 (H = 0, the identity), at a point
-// handle (rigid, similarity, with another handle) A the fit's limit there, for the frames' rotation (frames.hpp). At a
+// handle (with another handle) A the fit's limit there, for the frames' rotation or affine matrix (frames.hpp). At a
 // segment with paper_constant weights: the coefficients of that segment alone with constant weight (omega = 1/2 at each
-// end), as if every other handle's weight had vanished.
+// end), as if every other handle's weight had vanished. Affine at a segment: with exact_integral weights B = 0
+// (L = 0: no frame), with paper_constant the fit to that segment alone, whose G has rank 1 (L = H G^+, rank 1).
 //
 // Layout. Vertices are grouped in blocks of kLanes = 16 (padded; padding lanes carry omega = 0, A = 0,
 // vhat = 0, D = 0, alpha = 0). All arrays are 64-byte aligned.
 //   table (rigid, similarity): table[((b * J + j) * 4 + c) * 16 + lane], c = 0 omega, 1 Ax, 2 Ay, 3 Az
 //   table (affine):            table[(b * J + j) * 16 + lane] = alpha_j
+//   linear_table (affine):     linear_table[((b * J + j) * 3 + c) * 16 + lane] = B_j component c
 //   p_star, vhat (rigid, similarity): [c * padded + v] for coordinate c (SoA), padded = 16 * blocks
 //   D (similarity only):       [v]
 #pragma once
@@ -103,12 +110,13 @@ struct DeformerData {
   /// Fixed point handles (a region's ring) folded into kFoldedHandles pseudo-handles (fold.hpp), 0 if none:
   /// then `points` counts the four in their place.
   std::size_t folded = 0;
-  double scale = 1;         ///< the local frame's power of two 2^e (see Units above)
-  T target_limit = 0;       ///< the largest magnitude of a target coordinate (see Units above)
-  AlignedVector<T> table;   ///< omega, A (rigid, similarity) or alpha (affine), blocked as above
-  AlignedVector<T> p_star;  ///< rigid, similarity: weighted centroid of the rest handles, SoA, padded
-  AlignedVector<T> vhat;    ///< rigid, similarity: v - p*, local frame, SoA, padded
-  AlignedVector<T> D;       ///< similarity: sum_j A_j . phat_j (= sum_i w_i |phat_i|^2 / S), local, padded
+  double scale = 1;               ///< the local frame's power of two 2^e (see Units above)
+  T target_limit = 0;             ///< the largest magnitude of a target coordinate (see Units above)
+  AlignedVector<T> table;         ///< omega, A (rigid, similarity) or alpha (affine), blocked as above
+  AlignedVector<T> linear_table;  ///< affine: B_j = G^-1 A_j, blocked as above (the frames' linear part)
+  AlignedVector<T> p_star;        ///< rigid, similarity: weighted centroid of the rest handles, SoA, padded
+  AlignedVector<T> vhat;          ///< rigid, similarity: v - p*, local frame, SoA, padded
+  AlignedVector<T> D;             ///< similarity: sum_j A_j . phat_j (= sum_i w_i |phat_i|^2 / S), local, padded
 
   // WeightStorage::on_the_fly (rigid and similarity with point handles only): no table; per frame the
   // weights are recomputed from the distances (kernels/deformer/deform_kernel.hpp, on_the_fly). Local frame:
@@ -134,8 +142,8 @@ struct DeformerData {
   }
 
   std::size_t bytes() const {
-    return (table.capacity() + p_star.capacity() + vhat.capacity() + D.capacity() + v_local.capacity() +
-            dref2.capacity() + snap.capacity() + p_local.capacity()) *
+    return (table.capacity() + linear_table.capacity() + p_star.capacity() + vhat.capacity() + D.capacity() +
+            v_local.capacity() + dref2.capacity() + snap.capacity() + p_local.capacity()) *
            sizeof(T);
   }
 };

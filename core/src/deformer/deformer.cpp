@@ -140,6 +140,7 @@ struct Deformer<T>::Impl {
     fr.table = data.table.empty() ? nullptr : data.table.data();
     fr.vhat = data.vhat.empty() ? nullptr : data.vhat.data();
     fr.D = data.D.empty() ? nullptr : data.D.data();
+    fr.linear_table = data.linear_table.empty() ? nullptr : data.linear_table.data();
     if (data.on_the_fly) {
       fr.v_local = data.v_local.data();
       fr.dref2 = data.dref2.data();

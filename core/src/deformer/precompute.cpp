@@ -18,10 +18,10 @@ namespace {
 
 /// WeightStorage (deformer.hpp): on the fly is implemented for rigid and similarity with point handles
 /// only. `automatic` picks it (and refuses settings without it) when the precomputed table (16 bytes per
-/// vertex and handle in float, 32 in double; affine 4 and 8) would exceed precompute_budget_bytes (default
-/// 32 MiB, about a last-level cache), so that it never allocates more than the budget: beyond the cache
-/// the table streams from memory every frame, and recomputing the weights (two passes of a few tens of flops
-/// per handle) costs about as much as reading 16-32 bytes per handle (bench/bench_scaling.cpp measures both).
+/// vertex and handle in float, 32 in double; affine as much: alpha and the frames' B_j, data.hpp) would exceed
+/// precompute_budget_bytes (default 32 MiB, about a last-level cache), so that it never allocates more than the budget:
+/// beyond the cache the table streams from memory every frame, and recomputing the weights (two passes of a few tens of
+/// flops per handle) costs about as much as reading 16-32 bytes per handle (bench/bench_scaling.cpp measures both).
 template <class T>
 bool use_on_the_fly(const Options& o, const RestHandles& rh, std::size_t padded, std::size_t columns) {
   const bool supported = o.transform != Transform::affine && rh.s == 0 && o.centroids == Centroids::mls;
@@ -33,8 +33,7 @@ bool use_on_the_fly(const Options& o, const RestHandles& rh, std::size_t padded,
                                             "transforms with point handles and MLS centroids only (got ") +
                                 unsupported + "); use precomputed or automatic");
   if (o.weight_storage != WeightStorage::automatic) return o.weight_storage == WeightStorage::on_the_fly;
-  const double components = o.transform == Transform::affine ? 1 : 4;
-  const double table = double(padded) * double(columns) * components * sizeof(T);
+  const double table = double(padded) * double(columns) * 4 * sizeof(T);  // affine: 1 (alpha) + 3 (B_j)
   if (!(table > double(o.precompute_budget_bytes))) return false;
   if (supported) return true;
   char msg[512];

@@ -41,6 +41,7 @@ void precompute_block(DeformerData<T>& data, std::size_t b, const Points<T>& ver
   Eigen::VectorXd rbf_rhs;
   std::vector<double> column(J);  // what a table column holds: the centroid weight, or alpha (affine)
   std::vector<Vec3d> A_column(J);
+  std::vector<Vec3d> B_column(J);  // affine: G^-1 A_j, the frames' linear part (data.hpp)
   const std::size_t first = b * kLanes, count = std::min(kLanes, data.n - first), np = data.padded();
   for (std::size_t lane = 0; lane < count; ++lane) {
     const std::size_t i = first + lane;
@@ -76,9 +77,11 @@ void precompute_block(DeformerData<T>& data, std::size_t b, const Points<T>& ver
     // relative to the nearest handle make H = sum_j (q_j - c) A_j^T tend to the direction of
     //   sum_{j != n} w_j (q_j - q_n)(p_j - p_n)^T,   w_j = (d_2 / |p_j - p_n|)^u (segments: their moments),
     // with d_2 the distance to the second-nearest handle (D stays 0: scale 1). The position q* + mu R vhat
-    // is q_n for any finite R (vhat = 0, mu = 1): the same bits as with A = 0.
-    const bool limit = snapped && nearest < k && !affine && near.d_second > 0 &&
-                       near.d_second < std::numeric_limits<double>::infinity();
+    // is q_n for any finite R (vhat = 0, mu = 1): the same bits as with A = 0. Affine likewise: the limit of
+    // G = sum_j A_j phat_j^T is that of the same weights (w_n |phat_n|^2 -> 0 as phat_n ~ 1 / w_n), L = H G^-1
+    // its matrix, and with vhat = 0 alpha = omega to the bit.
+    const bool limit =
+        snapped && nearest < k && near.d_second > 0 && near.d_second < std::numeric_limits<double>::infinity();
     const bool interpolate = snapped && (nearest < k || exact) && !limit;
     if (interpolate) {
       // All weight on the nearest handle, A = 0, vhat = 0.
@@ -186,13 +189,22 @@ void precompute_block(DeformerData<T>& data, std::size_t b, const Points<T>& ver
       // eigen-decomposition; eigenvalues below 64 eps lambda_max (reachable only when weights leave the
       // double range, u log10(d_min / d) < -300) are dropped (minimum-norm solution) instead of dividing by
       // rounding noise.
+      // The frames' B_j = G^-1 A_j by the same eigen-decomposition (data.hpp), projected onto sum_j B_j = 0 as A.
       Vec3d x = Vec3d::Zero();
-      if (vhat != Vec3d::Zero()) {
+      B_column.assign(J, Vec3d::Zero());
+      if (!interpolate) {  // else G = 0 and A = 0: no fit
         const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> es(G_vertex);
         const Vec3d lambda = es.eigenvalues();
         const double cut = 64 * std::numeric_limits<double>::epsilon() * lambda[2];
         for (int c = 0; c < 3; ++c)
-          if (lambda[c] > cut) x += (es.eigenvectors().col(c).dot(vhat) / lambda[c]) * es.eigenvectors().col(c);
+          if (lambda[c] > cut) {
+            if (vhat != Vec3d::Zero()) x += (es.eigenvectors().col(c).dot(vhat) / lambda[c]) * es.eigenvectors().col(c);
+            for (std::size_t j = 0; j < J; ++j)
+              B_column[j] += (es.eigenvectors().col(c).dot(A[j]) / lambda[c]) * es.eigenvectors().col(c);
+          }
+        Vec3d sum_B = Vec3d::Zero();
+        for (std::size_t j = 0; j < J; ++j) sum_B += B_column[j];
+        for (std::size_t j = 0; j < J; ++j) B_column[j] -= omega[j] * sum_B;
       }
       // alpha_j = omega_j + beta_j with beta_j = A_j . x; as for A, project beta onto sum_j beta_j = 0 so
       // that the rounding of x (relative eps kappa(G)) cannot move q* = sum_j omega_j q_j.
@@ -200,8 +212,15 @@ void precompute_block(DeformerData<T>& data, std::size_t b, const Points<T>& ver
       for (std::size_t j = 0; j < J; ++j) sum_beta += A[j].dot(x);
       column.resize(J);
       for (std::size_t j = 0; j < J; ++j) column[j] = (*centroid)[j] + (A[j].dot(x) - omega[j] * sum_beta);
-      if (!fold.empty()) fold_columns(column, k - fold.size(), fold);
-      for (std::size_t j = 0; j < column.size(); ++j) data.coefficients(b, j)[lane] = T(column[j]);
+      if (!fold.empty()) {
+        fold_columns(column, k - fold.size(), fold);
+        fold_columns(B_column, k - fold.size(), fold);
+      }
+      for (std::size_t j = 0; j < column.size(); ++j) {
+        data.coefficients(b, j)[lane] = T(column[j]);
+        T* bj = data.linear_table.data() + kernels::linear_table_offset(b, j, data.pseudo_handles()) + lane;
+        for (int c = 0; c < 3; ++c) bj[c * kLanes] = T(B_column[j][c]);
+      }
     } else {
       column.assign(centroid->begin(), centroid->end());
       A_column.assign(A.begin(), A.end());
@@ -235,6 +254,7 @@ void precompute_table(DeformerData<T>& data, const Points<T>& vertices, const Lo
   const std::vector<std::array<double, kFoldedHandles>> fold =
       data.folded ? fold_weights(Points<T>(handles.points.bottomRows(Eigen::Index(data.folded))), fixed.targets)
                   : std::vector<std::array<double, kFoldedHandles>>();
+  if (o.transform == Transform::affine) data.linear_table.assign(np * data.pseudo_handles() * 3, T(0));
   if (o.transform != Transform::affine) {
     data.p_star.assign(3 * np, T(0));
     data.vhat.assign(3 * np, T(0));
