@@ -218,6 +218,7 @@ void precompute_block(DeformerData<T>& data, std::size_t b, const Points<T>& ver
       }
       for (std::size_t j = 0; j < column.size(); ++j) {
         data.coefficients(b, j)[lane] = T(column[j]);
+        if (data.linear_table.empty()) continue;  // Options::affine_frames off: alpha alone
         T* bj = data.linear_table.data() + kernels::linear_table_offset(b, j, data.pseudo_handles()) + lane;
         for (int c = 0; c < 3; ++c) bj[c * kLanes] = T(B_column[j][c]);
       }
@@ -254,7 +255,8 @@ void precompute_table(DeformerData<T>& data, const Points<T>& vertices, const Lo
   const std::vector<std::array<double, kFoldedHandles>> fold =
       data.folded ? fold_weights(Points<T>(handles.points.bottomRows(Eigen::Index(data.folded))), fixed.targets)
                   : std::vector<std::array<double, kFoldedHandles>>();
-  if (o.transform == Transform::affine) data.linear_table.assign(np * data.pseudo_handles() * 3, T(0));
+  if (o.transform == Transform::affine && o.affine_frames)
+    data.linear_table.assign(np * data.pseudo_handles() * 3, T(0));
   if (o.transform != Transform::affine) {
     data.p_star.assign(3 * np, T(0));
     data.vhat.assign(3 * np, T(0));
