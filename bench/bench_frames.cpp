@@ -6,8 +6,9 @@
 //   frames/<storage>/quaternions      positions + quaternions (n x 4)
 //   frames/<storage>/quaternions+linear  positions + quaternions + the linear part (n x 9)
 //   frames/<storage>/all              positions + quaternions, rotations, scales and linear
-//   frames/affine/positions, frames/affine/linear   Transform::affine (precomputed: its only storage), deform()
-//                                     alone and with the fit's matrix (n x 9: a second pass over the handles)
+//   frames/affine/positions, frames/affine/linear   Transform::affine (precomputed: its only storage) with
+//                                     Options::affine_frames, deform() alone and with the fit's matrix (n x 9: a
+//                                     second pass over the handles)
 // Counters: ms_per_frame, fps; the ratio to `positions` in the same run is the figure (docs/api.md, "Frames";
 // the target: at most 1.2). Each variant first checks that its positions are bitwise those of deform()
 // without frames.
@@ -36,6 +37,7 @@ void bm(benchmark::State& state, WeightStorage storage, Wanted wanted, bool affi
   mlsdeform::Options o = bench::deformer_options(std::nullopt, 1, storage);
   o.precompute_budget_bytes = std::size_t(1) << 30;  // 10^6 vertices x 10 handles x 16 bytes: 160 MB
   if (affine) o.transform = mlsdeform::Transform::affine;
+  o.affine_frames = affine;  // the fit's matrix table, for linear (positions read alpha alone either way)
   const mlsdeform::Deformer<T> d(scene().vertices.cast<T>(), bench::point_handles<T>(scene().rest.points), o);
   const mlsdeform::Handles<T> moved = bench::point_handles<T>(scene().moved.points);
   const std::size_t n = std::size_t(d.vertex_count());

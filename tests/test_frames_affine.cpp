@@ -2,7 +2,8 @@
 // Positions bitwise those of deform() without frames on every ISA and thread count; an affine motion
 // x -> A x + t of every handle (well-conditioned, a shear, a reflection) gives L = A at every vertex, a vertex on
 // a handle included (the fit's limit there); a non-affine motion gives the L of an independent long-double
-// evaluation of Schaefer et al.'s normal equations; the other frame outputs stay refused.
+// evaluation of Schaefer et al.'s normal equations; the other frame outputs stay refused. Without
+// Options::affine_frames the session keeps alpha alone (memory and budget) and refuses linear.
 #include "tests/support/deform_cases.hpp"
 #include "tests/support/isa_guard.hpp"
 #include "tests/support/random.hpp"
@@ -13,6 +14,7 @@
 
 #include <Eigen/Dense>
 
+#include <algorithm>
 #include <cmath>
 #include <cstring>
 #include <random>
@@ -111,6 +113,7 @@ TEMPLATE_TEST_CASE("affine frames: positions bitwise those without frames, any I
       Options o;
       o.isa = isa;
       o.transform = Transform::affine;
+      o.affine_frames = true;
       const Deformer<T> d(k->vertices, k->rest, o);
       Points<T> plain, with;
       d.deform(k->moved, plain);
@@ -146,6 +149,7 @@ TEMPLATE_TEST_CASE("affine frames: an affine motion of every handle gives its ma
       Options o;
       o.isa = isa;
       o.transform = Transform::affine;
+      o.affine_frames = true;
       const Handles<T> moved = testing::transformed(c.rest, A, t);
       // Every rest handle is also a vertex: the fit's limit there is A too.
       Points<T> verts(c.vertices.rows() + c.rest.point_count(), 3);
@@ -188,6 +192,7 @@ TEMPLATE_TEST_CASE("affine frames: a non-affine motion gives the long-double fit
     Options o;
     o.isa = isa;
     o.transform = Transform::affine;
+    o.affine_frames = true;
     const Deformer<T> d(c.vertices, c.rest, o);
     Points<T> out;
     std::vector<T> l(9 * std::size_t(c.vertices.rows()));
@@ -214,6 +219,7 @@ TEMPLATE_TEST_CASE("affine frames: quaternions, rotations and scales stay refuse
   const testing::DeformCase<T> c = testing::random_case<T>(g, 50, 5);
   Options o;
   o.transform = Transform::affine;
+  o.affine_frames = true;
   const Deformer<T> d(c.vertices, c.rest, o);
   std::vector<T> q(4 * 50), r(9 * 50), s(50);
   Points<T> out;
@@ -239,6 +245,7 @@ TEMPLATE_TEST_CASE("affine frames: a vertex where p* is the vertex itself (vhat 
   const Handles<T> moved = testing::transformed(rest, A, Eigen::Vector3d(1, 2, 3));
   Options o;
   o.transform = Transform::affine;
+  o.affine_frames = true;
   for (Isa isa : supported_isas()) {
     INFO("isa " << to_string(isa));
     o.isa = isa;
@@ -264,6 +271,7 @@ TEMPLATE_TEST_CASE("affine frames: a region's matrices are its own deformation's
     moved.points.row(j) += (0.3 * testing::random_vector(g)).cast<T>().transpose();
   Options o;
   o.transform = Transform::affine;
+  o.affine_frames = true;
   for (Eigen::Index i = 0; i < c.vertices.rows(); i += 2) o.region.push_back(i);
   const Deformer<T> d(c.vertices, c.rest, o);
   Points<T> plain, with;
@@ -279,4 +287,45 @@ TEMPLATE_TEST_CASE("affine frames: a region's matrices are its own deformation's
     else
       CHECK((L.allFinite() && L != Eigen::Matrix3d::Identity()));
   }
+}
+
+TEMPLATE_TEST_CASE("affine frames: without Options::affine_frames, alpha alone and linear refused",
+                   "[frames][affine][errors]", float, double) {
+  using T = TestType;
+  std::mt19937_64 g(5);
+  const testing::DeformCase<T> c = testing::random_case<T>(g, 50, 5);
+  Handles<T> moved = c.rest;
+  for (Eigen::Index j = 0; j < moved.point_count(); ++j)
+    moved.points.row(j) += (0.3 * testing::random_vector(g)).cast<T>().transpose();
+  Options o;
+  o.transform = Transform::affine;
+  o.weight_storage = WeightStorage::precomputed;
+  Options with = o;
+  with.affine_frames = true;
+  const Deformer<T> d(c.vertices, c.rest, o), dw(c.vertices, c.rest, with);
+  // 50 vertices pad to 64 (blocks of 16), 5 point handles are 5 pseudo-handles: the alpha table holds 64 x 5
+  // values, the linear table 3 times as many; the session holds beside them the rest and target handles (3
+  // coordinates each) and nothing else (no p*, vhat or D for affine).
+  const std::size_t alpha = 64 * 5 * sizeof(T), handles = 2 * 5 * 3 * sizeof(T);
+  CHECK(d.memory_bytes() == alpha + handles);
+  CHECK(dw.memory_bytes() - d.memory_bytes() == 3 * alpha);
+  Points<T> plain, with_frames, out = Points<T>::Constant(50, 3, T(-7));
+  d.deform(moved, plain);
+  std::vector<T> l(9 * 50, T(-7));
+  dw.deform(moved, with_frames, FramesOut<T>{{}, {}, {}, l});
+  CHECK(std::memcmp(plain.data(), with_frames.data(), std::size_t(plain.size()) * sizeof(T)) == 0);
+  std::fill(l.begin(), l.end(), T(-7));
+  CHECK_THROWS_WITH(d.deform(moved, out, FramesOut<T>{{}, {}, {}, l}),
+                    Catch::Contains("frames.linear") && Catch::Contains("Options::affine_frames"));
+  std::vector<T> interleaved(3 * 50, T(-7));
+  CHECK_THROWS_WITH(d.deform(InterleavedView<T>(interleaved.data(), 50, 3), FramesOut<T>{{}, {}, {}, l}),
+                    Catch::Contains("Options::affine_frames"));
+  CHECK((out.array() == T(-7)).all());
+  CHECK(std::all_of(interleaved.begin(), interleaved.end(), [](T x) { return x == T(-7); }));
+  CHECK(std::all_of(l.begin(), l.end(), [](T x) { return x == T(-7); }));
+  // The automatic budget counts what is built: alpha alone fits where alpha and B_j do not.
+  o.weight_storage = with.weight_storage = WeightStorage::automatic;
+  o.precompute_budget_bytes = with.precompute_budget_bytes = 2 * alpha;
+  CHECK(Deformer<T>(c.vertices, c.rest, o).uses_precomputed_weights());
+  CHECK_THROWS_WITH(Deformer<T>(c.vertices, c.rest, with), Catch::Contains("precompute_budget_bytes"));
 }

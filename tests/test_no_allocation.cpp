@@ -107,6 +107,7 @@ TEMPLATE_TEST_CASE("deform and fit_rotations allocate nothing in steady state", 
     Options o;
     o.isa = isa;
     o.transform = Transform::affine;
+    o.affine_frames = true;
     o.threads = 1;
     Deformer<T> d(v, rest, o);
     Points<T> out;

@@ -125,7 +125,7 @@ template void transform_tangents<double>(std::span<const double>, std::span<cons
 namespace detail {
 
 template <class T>
-void check_frames(const FramesOut<T>& frames, std::size_t n, Transform transform) {
+void check_frames(const FramesOut<T>& frames, std::size_t n, Transform transform, bool affine_frames) {
   const auto check = [&](std::span<T> s, std::size_t width, const char* name, bool affine_has_it = false) {
     if (s.empty()) return;
     if (s.size() != width * n)
@@ -142,6 +142,11 @@ void check_frames(const FramesOut<T>& frames, std::size_t n, Transform transform
   check(frames.rotations, 9, "rotations");
   check(frames.scales, 1, "scales");
   check(frames.linear, 9, "linear", true);
+  if (!frames.linear.empty() && transform == Transform::affine && !affine_frames)
+    throw std::invalid_argument(
+        "Deformer: frames.linear of a Transform::affine session needs "
+        "Options::affine_frames = true when it is built (the affine fit's matrix takes a "
+        "table 3 times alpha's, kept only on request)");
 }
 
 template <class T>
@@ -183,8 +188,8 @@ void write_rotations(const FramesOut<T>& frames, ArapRefiner<T>& refiner, std::v
   }
 }
 
-template void check_frames(const FramesOut<float>&, std::size_t, Transform);
-template void check_frames(const FramesOut<double>&, std::size_t, Transform);
+template void check_frames(const FramesOut<float>&, std::size_t, Transform, bool);
+template void check_frames(const FramesOut<double>&, std::size_t, Transform, bool);
 template void scatter_frames(const FramesOut<float>&, const std::vector<Eigen::Index>&);
 template void scatter_frames(const FramesOut<double>&, const std::vector<Eigen::Index>&);
 template void write_rotations(const FramesOut<float>&, ArapRefiner<float>&, std::vector<float>&);

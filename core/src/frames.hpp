@@ -14,9 +14,10 @@
 namespace mlsdeform::detail {
 
 /// Throws std::invalid_argument naming the output unless each wanted output of `frames` has its size for n
-/// vertices (quaternions 4 n, rotations 9 n, scales n, linear 9 n) and `transform` has it (affine: none).
+/// vertices (quaternions 4 n, rotations 9 n, scales n, linear 9 n) and `transform` has it (affine: linear
+/// alone, and only when `affine_frames`, Options::affine_frames, built its table).
 template <class T>
-void check_frames(const FramesOut<T>& frames, std::size_t n, Transform transform);
+void check_frames(const FramesOut<T>& frames, std::size_t n, Transform transform, bool affine_frames);
 
 /// Options::region: the wanted outputs hold the region's frames in their first inside.size() rows (compact
 /// vertex r in row r); moves row r to row inside[r] (inside ascending, so inside[r] >= r: from the last row

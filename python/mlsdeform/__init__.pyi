@@ -35,6 +35,7 @@ class Deformer:
         region: Optional[_Array] = ...,
         arap_acceleration: Literal["none", "anderson"] = ...,
         arap_warm_start: bool = ...,
+        affine_frames: bool = ...,
     ) -> None: ...
     def deform(
         self,

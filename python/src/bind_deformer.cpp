@@ -68,7 +68,7 @@ void bind_deformer(py::module_& m) {
       .def(py::init<const py::object&, const py::object&, const py::object&, const std::string&, double,
                     const std::string&, const std::string&, int, const std::string&, const std::string&, std::size_t,
                     const py::object&, const py::object&, int, const std::string&, const py::object&,
-                    const std::string&, bool>(),
+                    const std::string&, bool, bool>(),
            py::arg("vertices"), py::kw_only(), py::arg("points") = py::none(), py::arg("segments") = py::none(),
            py::arg("transform") = "rigid", py::arg("exponent") = 2.0, py::arg("method") = "axis_angle",
            py::arg("segment_weight") = "paper_constant", py::arg("threads") = 0,
@@ -76,10 +76,11 @@ void bind_deformer(py::module_& m) {
            py::arg("precompute_budget_bytes") = std::size_t(32) << 20, py::arg("dtype") = py::none(),
            py::arg("faces") = py::none(), py::arg("arap_iterations") = 0, py::arg("centroids") = "mls",
            py::arg("region") = py::none(), py::arg("arap_acceleration") = "none", py::arg("arap_warm_start") = false,
+           py::arg("affine_frames") = false,
            R"(Deformer(vertices, *, points=None, segments=None, transform="rigid", exponent=2.0,
 method="axis_angle", segment_weight="paper_constant", threads=0, weight_storage="automatic",
 backend="simd", precompute_budget_bytes=32 MiB, dtype=None, faces=None, arap_iterations=0, centroids="mls",
-region=None, arap_acceleration="none", arap_warm_start=False)
+region=None, arap_acceleration="none", arap_warm_start=False, affine_frames=False)
 
 A deformation session (paper Sec. 5): precomputes what depends on the rest pose only.
 vertices: (n, 3) rest positions; float32 arrays make a float32 session, anything else float64 (or force
@@ -94,7 +95,9 @@ Sec. 7-8); region: None (the whole model) or the indices of the vertices that ma
 bitwise at rest; their neighbours next to the region are held, so the result stays continuous; not with
 arap_iterations); arap_acceleration: "none" | "anderson" (Anderson-accelerated ARAP iterations: a lower
 energy in the same count); arap_warm_start: start each frame's ARAP iterations from the last frame's result
-(interactive dragging), from MLS after a jump of the handles. Raises ValueError on bad input (the library's message); Ctrl-C stops the set-up
+(interactive dragging), from MLS after a jump of the handles; affine_frames: for transform="affine", also
+keep the fit's matrix (a table 3 times the weights', counted in precompute_budget_bytes) so that deform() can
+write linear (without it, linear is a ValueError naming the option). Raises ValueError on bad input (the library's message); Ctrl-C stops the set-up
 (KeyboardInterrupt).)")
       .def(
           "deform", on_session(&PyDeformer::deform), py::kw_only(), py::arg("points") = py::none(),
@@ -114,7 +117,7 @@ Frames: each vertex's transform, written into the caller's preallocated C-contig
 dtype (no copy, nothing allocated; None: not wanted): quaternions (n, 4) unit (w, x, y, z) with w >= 0,
 rotations (n, 3, 3), scales (n,) (similarity; 1 for rigid), linear (n, 3, 3) the linear part R, s R or the
 affine fit's matrix. With arap_iterations the refined local rotations (scales 1); outside a region the identity;
-affine sessions give linear only (the others: ValueError). A wrong shape is a ValueError, a wrong dtype a TypeError, both before anything is written.)")
+affine sessions give linear only, and only when built with affine_frames=True (otherwise ValueError). A wrong shape is a ValueError, a wrong dtype a TypeError, both before anything is written.)")
       .def("set_point_target", on_session(&PyDeformer::set_point_target), py::arg("i"), py::arg("target"),
            "Move point handle i's target (3 numbers) for later deform() calls; IndexError if out of range.")
       .def("set_segment_target", on_session(&PyDeformer::set_segment_target), py::arg("i"), py::arg("a"), py::arg("b"),

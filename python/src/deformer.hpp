@@ -78,7 +78,7 @@ class PyDeformer {
              const std::string& segment_weight, int threads, const std::string& weight_storage,
              const std::string& backend, std::size_t budget_bytes, const py::object& dtype, const py::object& faces,
              int arap_iterations, const std::string& centroids, const py::object& region,
-             const std::string& arap_acceleration, bool arap_warm_start) {
+             const std::string& arap_acceleration, bool arap_warm_start, bool affine_frames) {
     Options o;
     o.transform = parse_transform(transform);
     o.weight_exponent = exponent;
@@ -98,6 +98,7 @@ class PyDeformer {
         parse_enum<ArapAcceleration>(arap_acceleration, "arap_acceleration",
                                      {{"none", ArapAcceleration::none}, {"anderson", ArapAcceleration::anderson}});
     o.arap_warm_start = arap_warm_start;
+    o.affine_frames = affine_frames;
     o.centroids = parse_enum<Centroids>(centroids, "centroids", {{"mls", Centroids::mls}, {"rbf", Centroids::rbf}});
     if (!region.is_none()) {
       o.region = to_indices(region, "region");

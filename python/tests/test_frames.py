@@ -122,7 +122,7 @@ def test_affine_linear_is_the_motions_matrix(kind):
         "shear": np.array([[1, 0.8, 0], [0, 1, 0], [0, 0, 1]]),
         "reflection": 1.7 * random_rotation(g) @ np.diag([1, -1, 1]),
     }[kind]
-    d = mlsdeform.Deformer(V, points=P, transform="affine")
+    d = mlsdeform.Deformer(V, points=P, transform="affine", affine_frames=True)
     L = np.empty((len(V), 3, 3))
     X = d.deform(points=P @ A.T + [0.5, -1, 2], linear=L)
     assert np.array_equal(X, d.deform(points=P @ A.T + [0.5, -1, 2]))
@@ -132,6 +132,25 @@ def test_affine_linear_is_the_motions_matrix(kind):
     ref = N @ np.linalg.inv(A)
     ref /= np.linalg.norm(ref, axis=1)[:, None]
     assert np.abs(mlsdeform.transform_normals(L, N) - ref).max() <= 1e-9
+
+
+def test_affine_linear_needs_affine_frames():
+    # Without affine_frames an affine session keeps its weights alone (a quarter of the memory) and refuses
+    # linear, naming the option, before anything is written; its positions are those of a session with it.
+    g = rng()
+    V, P, _, _ = scene(g, k=9)
+    plain = mlsdeform.Deformer(V, points=P, transform="affine")
+    with_frames = mlsdeform.Deformer(V, points=P, transform="affine", affine_frames=True)
+    out = np.full_like(V, 7.0)
+    L = np.full((len(V), 3, 3), 7.0)
+    with pytest.raises(ValueError, match="Options::affine_frames"):
+        plain.deform(points=P + 0.1, out=out, linear=L)
+    assert np.all(out == 7) and np.all(L == 7)
+    X = with_frames.deform(points=P + 0.1, linear=L)
+    assert np.array_equal(plain.deform(points=P + 0.1), X)
+    # The difference is the fit's matrix table alone: 3 values per padded vertex (blocks of 16) and handle.
+    padded = -(-len(V) // 16) * 16
+    assert with_frames.memory_bytes - plain.memory_bytes == 3 * padded * 9 * 8
 
 
 def test_transform_normals_and_tangents():

@@ -243,4 +243,13 @@ TEST_CASE("an affine fit turns normals by its matrix's inverse transpose", "[cli
     const Eigen::Vector3d want = (A.inverse().transpose() * normals[i]).normalized();
     for (int c = 0; c < 3; ++c) CHECK(std::fabs(double(v.get(i, std::size_t(3 + c))) - want(c)) <= tol);
   }
+  // The program asks for the fit's matrix table (Options::affine_frames) only when it carries normals through L:
+  // a budget of 4 KiB holds alpha (27 vertices padded to 32 x 8 handles x 8 bytes: 2 KiB) but not alpha and B_j
+  // (8 KiB). Into OFF the normals are dropped and the deformation fits; into PLY they are carried, refused.
+  const std::vector<std::string> budget{"-q", "-t", "affine", "--precision", "double", "--weight-budget", "0.00390625"};
+  const auto off = cli_test::deform(f.in + "/grid.ply", f.in + "/shear.json", f.out + "/b.off", budget);
+  CHECK(off.exit_code == 0);
+  const auto carried = cli_test::deform(f.in + "/grid.ply", f.in + "/shear.json", f.out + "/b.ply", budget);
+  CHECK(carried.exit_code == 2);
+  CHECK(carried.err.find("precompute_budget_bytes") != std::string::npos);
 }

@@ -224,6 +224,7 @@ TEST_CASE("splats: an affine fit maps each splat by the matrix the library fits 
     for (int k = 0; k < 3; ++k) centres(Eigen::Index(i), k) = cloud.positions[3 * i + std::size_t(k)];
   mlsdeform::Options options;
   options.transform = mlsdeform::Transform::affine;
+  options.affine_frames = true;  // as the program sets it for a splat file
   const mlsdeform::Deformer<float> d(centres, testing::point_handles<float>(p_rest), options);
   mlsdeform::Points<float> moved;
   std::vector<float> linear(9 * cloud.n);

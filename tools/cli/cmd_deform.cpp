@@ -59,6 +59,10 @@ int deform(const DeformArgs& a) {
     throw InputError(a.handles, "a region and --arap cannot be combined (give one or the other)", "/region");
   Options options = a.options;
   options.region = resolved.region;
+  // An affine fit's matrix (FramesOut::linear) takes a table 3 times alpha's: built only when the output needs it,
+  // for the input's normals or a splat file's covariances.
+  options.affine_frames =
+      options.transform == Transform::affine && (fate == InputNormals::transformed || splats.has_value());
   const Points<T> rest = mesh.vertices;
   auto t0 = Clock::now();
   std::optional<Deformer<T>> deformer;

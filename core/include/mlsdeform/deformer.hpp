@@ -35,7 +35,7 @@ enum class WeightStorage {
   /// weights whose table would exceed it are refused (std::invalid_argument naming the size and the budget)
   automatic,
   /// stream the precomputed omega_i and A_i = w_i phat_i (16 bytes per vertex and handle in float, 32 in
-  /// double; affine: 4 / 8 bytes)
+  /// double; affine: 4 / 8 bytes, 16 / 32 with Options::affine_frames)
   precomputed,
   /// recompute the weights from the distances every frame: 24 bytes per vertex in float (rest position,
   /// nearest-handle distance, snap flag) and no per-handle table. Rigid and similarity with point handles
@@ -107,6 +107,12 @@ struct Options {
   /// caller's. Not with arap_iterations > 0 (std::invalid_argument). docs/api.md, "Region of
   /// interest".
   std::vector<Eigen::Index> region;
+  /// Transform::affine only: also precompute the affine fit's matrix B_j = G^-1 A_j beside alpha (3 values per
+  /// vertex and pseudo-handle: the table becomes 4 times alpha's, counted in memory_bytes() and in
+  /// precompute_budget_bytes), so that deform() can write FramesOut::linear. Off (default), an affine session
+  /// keeps alpha alone and refuses FramesOut::linear (std::invalid_argument naming this option); positions are
+  /// bitwise the same either way. Ignored by rigid and similarity, whose table always holds their frames.
+  bool affine_frames = false;
 };
 
 /// A deformation session (Sec. 5): the constructor precomputes everything that depends only on the rest
@@ -149,7 +155,8 @@ class Deformer {
   /// The same, and each vertex's frame into the wanted outputs of `frames` (frames.hpp), computed in the
   /// lanes that compute the positions: the positions are bitwise those of deform() without frames. Throws
   /// std::invalid_argument, writing nothing, on an output of the wrong size or one the transform lacks
-  /// (affine). Allocates nothing; cancellation and errors leave the frames as they leave `out`.
+  /// (affine: all but linear, and linear too without Options::affine_frames). Allocates nothing; cancellation and
+  /// errors leave the frames as they leave `out`.
   void deform(const Handles<T>& moved_handles, Points<T>& out, const FramesOut<T>& frames,
               const CancelCheck& cancel = {}) const;
   void deform(const Handles<T>& moved_handles, InterleavedView<T> out, const FramesOut<T>& frames,

@@ -43,7 +43,8 @@
 //   L = H G^-1 = sum_j (q_j - c) B_j^T,          B_j = G^-1 A_j                          (precomputed)
 // B_j does not depend on the per-vertex power of two (A and G both carry it), sums to 0 over j as A_j does
 // (projected likewise), and is stored beside alpha in its own table (linear_table), 3 values per vertex and
-// pseudo-handle: a session's table is 4 times the alpha table alone, the same size as a rigid one.
+// pseudo-handle, only with Options::affine_frames: then a session's table is 4 times the alpha table alone, the
+// same size as a rigid one (most affine sessions want positions alone, and keep alpha's quarter).
 //
 // Snapped vertices (closer to a handle than 64 eps(T) times their distance to the second-nearest handle;
 // snap.hpp derives the rule) take the map's limit at that handle (precompute_table.cpp). At a point handle, or a
@@ -58,7 +59,7 @@
 // vhat = 0, D = 0, alpha = 0). All arrays are 64-byte aligned.
 //   table (rigid, similarity): table[((b * J + j) * 4 + c) * 16 + lane], c = 0 omega, 1 Ax, 2 Ay, 3 Az
 //   table (affine):            table[(b * J + j) * 16 + lane] = alpha_j
-//   linear_table (affine):     linear_table[((b * J + j) * 3 + c) * 16 + lane] = B_j component c
+//   linear_table (affine_frames): linear_table[((b * J + j) * 3 + c) * 16 + lane] = B_j component c
 //   p_star, vhat (rigid, similarity): [c * padded + v] for coordinate c (SoA), padded = 16 * blocks
 //   D (similarity only):       [v]
 #pragma once
@@ -113,7 +114,7 @@ struct DeformerData {
   double scale = 1;               ///< the local frame's power of two 2^e (see Units above)
   T target_limit = 0;             ///< the largest magnitude of a target coordinate (see Units above)
   AlignedVector<T> table;         ///< omega, A (rigid, similarity) or alpha (affine), blocked as above
-  AlignedVector<T> linear_table;  ///< affine: B_j = G^-1 A_j, blocked as above (the frames' linear part)
+  AlignedVector<T> linear_table;  ///< affine_frames: B_j = G^-1 A_j, blocked as above (frames' linear)
   AlignedVector<T> p_star;        ///< rigid, similarity: weighted centroid of the rest handles, SoA, padded
   AlignedVector<T> vhat;          ///< rigid, similarity: v - p*, local frame, SoA, padded
   AlignedVector<T> D;             ///< similarity: sum_j A_j . phat_j (= sum_i w_i |phat_i|^2 / S), local, padded

@@ -239,7 +239,7 @@ void Deformer<T>::deform(const Handles<T>& moved_handles, Points<T>& out, const 
                          const CancelCheck& cancel) const {
   detail::check_moved(moved_handles, impl().rest);
   detail::check_coincident(moved_handles, impl().coincident);
-  detail::check_frames(frames, impl().vertices(), impl().data.transform);
+  detail::check_frames(frames, impl().vertices(), impl().data.transform, impl().options.affine_frames);
   const auto n = static_cast<Eigen::Index>(impl().vertices());
   if (out.rows() != n) out.resize(n, 3);
   impl().deform(moved_handles, out.data(), false, frames, cancel);
@@ -253,7 +253,7 @@ void Deformer<T>::deform(const Handles<T>& moved_handles, InterleavedView<T> out
   if (out.rows() != static_cast<Eigen::Index>(impl().vertices()))
     throw std::invalid_argument("Deformer: the interleaved output has " + std::to_string(out.rows()) +
                                 " rows but the model has " + std::to_string(impl().vertices()) + " vertices");
-  detail::check_frames(frames, impl().vertices(), impl().data.transform);
+  detail::check_frames(frames, impl().vertices(), impl().data.transform, impl().options.affine_frames);
   impl().deform(moved_handles, out.data(), true, frames, cancel);
 }
 

@@ -18,7 +18,8 @@ namespace {
 
 /// WeightStorage (deformer.hpp): on the fly is implemented for rigid and similarity with point handles
 /// only. `automatic` picks it (and refuses settings without it) when the precomputed table (16 bytes per
-/// vertex and handle in float, 32 in double; affine as much: alpha and the frames' B_j, data.hpp) would exceed
+/// vertex and handle in float, 32 in double; affine 4 and 8 for alpha, as much as rigid with Options::affine_frames'
+/// B_j, data.hpp) would exceed
 /// precompute_budget_bytes (default 32 MiB, about a last-level cache), so that it never allocates more than the budget:
 /// beyond the cache the table streams from memory every frame, and recomputing the weights (two passes of a few tens of
 /// flops per handle) costs about as much as reading 16-32 bytes per handle (bench/bench_scaling.cpp measures both).
@@ -33,7 +34,8 @@ bool use_on_the_fly(const Options& o, const RestHandles& rh, std::size_t padded,
                                             "transforms with point handles and MLS centroids only (got ") +
                                 unsupported + "); use precomputed or automatic");
   if (o.weight_storage != WeightStorage::automatic) return o.weight_storage == WeightStorage::on_the_fly;
-  const double table = double(padded) * double(columns) * 4 * sizeof(T);  // affine: 1 (alpha) + 3 (B_j)
+  const double components = o.transform != Transform::affine || o.affine_frames ? 4 : 1;  // affine: alpha (+ B_j)
+  const double table = double(padded) * double(columns) * components * sizeof(T);
   if (!(table > double(o.precompute_budget_bytes))) return false;
   if (supported) return true;
   char msg[512];

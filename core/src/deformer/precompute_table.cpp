@@ -190,8 +190,10 @@ void precompute_block(DeformerData<T>& data, std::size_t b, const Points<T>& ver
       // double range, u log10(d_min / d) < -300) are dropped (minimum-norm solution) instead of dividing by
       // rounding noise.
       // The frames' B_j = G^-1 A_j by the same eigen-decomposition (data.hpp), projected onto sum_j B_j = 0 as A.
+      // Only with Options::affine_frames (its table allocated); alpha does not depend on it.
+      const bool frames = !data.linear_table.empty();
       Vec3d x = Vec3d::Zero();
-      B_column.assign(J, Vec3d::Zero());
+      B_column.assign(frames ? J : 0, Vec3d::Zero());
       if (!interpolate) {  // else G = 0 and A = 0: no fit
         const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> es(G_vertex);
         const Vec3d lambda = es.eigenvalues();
@@ -199,12 +201,12 @@ void precompute_block(DeformerData<T>& data, std::size_t b, const Points<T>& ver
         for (int c = 0; c < 3; ++c)
           if (lambda[c] > cut) {
             if (vhat != Vec3d::Zero()) x += (es.eigenvectors().col(c).dot(vhat) / lambda[c]) * es.eigenvectors().col(c);
-            for (std::size_t j = 0; j < J; ++j)
+            for (std::size_t j = 0; j < B_column.size(); ++j)
               B_column[j] += (es.eigenvectors().col(c).dot(A[j]) / lambda[c]) * es.eigenvectors().col(c);
           }
         Vec3d sum_B = Vec3d::Zero();
-        for (std::size_t j = 0; j < J; ++j) sum_B += B_column[j];
-        for (std::size_t j = 0; j < J; ++j) B_column[j] -= omega[j] * sum_B;
+        for (std::size_t j = 0; j < B_column.size(); ++j) sum_B += B_column[j];
+        for (std::size_t j = 0; j < B_column.size(); ++j) B_column[j] -= omega[j] * sum_B;
       }
       // alpha_j = omega_j + beta_j with beta_j = A_j . x; as for A, project beta onto sum_j beta_j = 0 so
       // that the rounding of x (relative eps kappa(G)) cannot move q* = sum_j omega_j q_j.
@@ -214,10 +216,11 @@ void precompute_block(DeformerData<T>& data, std::size_t b, const Points<T>& ver
       for (std::size_t j = 0; j < J; ++j) column[j] = (*centroid)[j] + (A[j].dot(x) - omega[j] * sum_beta);
       if (!fold.empty()) {
         fold_columns(column, k - fold.size(), fold);
-        fold_columns(B_column, k - fold.size(), fold);
+        if (frames) fold_columns(B_column, k - fold.size(), fold);
       }
       for (std::size_t j = 0; j < column.size(); ++j) {
         data.coefficients(b, j)[lane] = T(column[j]);
+        if (!frames) continue;
         T* bj = data.linear_table.data() + kernels::linear_table_offset(b, j, data.pseudo_handles()) + lane;
         for (int c = 0; c < 3; ++c) bj[c * kLanes] = T(B_column[j][c]);
       }
@@ -254,7 +257,8 @@ void precompute_table(DeformerData<T>& data, const Points<T>& vertices, const Lo
   const std::vector<std::array<double, kFoldedHandles>> fold =
       data.folded ? fold_weights(Points<T>(handles.points.bottomRows(Eigen::Index(data.folded))), fixed.targets)
                   : std::vector<std::array<double, kFoldedHandles>>();
-  if (o.transform == Transform::affine) data.linear_table.assign(np * data.pseudo_handles() * 3, T(0));
+  if (o.transform == Transform::affine && o.affine_frames)
+    data.linear_table.assign(np * data.pseudo_handles() * 3, T(0));
   if (o.transform != Transform::affine) {
     data.p_star.assign(3 * np, T(0));
     data.vhat.assign(3 * np, T(0));
