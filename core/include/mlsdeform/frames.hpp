@@ -26,9 +26,9 @@ namespace mlsdeform {
 /// weights the zero matrix (no frame there: transform_normals then keeps the normal), with paper_constant the
 /// fit to that segment alone, of rank 1.
 /// Affine sessions have no rotation: quaternions, rotations and scales are refused (a rotation of M, its polar
-/// factor or another, is the caller's choice). Their table holds M's coefficients for every session, 3 values
-/// per vertex and pseudo-handle beside alpha's 1 (the memory of a rigid session's table); computing linear
-/// costs a second pass over the pseudo-handles in deform (bench/bench_frames.cpp).
+/// factor or another, is the caller's choice). linear needs Options::affine_frames: then their table holds M's
+/// coefficients too, 3 values per vertex and pseudo-handle beside alpha's 1 (the memory of a rigid session's
+/// table), and linear costs a second pass over the pseudo-handles in deform (bench/bench_frames.cpp).
 template <class T>
 struct FramesOut {
   std::span<T> quaternions;
