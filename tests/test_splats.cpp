@@ -16,27 +16,8 @@
 using namespace mlsdeform;
 using namespace splat_test;
 using mlsdeform::testing::Rng;
-using mlsdeform::testing::SplatCloud;
 
 namespace {
-
-template <class T>
-struct Cloud {
-  std::size_t n;
-  int degree;
-  std::vector<T> rotations, log_scales, sh;
-  SplatArrays<T> arrays() { return {rotations.data(), log_scales.data(), sh.data(), degree}; }
-};
-
-template <class T>
-Cloud<T> cloud(std::size_t n, std::uint64_t seed, int degree = 3) {
-  const SplatCloud c = testing::random_splat_cloud(n, seed, degree);
-  return {n,
-          degree,
-          {c.rotations.begin(), c.rotations.end()},
-          {c.log_scales.begin(), c.log_scales.end()},
-          {c.f_rest.begin(), c.f_rest.end()}};
-}
 
 template <class T>
 std::vector<T> random_transforms(std::size_t n, Rng& rng) {

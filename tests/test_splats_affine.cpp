@@ -17,24 +17,6 @@ using mlsdeform::testing::Rng;
 
 namespace {
 
-template <class T>
-struct Cloud {
-  std::size_t n;
-  int degree;
-  std::vector<T> rotations, log_scales, sh;
-  SplatArrays<T> arrays() { return {rotations.data(), log_scales.data(), sh.data(), degree}; }
-};
-
-template <class T>
-Cloud<T> cloud(std::size_t n, std::uint64_t seed) {
-  const testing::SplatCloud c = testing::random_splat_cloud(n, seed, 3);
-  return {n,
-          3,
-          {c.rotations.begin(), c.rotations.end()},
-          {c.log_scales.begin(), c.log_scales.end()},
-          {c.f_rest.begin(), c.f_rest.end()}};
-}
-
 // A well-conditioned random linear part: a rotation times diag in [0.5, 2], times a rotation (cond <= 4).
 template <class T>
 Matrix3L random_linear(Rng& rng, bool reflect) {

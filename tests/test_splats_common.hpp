@@ -4,6 +4,7 @@
 #pragma once
 
 #include "tests/support/random.hpp"
+#include "tests/support/splats.hpp"
 
 #include <mlsdeform/splats.hpp>
 
@@ -96,6 +97,25 @@ L norm(const T* c, int count) {
   L s = 0;
   for (int j = 0; j < count; ++j) s += L(c[j]) * L(c[j]);
   return std::sqrt(s);
+}
+
+/// A random splat cloud (tests/support/splats.hpp) in T, with the SplatArrays view the splat functions take.
+template <class T>
+struct Cloud {
+  std::size_t n;
+  int degree;
+  std::vector<T> rotations, log_scales, sh;
+  mlsdeform::SplatArrays<T> arrays() { return {rotations.data(), log_scales.data(), sh.data(), degree}; }
+};
+
+template <class T>
+Cloud<T> cloud(std::size_t n, std::uint64_t seed, int degree = 3) {
+  const mlsdeform::testing::SplatCloud c = mlsdeform::testing::random_splat_cloud(n, seed, degree);
+  return {n,
+          degree,
+          {c.rotations.begin(), c.rotations.end()},
+          {c.log_scales.begin(), c.log_scales.end()},
+          {c.f_rest.begin(), c.f_rest.end()}};
 }
 
 }  // namespace splat_test
