@@ -10,6 +10,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 #include <iostream>
 #include <limits>
 #include <random>
@@ -116,9 +117,41 @@ TEMPLATE_TEST_CASE("fit_rotations agrees with the scalar fit on every ISA and si
     set_isa(isa);
     const std::size_t W = simd_lanes<TestType>();
     for (RotationMethod method : {RotationMethod::axis_angle, RotationMethod::horn_quaternion})
-      // W and 2W: the axis/angle kernel steps one batch of W lanes, Horn-Jacobi two interleaved ones.
-      for (std::size_t n : {std::size_t(1), W - 1, W, W + 1, 2 * W - 1, 2 * W, 2 * W + 1, 3 * W + 2, std::size_t(5000)})
+      // W, 2W and 4W: the axis/angle kernel steps tiles of four batches of W lanes, Horn-Jacobi two
+      // interleaved ones.
+      for (std::size_t n : {std::size_t(1), W - 1, W, W + 1, 2 * W - 1, 2 * W, 2 * W + 1, 3 * W + 2, 4 * W - 1, 4 * W,
+                            4 * W + 1, 5 * W + 3, std::size_t(5000)})
         if (n > 0) check_against_scalar<TestType>(isa, method, n);
+  }
+}
+
+TEMPLATE_TEST_CASE("fit_rotations: batches fitted side by side are fitted bitwise as one at a time", "[batch]", float,
+                   double) {
+  // The axis/angle kernel interleaves the Newton steps of a tile of batches (kernels/rotation/axis_angle.hpp,
+  // fit_range_axis_angle). Each lane must compute exactly what it computes when its batch is fitted alone:
+  // the same n matrices in one call (whole tiles, a shorter tile, a padded last batch) against calls of one
+  // batch of W each (the same batch companions, one batch per tile).
+  const IsaGuard guard;
+  for (Isa isa : supported_isas()) {
+    set_isa(isa);
+    const std::size_t W = simd_lanes<TestType>();
+    for (std::size_t n : {4 * W - 1, 4 * W, 4 * W + 1, 9 * W + 3, std::size_t(5000)}) {
+      INFO("isa " << to_string(isa) << ", n = " << n);
+      const std::vector<TestType> H = make_cases<TestType>(n, 20261127 + n);
+      std::vector<TestType> R(9 * n), R1(9 * n), h(9 * W), r(9 * W);
+      fit_rotations(H.data(), R.data(), n, RotationMethod::axis_angle, 1);
+      for (std::size_t i0 = 0; i0 < n; i0 += W) {
+        const std::size_t m = std::min(W, n - i0);
+        for (std::size_t e = 0; e < 9; ++e)
+          for (std::size_t i = 0; i < m; ++i) h[e * m + i] = H[e * n + i0 + i];
+        fit_rotations(h.data(), r.data(), m, RotationMethod::axis_angle, 1);
+        for (std::size_t e = 0; e < 9; ++e)
+          for (std::size_t i = 0; i < m; ++i) R1[e * n + i0 + i] = r[e * m + i];
+      }
+      std::size_t differ = 0;
+      for (std::size_t k = 0; k < 9 * n; ++k) differ += std::memcmp(&R[k], &R1[k], sizeof(TestType)) != 0;
+      CHECK(differ == 0);
+    }
   }
 }
 

@@ -3,7 +3,9 @@
 // (kernels/deformer/simd_lanes.hpp) and the scalar reference with one vertex (core/src/deformer/reference.hpp),
 // over the same DeformFrame (kernels/contract.hpp), stage by stage (stages.hpp):
 //   weighted_centroid, correlation_matrix    one pass over the pseudo-handles (for_each_target)
-//   fit                                      R from H (L::fit: the rotation fit of the lanes, or fit_rotation)
+//   fit                                      R from H, kFitTile batches side by side (L::fit_tile: the
+//                                            lanes' rotation fit, each lane bitwise as alone; the scalar
+//                                            reference: fit_rotation, one vertex at a time)
 //   similarity_scale                         mu (similarity), else 1
 //   apply                                    v' = q* + mu R vhat
 //   store_frames (when wanted)               R, mu, mu R and rotation_quaternion(R) into the FramesOut rows
@@ -14,7 +16,8 @@
 //
 // A lane policy L provides: T (the element type), V (the lane type), W (its width, dividing kLanes);
 // load(p) (W lanes from p, aligned for W > 1), store(v, p) (W lanes to p); relative_weight(r2, half_u)
-// (the on-the-fly weight (r2)^(u/2)); fit(method, h, r) (R from the unnormalised H, h row-major). The two
+// (the on-the-fly weight (r2)^(u/2)); fit(method, h, r) (R from the unnormalised H, h row-major) and
+// fit_tile<B>(method, h, r, nb) (fit for nb <= B batches, h overwritten), with kFitTile = B. The two
 // policies differ only there: the scalar reference fits by fit_rotation, which has every RotationMethod and
 // std::pow, the lanes by their branch-free fits and exp2(log2) (the SIMD tables run axis_angle and
 // horn_quaternion).
@@ -41,29 +44,52 @@ struct DeformKernel {
     V mu;
   };
 
-  /// The stages after H, shared by both weight sources: R from H, mu (similarity_scale, else 1), and apply.
-  MLSDEFORM_KERNEL_INLINE static void rotate_and_apply(const DeformFrame<T>& fr, const V (&h)[9], const V (&qs)[3],
-                                                       const V (&vh)[3], V D, Result& res) {
-    L::fit(fr.method, h, res.r);
-    res.mu = fr.transform == Transform::similarity ? similarity_scale(res.r, h, D, V(T(1))) : V(T(1));
-    apply(qs, res.mu, res.r, vh, res.out);
-  }
+  /// What the stages after H need of one batch (rigid, similarity): H, q*, vhat and D, and for on-the-fly
+  /// weights the lanes on a handle (snap: its index, else -1) and whether every lane is (nothing to fit).
+  struct Pending {
+    V h[9], qs[3], vh[3], D;
+    V snap;
+    bool all_snapped;
+  };
 
-  /// Precomputed weights, rigid or similarity: the W vertices from lane g of block b.
-  MLSDEFORM_KERNEL_INLINE static void table(const DeformFrame<T>& fr, std::size_t b, std::size_t g, Result& res) {
+  /// Precomputed weights, rigid or similarity: H, q*, vhat, D of the W vertices from lane g of block b.
+  MLSDEFORM_KERNEL_INLINE static void table(const DeformFrame<T>& fr, std::size_t b, std::size_t g, Pending& p) {
     const std::size_t v0 = b * kLanes + g, J = fr.k + 2 * fr.s;
-    V qs[3] = {V(T(0)), V(T(0)), V(T(0))};
-    V h[9];
-    for (V& e : h) e = V(T(0));
+    for (V& e : p.qs) e = V(T(0));
+    for (V& e : p.h) e = V(T(0));
     for_each_target(fr, [&](std::size_t j, T qx, T qy, T qz) {
       const T* co = fr.table + table_offset(b, j, J, fr.transform) + g;
       const V a[3] = {L::load(co + kLanes), L::load(co + 2 * kLanes), L::load(co + 3 * kLanes)};
-      weighted_centroid(qs, L::load(co), {V(qx), V(qy), V(qz)});
-      correlation_matrix(h, {V(qx - fr.centre[0]), V(qy - fr.centre[1]), V(qz - fr.centre[2])}, a);
+      weighted_centroid(p.qs, L::load(co), {V(qx), V(qy), V(qz)});
+      correlation_matrix(p.h, {V(qx - fr.centre[0]), V(qy - fr.centre[1]), V(qz - fr.centre[2])}, a);
     });
-    const V vh[3] = {L::load(fr.vhat + v0), L::load(fr.vhat + fr.padded + v0), L::load(fr.vhat + 2 * fr.padded + v0)};
-    const V D = fr.transform == Transform::similarity ? L::load(fr.D + v0) : V(T(0));
-    rotate_and_apply(fr, h, qs, vh, D, res);
+    p.vh[0] = L::load(fr.vhat + v0), p.vh[1] = L::load(fr.vhat + fr.padded + v0);
+    p.vh[2] = L::load(fr.vhat + 2 * fr.padded + v0);
+    p.D = fr.transform == Transform::similarity ? L::load(fr.D + v0) : V(T(0));
+    p.snap = V(T(-1));
+    p.all_snapped = false;
+  }
+
+  /// The stages after the fit R (rigid, similarity): mu (similarity_scale, else 1) and apply; for on-the-fly
+  /// weights the lanes on a handle take its target, and the identity frame.
+  static void finish(const DeformFrame<T>& fr, const Pending& p, const V (&r)[9], Result& res) {
+    if (p.all_snapped) {
+      for (V& x : res.out) x = V(T(0));
+      identity_frame(res);
+      return snap_to_handles(fr, p.snap, res.out);
+    }
+    for (int i = 0; i < 9; ++i) res.r[i] = r[i];
+    res.mu = fr.transform == Transform::similarity ? similarity_scale(res.r, p.h, p.D, V(T(1))) : V(T(1));
+    apply(p.qs, res.mu, res.r, p.vh, res.out);
+    if (fr.weights != WeightSource::on_the_fly) return;
+    const auto snapped = p.snap >= V(T(0));
+    if (any(snapped)) {
+      snap_to_handles(fr, p.snap, res.out);
+      // The frame of a vertex on a handle: the identity, not the infinite weights' NaN (the table holds the
+      // fit's limit there instead: data.hpp).
+      for (int i = 0; i < 9; ++i) res.r[i] = select(snapped, V(T(i % 4 == 0 ? 1 : 0)), res.r[i]);
+      res.mu = select(snapped, V(T(1)), res.mu);
+    }
   }
 
   /// Affine: v' = sum_j alpha_j q_j for the W vertices from lane g of block b; where `linear` is wanted also
@@ -109,21 +135,22 @@ struct DeformKernel {
   ///   pass 1  S = sum w_j, p* - v = sum w_j (p_j - v) / S, q* = sum w_j q_j / S                      (eq. 2)
   ///   pass 2  phat_j = (p_j - v) - (p* - v), A_j = w_j phat_j / S, H = sum (q_j - c) A_j^T,
   ///           D = sum A_j . phat_j                                                         (eq. 6, Sec. 6.1)
-  /// then R, mu and v' = q* + mu R vhat as in `table` (vhat = v - p*). Lanes on a handle, whose weights are
-  /// infinite, take its target instead; where every lane does, nothing else is computed.
-  static void on_the_fly(const DeformFrame<T>& fr, std::size_t v0, Result& res) {
-    const V snap = L::load(fr.snap + v0);  // padding lanes have snap = -1
-    const auto snapped = snap >= V(T(0));
-    if (all(snapped)) {
-      for (V& x : res.out) x = V(T(0));
-      identity_frame(res);
-      return snap_to_handles(fr, snap, res.out);
+  /// into p, for the fit and `finish` (vhat = v - p*), as `table` does. Lanes on a handle, whose weights are
+  /// infinite, take its target in `finish`; where every lane does, nothing else is computed.
+  static void on_the_fly(const DeformFrame<T>& fr, std::size_t v0, Pending& p) {
+    p.snap = L::load(fr.snap + v0);  // padding lanes have snap = -1
+    p.all_snapped = all(p.snap >= V(T(0)));
+    if (p.all_snapped) {
+      for (V& e : p.h) e = V(T(0));  // fitted (to the identity) with the tile, then not used
+      return;
     }
     const V vx = L::load(fr.v_local + v0), vy = L::load(fr.v_local + fr.padded + v0),
             vz = L::load(fr.v_local + 2 * fr.padded + v0), dref2 = L::load(fr.dref2 + v0);
     const T *px = fr.p_local, *py = px + fr.k, *pz = px + 2 * fr.k;
     const T ls = fr.local_scale;
-    V S(T(0)), ps[3] = {V(T(0)), V(T(0)), V(T(0))}, qs[3] = {V(T(0)), V(T(0)), V(T(0))};
+    V S(T(0)), ps[3] = {V(T(0)), V(T(0)), V(T(0))};
+    V(&qs)[3] = p.qs;
+    for (V& x : qs) x = V(T(0));
     for (std::size_t j = 0; j < fr.k; ++j) {
       const V dx = V(px[j]) - vx, dy = V(py[j]) - vy, dz = V(pz[j]) - vz;
       const V w = L::relative_weight(dref2 / (dx * dx + dy * dy + dz * dz), fr.half_u);
@@ -134,7 +161,8 @@ struct DeformKernel {
     const V inv_S = V(T(1)) / S;
     for (V& x : ps) x = x * inv_S;  // p* - v
     for (V& x : qs) x = x * inv_S;  // q*
-    V h[9], sum_a[3] = {V(T(0)), V(T(0)), V(T(0))}, D(T(0));
+    V(&h)[9] = p.h;
+    V sum_a[3] = {V(T(0)), V(T(0)), V(T(0))}, D(T(0));
     for (V& e : h) e = V(T(0));
     for (std::size_t j = 0; j < fr.k; ++j) {
       const V dx = V(px[j]) - vx, dy = V(py[j]) - vy, dz = V(pz[j]) - vz;
@@ -149,15 +177,8 @@ struct DeformKernel {
     }
     for (int r = 0; r < 3; ++r)
       for (int c = 0; c < 3; ++c) h[3 * r + c] = h[3 * r + c] - (qs[r] - V(fr.centre[r])) * sum_a[c];
-    const V vh[3] = {-ps[0], -ps[1], -ps[2]};
-    rotate_and_apply(fr, h, qs, vh, D, res);
-    if (any(snapped)) {
-      snap_to_handles(fr, snap, res.out);
-      // The frame of a vertex on a handle: the identity, not the infinite weights' NaN (the table holds the
-      // fit's limit there instead: data.hpp).
-      for (int i = 0; i < 9; ++i) res.r[i] = select(snapped, V(T(i % 4 == 0 ? 1 : 0)), res.r[i]);
-      res.mu = select(snapped, V(T(1)), res.mu);
-    }
+    for (int c = 0; c < 3; ++c) p.vh[c] = -ps[c];
+    p.D = D;
   }
 
   /// R = I, mu = 1.
@@ -215,18 +236,44 @@ struct DeformKernel {
   static void run(const DeformFrame<T>& fr, std::size_t block_begin, std::size_t block_end) {
     // Affine sessions have only `linear` (the session refuses the others).
     const bool frames = fr.quaternions || fr.rotations || fr.scales || fr.linear;
+    if (fr.transform == Transform::affine) {  // no fit: one batch at a time
+      for (std::size_t b = block_begin; b < block_end; ++b)
+        for (std::size_t g = 0; g < kLanes && b * kLanes + g < fr.n; g += W) {
+          Result res;
+          affine(fr, b, g, res);
+          store(fr, b * kLanes + g, res.out);
+          if (frames) store_frames(fr, b * kLanes + g, res);
+        }
+      return;
+    }
+    // Rigid, similarity: the batches' H gathered kFitTile at a time, fitted side by side (L::fit_tile, each
+    // lane bitwise as alone), then finished and stored in the same order.
+    constexpr std::size_t B = L::kFitTile;
+    Pending p[B];
+    V h[B][9], r[B][9];
+    std::size_t v0[B], nb = 0;
+    const auto flush = [&] {
+      for (std::size_t u = 0; u < nb; ++u)
+        for (int i = 0; i < 9; ++i) h[u][i] = p[u].h[i];  // the fit normalises its copy; mu needs H
+      L::template fit_tile<B>(fr.method, h, r, nb);
+      for (std::size_t u = 0; u < nb; ++u) {
+        Result res;
+        finish(fr, p[u], r[u], res);
+        store(fr, v0[u], res.out);
+        if (frames) store_frames(fr, v0[u], res);
+      }
+      nb = 0;
+    };
     for (std::size_t b = block_begin; b < block_end; ++b)
       for (std::size_t g = 0; g < kLanes && b * kLanes + g < fr.n; g += W) {
-        Result res;
+        v0[nb] = b * kLanes + g;
         if (fr.weights == WeightSource::on_the_fly)
-          on_the_fly(fr, b * kLanes + g, res);
-        else if (fr.transform == Transform::affine)
-          affine(fr, b, g, res);
+          on_the_fly(fr, v0[nb], p[nb]);
         else
-          table(fr, b, g, res);
-        store(fr, b * kLanes + g, res.out);
-        if (frames) store_frames(fr, b * kLanes + g, res);
+          table(fr, b, g, p[nb]);
+        if (++nb == B) flush();
       }
+    if (nb > 0) flush();
   }
 };
 

@@ -16,6 +16,8 @@ struct SimdLanes {
   using T = Elem;
   using V = xsimd::batch<T, A>;
   static constexpr std::size_t W = V::size;
+  /// Batches whose fits run side by side (fit_tile).
+  static constexpr std::size_t kFitTile = kFitTileBatches<V>;
 
   MLSDEFORM_KERNEL_INLINE static V load(const T* p) { return V::load_aligned(p); }
   MLSDEFORM_KERNEL_INLINE static void store(const V& v, T* p) { v.store_unaligned(p); }
@@ -36,6 +38,17 @@ struct SimdLanes {
       fit_rotation<HornJacobiFit>(hn, r, careful);
     else
       fit_rotation<AxisAngleFit>(hn, r, careful);
+  }
+
+  /// fit for nb <= B batches side by side, each lane bitwise as fit (axis_angle: fit_rotation_tile; h is
+  /// overwritten).
+  template <std::size_t B>
+  MLSDEFORM_KERNEL_INLINE static void fit_tile(RotationMethod method, V (&h)[B][9], V (&r)[B][9], std::size_t nb) {
+    std::size_t careful = 0;  // not reported per frame
+    if (method == RotationMethod::horn_quaternion)
+      for (std::size_t b = 0; b < nb; ++b) fit_rotation<HornJacobiFit>(h[b], r[b], careful);
+    else
+      fit_rotation_tile<B>(h, r, nb, careful);
   }
 };
 

@@ -66,6 +66,31 @@ std::size_t count_lanes(const mask_of<V>& m) {
   return c;
 }
 
+/// Algorithm 1 steps 5-7 of fit_rotation_axis_angle, from the root y of maximum_root (and its lanes
+/// `converged`) on: the axis (14) and the rotation (15), the careful path where the fast one cannot settle a
+/// lane.
+///   Lanes, Error, Valid range: as fit_rotation_axis_angle
+template <class V>
+MLSDEFORM_KERNEL_INLINE void rotation_from_root(const V (&h)[9], const Invariants<V>& inv, V y, mask_of<V> converged,
+                                                V (&r)[9], std::size_t& careful) {
+  using T = scalar_of<V>;
+  using M = mask_of<V>;
+  const M zero = inv.norm2 == V(T(0));  // normalised: ||H||^2 >= 1 unless H = 0
+  const Mat4<V> K = davenport(h, inv);
+  V dk;
+  Vec4<V> q = rotation_axis(K, y, dk);
+  const V n3 = inv.norm2 * inv.norm2 * inv.norm2;
+  constexpr T tau2 = kCarefulTau<T> * kCarefulTau<T>;
+  const M slow = ~zero & (~converged | ~(dk * dk > V(tau2) * n3));
+  if (any(slow)) {
+    // ||K||_F = 2 ||H||_F (Davenport's K: |E|^2 + 2 |z|^2 + ||H + H^T - E I||^2 = 4 ||H||^2).
+    const Vec4<V> q1 = top_eigenvector(K, sqrt(V(T(4)) * inv.norm2));
+    for (int i = 0; i < 4; ++i) q.v[i] = select(slow, q1.v[i], q.v[i]);
+    careful += count_lanes<V>(slow);
+  }
+  sin_cos(q, r);
+}
+
 /// The whole fit (Algorithm 1, steps 3-7) on a normalised H (h: 9 lanes of its row-major entries, each lane
 /// max |h_ij| in [1, 2) or H = 0), as the scalar twin; r: the rotations. Every lane takes the fast path
 /// (maximum_root, rotation_axis); the lanes it cannot settle (a multiple or unconverged root, or a gap below
@@ -81,25 +106,10 @@ std::size_t count_lanes(const mask_of<V>& m) {
 ///   Valid range: every finite normalised H
 template <class V>
 MLSDEFORM_KERNEL_INLINE void fit_rotation_axis_angle(const V (&h)[9], V (&r)[9], std::size_t& careful) {
-  using T = scalar_of<V>;
-  using M = mask_of<V>;
   const Invariants<V> inv = invariants(h);
-  const M zero = inv.norm2 == V(T(0));  // normalised: ||H||^2 >= 1 unless H = 0
-  M converged;
+  mask_of<V> converged;
   const V y = maximum_root(inv, converged);
-  const Mat4<V> K = davenport(h, inv);
-  V dk;
-  Vec4<V> q = rotation_axis(K, y, dk);
-  const V n3 = inv.norm2 * inv.norm2 * inv.norm2;
-  constexpr T tau2 = kCarefulTau<T> * kCarefulTau<T>;
-  const M slow = ~zero & (~converged | ~(dk * dk > V(tau2) * n3));
-  if (any(slow)) {
-    // ||K||_F = 2 ||H||_F (Davenport's K: |E|^2 + 2 |z|^2 + ||H + H^T - E I||^2 = 4 ||H||^2).
-    const Vec4<V> q1 = top_eigenvector(K, sqrt(V(T(4)) * inv.norm2));
-    for (int i = 0; i < 4; ++i) q.v[i] = select(slow, q1.v[i], q.v[i]);
-    careful += count_lanes<V>(slow);
-  }
-  sin_cos(q, r);
+  rotation_from_root(h, inv, y, converged, r, careful);
 }
 
 /// Twin of the public fit_rotation (core/src/rotation/fit_rotation.cpp) for a fit `Fit::fit(h, r, careful)`
@@ -132,6 +142,79 @@ void fit_range(const scalar_of<V>* H, scalar_of<V>* R, std::size_t stride, std::
                                            fit_rotation<Fit>(h, r, careful);
                                            for (std::size_t i = 0; i < 9; ++i) r[i].store_unaligned(dst + i * st + off);
                                          });
+  if (stats) stats->careful_lanes += careful;
+}
+
+/// Batches of the axis/angle fit that fit_range_axis_angle keeps in flight together.
+template <class V>
+inline constexpr std::size_t kFitTileBatches = 4;
+
+/// fit_rotation<AxisAngleFit> on nb <= B batches side by side (h normalised in place, as fit_rotation does),
+/// stage by stage across the batches: normalise and invariants for each, the Newton steps of all nb batches
+/// interleaved (maximum_root_tile: one batch's steps are a chain of dependent operations that leaves the core
+/// mostly idle), then rotation_from_root for each, whose operations are independent enough that the core
+/// overlaps consecutive batches by itself. Each lane computes exactly what fit_rotation<AxisAngleFit>
+/// computes, so the rotations are bitwise the same (test_batch_fit).
+///   Lanes:       float, double (an xsimd batch)
+///   Error:       as fit_rotation_axis_angle
+///   Valid range: every finite H
+template <std::size_t B, class V>
+MLSDEFORM_KERNEL_INLINE void fit_rotation_tile(V (&h)[B][9], V (&r)[B][9], std::size_t nb, std::size_t& careful) {
+  Invariants<V> inv[B];
+  mask_of<V> zero[B], converged[B];
+  V y[B];
+  for (std::size_t b = 0; b < nb; ++b) {
+    zero[b] = normalise(h[b]);
+    inv[b] = invariants(h[b]);
+  }
+  maximum_root_tile(inv, nb, y, converged);
+  for (std::size_t b = 0; b < nb; ++b) {
+    rotation_from_root(h[b], inv[b], y[b], converged[b], r[b], careful);
+    identity_where(zero[b], r[b]);
+  }
+}
+
+/// fit_rotation_tile on nb <= B batches of W = V::size matrices each, from offset off of a 3 x 3 x n layout
+/// (row stride st).
+template <std::size_t B, class V>
+MLSDEFORM_KERNEL_INLINE void fit_tile_axis_angle(const scalar_of<V>* src, scalar_of<V>* dst, std::size_t st,
+                                                 std::size_t off, std::size_t nb, std::size_t& careful) {
+  constexpr std::size_t W = V::size;
+  V h[B][9], r[B][9];
+  for (std::size_t b = 0; b < nb; ++b)
+    for (std::size_t i = 0; i < 9; ++i) h[b][i] = V::load_unaligned(src + i * st + off + b * W);
+  fit_rotation_tile<B>(h, r, nb, careful);
+  for (std::size_t b = 0; b < nb; ++b)
+    for (std::size_t i = 0; i < 9; ++i) r[b][i].store_unaligned(dst + i * st + off + b * W);
+}
+
+/// The kernel-table entry (FitRotationsFn) of the axis/angle fit on vectors V: matrices [begin, end) of a
+/// 3 x 3 x n layout, kFitTileBatches batches at a time (fit_tile_axis_angle), the batches left over as one
+/// shorter tile, and a partial last batch through a zero-padded copy.
+///   Lanes:       float, double (an xsimd batch)
+///   Error:       each matrix as fit_rotation<AxisAngleFit>, bitwise (the padding lanes hold H = 0 and are
+///                not written)
+///   Valid range: finite H (fit_rotations checks); adds the careful lanes to stats->careful_lanes
+template <class V>
+void fit_range_axis_angle(const scalar_of<V>* H, scalar_of<V>* R, std::size_t stride, std::size_t begin,
+                          std::size_t end, BatchStats* stats) {
+  using T = scalar_of<V>;
+  constexpr std::size_t W = V::size, B = kFitTileBatches<V>;
+  std::size_t careful = 0, i = begin;
+  for (; i + B * W <= end; i += B * W) fit_tile_axis_angle<B, V>(H, R, stride, i, B, careful);
+  if (const std::size_t nb = (end - i) / W; nb > 0) {
+    fit_tile_axis_angle<B, V>(H, R, stride, i, nb, careful);
+    i += nb * W;
+  }
+  if (i < end) {
+    alignas(64) T hb[9 * W] = {}, rb[9 * W];
+    const std::size_t rem = end - i;
+    for (std::size_t e = 0; e < 9; ++e)
+      for (std::size_t j = 0; j < rem; ++j) hb[e * W + j] = H[e * stride + i + j];
+    fit_tile_axis_angle<B, V>(hb, rb, W, 0, 1, careful);
+    for (std::size_t e = 0; e < 9; ++e)
+      for (std::size_t j = 0; j < rem; ++j) R[e * stride + i + j] = rb[e * W + j];
+  }
   if (stats) stats->careful_lanes += careful;
 }
 

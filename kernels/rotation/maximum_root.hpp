@@ -8,6 +8,47 @@
 
 namespace mlsdeform::kernels {
 
+/// The state of one batch's Newton iteration (maximum_root): the quartic's coefficients, the iterate, the
+/// last step taken, and the lanes still stepping and those converged.
+template <class V>
+struct NewtonState {
+  using M = mask_of<V>;
+  V a, b, c, y, last;
+  M active, converged;
+};
+
+/// The start of maximum_root: the coefficients and the upper bound y0 (see maximum_root).
+template <class V>
+MLSDEFORM_KERNEL_INLINE void newton_start(const Invariants<V>& inv, NewtonState<V>& s) {
+  using T = scalar_of<V>;
+  s.a = V(T(-2)) * inv.norm2, s.b = V(T(-8)) * inv.det, s.c = mul_add(inv.norm2, inv.norm2, V(T(-4)) * inv.c2);
+  const V cross = select(inv.det < V(T(0)), inv.c2, V(T(3)) * inv.c2);
+  s.y = sqrt(mul_add(V(T(2)), sqrt(cross), inv.norm2));
+  s.active = s.y > V(T(0));
+  s.converged = !s.active;  // H = 0 (identity, set by the caller)
+  s.last = V(std::numeric_limits<T>::infinity());
+}
+
+/// One Newton step of maximum_root in the lanes still active (the others are left exactly as they are, so
+/// that a batch may be stepped after its own lanes are done: maximum_root_tile).
+template <class V>
+MLSDEFORM_KERNEL_INLINE void newton_step(NewtonState<V>& s) {
+  using T = scalar_of<V>;
+  using M = mask_of<V>;
+  constexpr T eps = std::numeric_limits<T>::epsilon();
+  constexpr T tol = T(0.25) * SimdCommon<T, 1>::sqrt_eps;
+  const V y = s.y, y2 = y * y;
+  const V p = mul_add(mul_add(y2 + s.a, y, s.b), y, s.c);
+  const V d = mul_add(mul_add(V(T(4)), y2, V(T(2)) * s.a), y, s.b);
+  const V step = p / d;
+  const M reliable = d > V(T(64) * eps) * y2 * y;
+  const M ok = s.active & reliable & (step > V(T(0))) & (step <= s.last);
+  s.y = select(ok, y - step, y);
+  s.last = select(ok, step, s.last);
+  s.converged = s.converged | (s.active & reliable & (step <= V(tol) * s.y));
+  s.active = ok & (step > V(tol) * s.y);
+}
+
 /// Eq. (13), the fast path: Newton's method on P(y) = ((y^2 - 2n) y - 8 det) y + (n^2 - 4 c2) from an upper
 /// bound of its largest root y* = s1 + s2 + d s3 (n = ||H||^2 = sum s_i^2, c2 = sum_{i<j} s_i^2 s_j^2):
 ///   det >= 0: y*^2 = n + 2 (s1 s2 + s1 s3 + s2 s3) <= n + 2 sqrt(3 c2)   (Cauchy-Schwarz)
@@ -25,28 +66,31 @@ namespace mlsdeform::kernels {
 ///   Valid range: the invariants of a finite normalised H; y = 0 and converged where H = 0
 template <class V, class M = mask_of<V>>
 MLSDEFORM_KERNEL_INLINE V maximum_root(const Invariants<V>& inv, M& converged) {
-  using T = scalar_of<V>;
-  constexpr T eps = std::numeric_limits<T>::epsilon();
-  const V a = V(T(-2)) * inv.norm2, b = V(T(-8)) * inv.det, c = mul_add(inv.norm2, inv.norm2, V(T(-4)) * inv.c2);
-  const V cross = select(inv.det < V(T(0)), inv.c2, V(T(3)) * inv.c2);
-  V y = sqrt(mul_add(V(T(2)), sqrt(cross), inv.norm2));
-  constexpr T tol = T(0.25) * SimdCommon<T, 1>::sqrt_eps;
-  M active = y > V(T(0));
-  converged = !active;  // H = 0 (identity, set by the caller)
-  V last(std::numeric_limits<T>::infinity());
-  for (int it = 0; it < kMaxNewton && any(active); ++it) {
-    const V y2 = y * y;
-    const V p = mul_add(mul_add(y2 + a, y, b), y, c);
-    const V d = mul_add(mul_add(V(T(4)), y2, V(T(2)) * a), y, b);
-    const V step = p / d;
-    const M reliable = d > V(T(64) * eps) * y2 * y;
-    const M ok = active & reliable & (step > V(T(0))) & (step <= last);
-    y = select(ok, y - step, y);
-    last = select(ok, step, last);
-    converged = converged | (active & reliable & (step <= V(tol) * y));
-    active = ok & (step > V(tol) * y);
+  NewtonState<V> s;
+  newton_start(inv, s);
+  for (int it = 0; it < kMaxNewton && any(s.active); ++it) newton_step(s);
+  converged = s.converged;
+  return s.y;
+}
+
+/// maximum_root for nb independent batches at once, their Newton steps interleaved: one batch's step is a
+/// chain of dependent operations (a division among them) that leaves the core mostly idle; nb chains side
+/// by side fill it. Every lane takes the same steps as in maximum_root (a lane that has stopped is left
+/// unchanged by further steps, and each batch steps at most kMaxNewton times), so y and converged are
+/// bitwise maximum_root's.
+///   Lanes, Error, Valid range: as maximum_root
+template <std::size_t B, class V>
+MLSDEFORM_KERNEL_INLINE void maximum_root_tile(const Invariants<V> (&inv)[B], std::size_t nb, V (&y)[B],
+                                               mask_of<V> (&converged)[B]) {
+  NewtonState<V> s[B];
+  for (std::size_t b = 0; b < nb; ++b) newton_start(inv[b], s[b]);
+  for (int it = 0; it < kMaxNewton; ++it) {
+    bool more = false;
+    for (std::size_t b = 0; b < nb; ++b) more = more || any(s[b].active);
+    if (!more) break;
+    for (std::size_t b = 0; b < nb; ++b) newton_step(s[b]);
   }
-  return y;
+  for (std::size_t b = 0; b < nb; ++b) y[b] = s[b].y, converged[b] = s[b].converged;
 }
 
 }  // namespace mlsdeform::kernels

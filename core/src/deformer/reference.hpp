@@ -29,6 +29,8 @@ struct ScalarLanes {
   using T = Elem;
   using V = T;
   static constexpr std::size_t W = 1;
+  /// One vertex's fit at a time: nothing to interleave.
+  static constexpr std::size_t kFitTile = 1;
 
   static T load(const T* p) { return *p; }
   static void store(T v, T* p) { *p = v; }
@@ -42,6 +44,10 @@ struct ScalarLanes {
     for (int i = 0; i < 9; ++i) H(i / 3, i % 3) = h[i];
     const Matrix3<T> Rm = fit_rotation<T>(H, method);
     for (int i = 0; i < 9; ++i) r[i] = Rm(i / 3, i % 3);
+  }
+  template <std::size_t B>
+  static void fit_tile(RotationMethod method, T (&h)[B][9], T (&r)[B][9], std::size_t nb) {
+    for (std::size_t b = 0; b < nb; ++b) fit(method, h[b], r[b]);
   }
 };
 
