@@ -6,6 +6,9 @@
 //   scaling/vertices/<storage>/spot_loop3  the 737,986-vertex spot_loop3.ply.gz (Keenan Crane's "Spot",
 //                                          remeshed by O. Stein, 3 Loop subdivisions; public domain)
 //   scaling/handles/<storage>/k:<k>        time per frame vs handle count, k = 1 .. 1024, 10^4 vertices
+//   scaling/vertices/automatic/n:1000000, scaling/handles/automatic/k:256
+//                                          WeightStorage::automatic (the default) at the two sizes the
+//                                          speed targets name
 //   scaling/threads/<storage>/n:<n>/threads:<t>  1 and all threads, 10 handles
 //   scaling/centroids/<mls|rbf>/n:<n>      Centroids::mls against Centroids::rbf (the paper's Sec. 7-8),
 //                                          precomputed, 10 handles, all cores; rbf checked against
@@ -56,7 +59,9 @@ const Prepared& prepared(const std::string& key, Eigen::Index n, Eigen::Index k)
   return *slot;
 }
 
-const char* storage_name(WeightStorage s) { return s == WeightStorage::precomputed ? "precomputed" : "on_the_fly"; }
+const char* storage_name(WeightStorage s) {
+  return s == WeightStorage::precomputed ? "precomputed" : s == WeightStorage::on_the_fly ? "on_the_fly" : "automatic";
+}
 
 void bm(benchmark::State& state, const std::string& key, Eigen::Index n, Eigen::Index k, WeightStorage storage,
         int threads, mlsdeform::Centroids centroids) {
@@ -96,6 +101,9 @@ int main(int argc, char** argv) {
         add("scaling/threads/" + s + "/n:" + std::to_string(n) + "/threads:" + std::to_string(t),
             "box" + std::to_string(n), n, 10, st, t);
   }
+  // What a user gets by default (WeightStorage::automatic), where the targets are set.
+  add("scaling/vertices/automatic/n:1000000", "box1000000", 1000000, 10, WeightStorage::automatic, 0);
+  add("scaling/handles/automatic/k:256", "box10000k256", 10000, 256, WeightStorage::automatic, 0);
   for (Eigen::Index n : {Eigen::Index(10000), Eigen::Index(100000), Eigen::Index(1000000)})
     for (auto [c, cn] : {std::pair{mlsdeform::Centroids::mls, "mls"}, std::pair{mlsdeform::Centroids::rbf, "rbf"}})
       add(std::string("scaling/centroids/") + cn + "/n:" + std::to_string(n), "box" + std::to_string(n), n, 10,
