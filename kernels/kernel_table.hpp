@@ -34,6 +34,8 @@ struct KernelTable {
   FitRotationsFn<double> fit_horn_d;
   DeformBlocksFn<float> deform_f;  ///< SIMD: the methods axis_angle and horn_quaternion; scalar: all
   DeformBlocksFn<double> deform_d;
+  bool (*all_finite_f)(const float* x, std::size_t count);  ///< kernels/all_finite.hpp, with the ISA's flags
+  bool (*all_finite_d)(const double* x, std::size_t count);
 };
 
 /// Defined in kernels/isa_<name>.cpp and core/src/scalar_kernels.cpp; each returns its table.

@@ -3,6 +3,7 @@
 // same layouts and the same DeformFrame as the SIMD kernels. Compiled with the baseline flags.
 #include "core/src/deformer/reference.hpp"
 
+#include "kernels/all_finite.hpp"
 #include "kernels/kernel_table.hpp"
 
 #include <mlsdeform/rotation.hpp>
@@ -52,6 +53,8 @@ const KernelTable& kernel_table_scalar() {
       &detail::fit_entry<double, RotationMethod::horn_quaternion>,
       &detail::deform_blocks_reference<float>,
       &detail::deform_blocks_reference<double>,
+      &all_finite<float>,
+      &all_finite<double>,
   };
   return table;
 }

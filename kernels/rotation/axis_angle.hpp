@@ -66,6 +66,18 @@ std::size_t count_lanes(const mask_of<V>& m) {
   return c;
 }
 
+/// The careful path of rotation_from_root: q <- the top eigenvector of K (top_eigenvector) in the lanes
+/// `slow`, which are added to `careful`. Out of line: it is rare, and inlined into each batch of a tile its
+/// Jacobi sweeps crowded the fast path's registers (more spills, slower fits where it never ran).
+template <class V>
+[[gnu::noinline]] void careful_path(const Mat4<V>& K, V norm2, mask_of<V> slow, Vec4<V>& q, std::size_t& careful) {
+  using T = scalar_of<V>;
+  // ||K||_F = 2 ||H||_F (Davenport's K: |E|^2 + 2 |z|^2 + ||H + H^T - E I||^2 = 4 ||H||^2).
+  const Vec4<V> q1 = top_eigenvector(K, sqrt(V(T(4)) * norm2));
+  for (int i = 0; i < 4; ++i) q.v[i] = select(slow, q1.v[i], q.v[i]);
+  careful += count_lanes<V>(slow);
+}
+
 /// Algorithm 1 steps 5-7 of fit_rotation_axis_angle, from the root y of maximum_root (and its lanes
 /// `converged`) on: the axis (14) and the rotation (15), the careful path where the fast one cannot settle a
 /// lane.
@@ -82,12 +94,7 @@ MLSDEFORM_KERNEL_INLINE void rotation_from_root(const V (&h)[9], const Invariant
   const V n3 = inv.norm2 * inv.norm2 * inv.norm2;
   constexpr T tau2 = kCarefulTau<T> * kCarefulTau<T>;
   const M slow = ~zero & (~converged | ~(dk * dk > V(tau2) * n3));
-  if (any(slow)) {
-    // ||K||_F = 2 ||H||_F (Davenport's K: |E|^2 + 2 |z|^2 + ||H + H^T - E I||^2 = 4 ||H||^2).
-    const Vec4<V> q1 = top_eigenvector(K, sqrt(V(T(4)) * inv.norm2));
-    for (int i = 0; i < 4; ++i) q.v[i] = select(slow, q1.v[i], q.v[i]);
-    careful += count_lanes<V>(slow);
-  }
+  if (any(slow)) careful_path(K, inv.norm2, slow, q, careful);
   sin_cos(q, r);
 }
 

@@ -1,7 +1,6 @@
 // The Deformer session (deformer.hpp): construction (precompute.hpp), the per-frame driver that hands a
 // DeformFrame (kernels/contract.hpp) to the kernel table over blocks of kLanes vertices, and the ARAP
 // refinement after it (arap_stage.hpp); the moved handles are targets.hpp's.
-#include "core/src/all_finite.hpp"
 #include "core/src/deformer/arap_stage.hpp"
 #include "core/src/deformer/precompute.hpp"
 #include "core/src/deformer/region.hpp"
@@ -32,8 +31,12 @@ namespace detail {
 /// (extrapolation far from the handles, or targets near the largest coordinate), which is reported rather
 /// than returned. Allocates only on error.
 template <class T>
-void check_result(const T* out, std::size_t n, bool interleaved) {
-  if (all_finite(out, 3 * n)) return;
+void check_result(const T* out, std::size_t n, bool interleaved, const kernels::KernelTable& k) {
+  if constexpr (std::is_same_v<T, float>) {
+    if (k.all_finite_f(out, 3 * n)) return;
+  } else {
+    if (k.all_finite_d(out, 3 * n)) return;
+  }
   std::size_t i = 0;
   while (std::isfinite(out[i])) ++i;
   throw std::invalid_argument("Deformer: vertex " + std::to_string(interleaved ? i / 3 : i % n) +
@@ -99,27 +102,31 @@ struct Deformer<T>::Impl {
     const std::size_t n = vertices(), vstride = interleaved ? 3 : 1, cstride = interleaved ? 1 : n;
     if (!arap) {
       frame(moved, out, vstride, cstride, frames, cancel);
-      return detail::check_result(out, n, interleaved);
+      return detail::check_result(out, n, interleaved, table());
     }
     const std::lock_guard<std::mutex> lock(arap->mutex);
     // MLS's result in the local frame, handed to the refinement as it is (no rounding to the caller's units in
     // between: the two stages together scale with the scene to the bit). out untouched on a throw.
     run(moved, arap->mls.data(), 1, n, true, {}, cancel);
-    detail::check_result(arap->mls.data(), n, false);
+    detail::check_result(arap->mls.data(), n, false, table());
     arap->run(arap->mls, options.arap_iterations, std::ilogb(data.scale), cancel);
     if (frames.any()) detail::write_rotations(frames, arap->refiner, arap->rotations);
     for (std::size_t v = 0; v < n; ++v)
       for (std::size_t c = 0; c < 3; ++c) out[c * cstride + v * vstride] = arap->mls(Eigen::Index(v), Eigen::Index(c));
   }
 
-  /// The kernel for this session's settings: options.isa's or else the active ISA's, and the scalar
+  /// The kernel table for this session's settings: options.isa's or else the active ISA's, and the scalar
   /// reference's for a rotation method without a SIMD kernel (kanatani, horn_matrix, svd).
-  kernels::DeformBlocksFn<T> kernel() const {
+  const kernels::KernelTable& table() const {
     const bool in_lanes = data.transform == Transform::affine || options.method == RotationMethod::axis_angle ||
                           options.method == RotationMethod::horn_quaternion;
-    const kernels::KernelTable& k = !in_lanes     ? kernels::kernel_table_scalar()
-                                    : options.isa ? detail::kernels_for(*options.isa)
-                                                  : detail::active_kernels();
+    return !in_lanes     ? kernels::kernel_table_scalar()
+           : options.isa ? detail::kernels_for(*options.isa)
+                         : detail::active_kernels();
+  }
+  /// Its deformation kernel.
+  kernels::DeformBlocksFn<T> kernel() const {
+    const kernels::KernelTable& k = table();
     if constexpr (std::is_same_v<T, float>)
       return k.deform_f;
     else
