@@ -55,14 +55,18 @@ struct DeformKernel {
   /// Precomputed weights, rigid or similarity: H, q*, vhat, D of the W vertices from lane g of block b.
   MLSDEFORM_KERNEL_INLINE static void table(const DeformFrame<T>& fr, std::size_t b, std::size_t g, Pending& p) {
     const std::size_t v0 = b * kLanes + g, J = fr.k + 2 * fr.s;
-    for (V& e : p.qs) e = V(T(0));
-    for (V& e : p.h) e = V(T(0));
+    // The sums in locals, copied to p at the end: summed in p's arrays, they went through memory on every
+    // pseudo-handle (the compiler cannot tell them from the table it reads).
+    V qs[3] = {V(T(0)), V(T(0)), V(T(0))}, h[9];
+    for (V& e : h) e = V(T(0));
     for_each_target(fr, [&](std::size_t j, T qx, T qy, T qz) {
       const T* co = fr.table + table_offset(b, j, J, fr.transform) + g;
       const V a[3] = {L::load(co + kLanes), L::load(co + 2 * kLanes), L::load(co + 3 * kLanes)};
-      weighted_centroid(p.qs, L::load(co), {V(qx), V(qy), V(qz)});
-      correlation_matrix(p.h, {V(qx - fr.centre[0]), V(qy - fr.centre[1]), V(qz - fr.centre[2])}, a);
+      weighted_centroid(qs, L::load(co), {V(qx), V(qy), V(qz)});
+      correlation_matrix(h, {V(qx - fr.centre[0]), V(qy - fr.centre[1]), V(qz - fr.centre[2])}, a);
     });
+    for (int i = 0; i < 3; ++i) p.qs[i] = qs[i];
+    for (int i = 0; i < 9; ++i) p.h[i] = h[i];
     p.vh[0] = L::load(fr.vhat + v0), p.vh[1] = L::load(fr.vhat + fr.padded + v0);
     p.vh[2] = L::load(fr.vhat + 2 * fr.padded + v0);
     p.D = fr.transform == Transform::similarity ? L::load(fr.D + v0) : V(T(0));
@@ -148,9 +152,7 @@ struct DeformKernel {
             vz = L::load(fr.v_local + 2 * fr.padded + v0), dref2 = L::load(fr.dref2 + v0);
     const T *px = fr.p_local, *py = px + fr.k, *pz = px + 2 * fr.k;
     const T ls = fr.local_scale;
-    V S(T(0)), ps[3] = {V(T(0)), V(T(0)), V(T(0))};
-    V(&qs)[3] = p.qs;
-    for (V& x : qs) x = V(T(0));
+    V S(T(0)), ps[3] = {V(T(0)), V(T(0)), V(T(0))}, qs[3] = {V(T(0)), V(T(0)), V(T(0))};  // locals: see `table`
     for (std::size_t j = 0; j < fr.k; ++j) {
       const V dx = V(px[j]) - vx, dy = V(py[j]) - vy, dz = V(pz[j]) - vz;
       const V w = L::relative_weight(dref2 / (dx * dx + dy * dy + dz * dz), fr.half_u);
@@ -161,8 +163,7 @@ struct DeformKernel {
     const V inv_S = V(T(1)) / S;
     for (V& x : ps) x = x * inv_S;  // p* - v
     for (V& x : qs) x = x * inv_S;  // q*
-    V(&h)[9] = p.h;
-    V sum_a[3] = {V(T(0)), V(T(0)), V(T(0))}, D(T(0));
+    V h[9], sum_a[3] = {V(T(0)), V(T(0)), V(T(0))}, D(T(0));
     for (V& e : h) e = V(T(0));
     for (std::size_t j = 0; j < fr.k; ++j) {
       const V dx = V(px[j]) - vx, dy = V(py[j]) - vy, dz = V(pz[j]) - vz;
@@ -177,7 +178,8 @@ struct DeformKernel {
     }
     for (int r = 0; r < 3; ++r)
       for (int c = 0; c < 3; ++c) h[3 * r + c] = h[3 * r + c] - (qs[r] - V(fr.centre[r])) * sum_a[c];
-    for (int c = 0; c < 3; ++c) p.vh[c] = -ps[c];
+    for (int i = 0; i < 9; ++i) p.h[i] = h[i];
+    for (int c = 0; c < 3; ++c) p.qs[c] = qs[c], p.vh[c] = -ps[c];
     p.D = D;
   }
 
