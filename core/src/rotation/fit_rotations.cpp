@@ -91,7 +91,9 @@ void fit_interleaved_range(const T* H, T* R, std::size_t begin, std::size_t end,
   // memory while the core waited (streamed double fits 40-50% slower than the planar layout's, whose kernel
   // reads its 9 streams while it computes). So the tile is fitted kStep matrices at a time, and between steps
   // a share of the next tile's cache lines of H (to read) and R (to write) is prefetched: 0-20% then.
-  constexpr std::size_t kStep = 16;  // a multiple of every lane width
+  // A multiple of every lane width, and a whole tile of the axis/angle kernel (fit_range_axis_angle: four
+  // batches side by side, 64 floats with AVX-512), which 16 at a time would fit one batch at a time.
+  constexpr std::size_t kStep = 64;
   constexpr std::size_t line = 64 / sizeof(T), lines_per_step = 9 * kTile / line / (kTile / kStep);
   static_assert(9 * kTile % (line * (kTile / kStep)) == 0);
   alignas(64) T h[9 * kTile], r[9 * kTile];
