@@ -1,6 +1,7 @@
-// Scaling laws of rigid MLS deformation (float, Options::isa unset), for both weight storages
+// Scaling laws of rigid MLS deformation (float, Options::isa unset), for the three weight storages
 // (WeightStorage::precomputed: stream A_i = w_i phat_i, 16 bytes per vertex and handle; on_the_fly:
-// recompute the weights from the distances every frame):
+// recompute the weights from the distances every frame; precomputed_weights: stream w_i / S, 4 bytes per
+// vertex and handle, and form A_i from the handles every frame):
 //   scaling/vertices/<storage>/n:<n>       time per frame vs vertex count, 10 handles, all cores;
 //                                          n = 10^3 .. 10^6 random points in a 4 x 1 x 1 box
 //   scaling/vertices/<storage>/spot_loop3  the 737,986-vertex spot_loop3.ply.gz (Keenan Crane's "Spot",
@@ -60,7 +61,16 @@ const Prepared& prepared(const std::string& key, Eigen::Index n, Eigen::Index k)
 }
 
 const char* storage_name(WeightStorage s) {
-  return s == WeightStorage::precomputed ? "precomputed" : s == WeightStorage::on_the_fly ? "on_the_fly" : "automatic";
+  switch (s) {
+    case WeightStorage::precomputed:
+      return "precomputed";
+    case WeightStorage::on_the_fly:
+      return "on_the_fly";
+    case WeightStorage::precomputed_weights:
+      return "precomputed_weights";
+    default:
+      return "automatic";
+  }
 }
 
 void bm(benchmark::State& state, const std::string& key, Eigen::Index n, Eigen::Index k, WeightStorage storage,
@@ -89,7 +99,7 @@ int main(int argc, char** argv) {
   const Eigen::Index sizes[] = {1000, 3000, 10000, 30000, 100000, 300000, 1000000};
   const Eigen::Index handle_counts[] = {1, 2, 4, 8, 16, 32, 64, 128, 256, 512, 1024};
   const int all = bench::hardware_threads();
-  for (WeightStorage st : {WeightStorage::precomputed, WeightStorage::on_the_fly}) {
+  for (WeightStorage st : {WeightStorage::precomputed, WeightStorage::on_the_fly, WeightStorage::precomputed_weights}) {
     const std::string s = storage_name(st);
     for (Eigen::Index n : sizes)
       add("scaling/vertices/" + s + "/n:" + std::to_string(n), "box" + std::to_string(n), n, 10, st, 0);

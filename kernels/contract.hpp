@@ -59,7 +59,7 @@ static constexpr T kCarefulTau = sizeof(T) == 4 ? T(0.5 * 4.92156660e-3) : T(0.5
 // ---------------------------------------------------------------------------------------------------------
 
 /// Where a frame's per-vertex weights come from (WeightStorage in deformer.hpp).
-enum class WeightSource { table, on_the_fly };
+enum class WeightSource { table, on_the_fly, weights };
 
 /// One frame of the MLS deformation over the session data of core/src/deformer/data.hpp. Filled by the
 /// session (core/src/deformer/deformer.cpp) and read by every entry of the kernel table, the scalar reference
@@ -87,8 +87,11 @@ struct DeformFrame {
   const T* snap;     ///< handle index a vertex sits on, or -1 [v]
   const T* p_local;  ///< point handles, local frame, SoA [c * k + j]
   T half_u;          ///< u / 2
-  T local_scale;     ///< 2^-e: the caller's units to the local frame's
-  T world_scale;     ///< 2^e: the local frame's units to the caller's
+  // WeightSource::weights: v_local, snap and p_local as above, and
+  const T* wn;            ///< w_j / S, lane l of block b, handle j at (b k + j) kLanes + l
+  const T* p_star_local;  ///< p* - v, local frame, SoA [c * padded + v]
+  T local_scale;          ///< 2^-e: the caller's units to the local frame's
+  T world_scale;          ///< 2^e: the local frame's units to the caller's
 
   // Targets.
   const T* points;  ///< k x 3 column-major

@@ -1,12 +1,15 @@
-// WeightStorage::on_the_fly against the precomputed table, scalar and SIMD, and its limits.
+// WeightStorage::on_the_fly and WeightStorage::precomputed_weights against the precomputed table, scalar and
+// SIMD, and their limits.
 #include "tests/support/deform_cases.hpp"
 
 #include <mlsdeform/mlsdeform.hpp>
 
 #include <catch2/catch.hpp>
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
+#include <vector>
 
 using namespace mlsdeform;
 
@@ -88,4 +91,74 @@ TEST_CASE("on-the-fly weights: unsupported settings are refused, automatic follo
   o.precompute_budget_bytes = 1000;
   o.weight_storage = WeightStorage::precomputed;
   CHECK(Deformer<float>(s.vertices, seg, o).uses_precomputed_weights());
+}
+
+TEMPLATE_TEST_CASE("precomputed weights agree with the precomputed table", "[deformer][precomputed_weights]", float,
+                   double) {
+  using T = TestType;
+  constexpr T eps = std::numeric_limits<T>::epsilon();
+  const DeformCase<T> s = scene<T>(3000, 10, 2.5, 11);
+  for (Transform tr : {Transform::rigid, Transform::similarity})
+    for (const std::optional<Isa> isa : {std::optional<Isa>(Isa::scalar), std::optional<Isa>()})
+      for (double u : {2.0, 3.0}) {
+        INFO("transform " << int(tr) << " isa " << (isa ? to_string(*isa) : "active") << " u " << u);
+        Options o;
+        o.transform = tr;
+        o.isa = isa;
+        o.weight_exponent = u;
+        o.weight_storage = WeightStorage::precomputed;
+        const Deformer<T> pre(s.vertices, s.rest, o);
+        o.weight_storage = WeightStorage::precomputed_weights;
+        const Deformer<T> wts(s.vertices, s.rest, o);
+        CHECK(wts.uses_precomputed_weights());
+        // 4 bytes per vertex and handle and 28 per vertex (float) against 16 per vertex and handle and 24.
+        CHECK(wts.memory_bytes() < pre.memory_bytes() / 2);
+        Points<T> a, b, c;
+        pre.deform(s.moved, a);
+        wts.deform(s.moved, b);
+        REQUIRE(b.allFinite());
+        for (int i = 0; i < 10; ++i) CHECK(b.row(i) == s.moved.points.row(i));  // vertices on handles: exact
+        // Both paths take their weights from double, rounded once to T; this one forms A_j = (w_j / S) phat_j
+        // in T from coordinates relative to the vertex (a few roundings of |phat_j| each), as the on-the-fly
+        // pass does: the same bound as there (256 eps: c kappa up to about 70 with |vhat| <= 2 sqrt(3)).
+        CHECK((a - b).cwiseAbs().maxCoeff() <= T(256) * eps);
+        // Each vertex's sums run over the handles in one order: bitwise the same on one thread.
+        o.threads = 1;
+        Deformer<T>(s.vertices, s.rest, o).deform(s.moved, c);
+        CHECK(c == b);
+      }
+}
+
+TEST_CASE("precomputed weights: unsupported settings are refused, frames as on the fly",
+          "[deformer][precomputed_weights]") {
+  const DeformCase<float> s = scene<float>(2000, 8, 1.0, 3);
+  Options o;
+  o.weight_storage = WeightStorage::precomputed_weights;
+  o.transform = Transform::affine;
+  CHECK_THROWS_WITH(Deformer<float>(s.vertices, s.rest, o),
+                    Catch::Contains("precomputed_weights supports") && Catch::Contains("point handles"));
+  o.transform = Transform::rigid;
+  Handles<float> seg = s.rest;
+  seg.segment_a = s.rest.points.topRows(1);
+  seg.segment_b = s.rest.points.bottomRows(1);
+  CHECK_THROWS_WITH(Deformer<float>(s.vertices, seg, o), Catch::Contains("point handles and MLS centroids only"));
+  o.centroids = Centroids::rbf;
+  CHECK_THROWS_WITH(Deformer<float>(s.vertices, s.rest, o), Catch::Contains("Centroids::rbf"));
+  o.centroids = Centroids::mls;
+  // Frames: the rotations of the on-the-fly path to its bound, and the identity at a vertex on a handle.
+  const Deformer<float> wts(s.vertices, s.rest, o);
+  o.weight_storage = WeightStorage::on_the_fly;
+  const Deformer<float> fly(s.vertices, s.rest, o);
+  const std::size_t n = std::size_t(s.vertices.rows());
+  std::vector<float> qa(4 * n), qb(4 * n);
+  Points<float> a, b;
+  FramesOut<float> fa, fb;
+  fa.quaternions = qa;
+  fb.quaternions = qb;
+  wts.deform(s.moved, a, fa);
+  fly.deform(s.moved, b, fb);
+  for (std::size_t v = 0; v < 8; ++v) CHECK(qa[4 * v] == 1.0f);  // the vertices on the eight handles
+  float worst = 0;
+  for (std::size_t i = 0; i < 4 * n; ++i) worst = std::max(worst, std::abs(qa[i] - qb[i]));
+  CHECK(worst <= 256 * std::numeric_limits<float>::epsilon());
 }

@@ -85,7 +85,7 @@ struct DeformKernel {
     for (int i = 0; i < 9; ++i) res.r[i] = r[i];
     res.mu = fr.transform == Transform::similarity ? similarity_scale(res.r, p.h, p.D, V(T(1))) : V(T(1));
     apply(p.qs, res.mu, res.r, p.vh, res.out);
-    if (fr.weights != WeightSource::on_the_fly) return;
+    if (fr.weights == WeightSource::table) return;
     const auto snapped = p.snap >= V(T(0));
     if (any(snapped)) {
       snap_to_handles(fr, p.snap, res.out);
@@ -173,6 +173,47 @@ struct DeformKernel {
       const V d[3] = {V(fr.points[j] * ls - fr.centre[0]), V(fr.points[fr.k + j] * ls - fr.centre[1]),
                       V(fr.points[2 * fr.k + j] * ls - fr.centre[2])};
       correlation_matrix(h, d, a);
+      for (int r = 0; r < 3; ++r) sum_a[r] = sum_a[r] + a[r];
+      D = D + (a[0] * ph[0] + a[1] * ph[1] + a[2] * ph[2]);
+    }
+    for (int r = 0; r < 3; ++r)
+      for (int c = 0; c < 3; ++c) h[3 * r + c] = h[3 * r + c] - (qs[r] - V(fr.centre[r])) * sum_a[c];
+    for (int i = 0; i < 9; ++i) p.h[i] = h[i];
+    for (int c = 0; c < 3; ++c) p.qs[c] = qs[c], p.vh[c] = -ps[c];
+    p.D = D;
+  }
+
+  /// Precomputed weights only (WeightStorage::precomputed_weights; rigid and similarity, point handles): the W
+  /// vertices from lane g of block b, in one pass over the handles with the stored w_j / S and p* - v, as
+  /// on_the_fly's second pass (coordinates relative to the vertex; the common rounding of p* projected out of
+  /// the A_j):
+  ///   q* = sum_j (w_j / S) q_j, phat_j = (p_j - v) - (p* - v), A_j = (w_j / S) phat_j,
+  ///   H = sum_j (q_j - c) A_j^T - (q* - c) (sum_j A_j)^T, D = sum_j A_j . phat_j          (eqs. 2, 6, Sec. 6.1)
+  /// into p, as `table` does. Lanes on a handle (stored w = 0) take its target in `finish`.
+  MLSDEFORM_KERNEL_INLINE static void weights_only(const DeformFrame<T>& fr, std::size_t b, std::size_t g, Pending& p) {
+    const std::size_t v0 = b * kLanes + g;
+    p.snap = L::load(fr.snap + v0);  // padding lanes have snap = -1 (and w = 0)
+    p.all_snapped = all(p.snap >= V(T(0)));
+    if (p.all_snapped) {
+      for (V& e : p.h) e = V(T(0));  // fitted (to the identity) with the tile, then not used
+      return;
+    }
+    const V vx = L::load(fr.v_local + v0), vy = L::load(fr.v_local + fr.padded + v0),
+            vz = L::load(fr.v_local + 2 * fr.padded + v0);
+    const V ps[3] = {L::load(fr.p_star_local + v0), L::load(fr.p_star_local + fr.padded + v0),
+                     L::load(fr.p_star_local + 2 * fr.padded + v0)};
+    const T *px = fr.p_local, *py = px + fr.k, *pz = px + 2 * fr.k;
+    const T ls = fr.local_scale;
+    const T* wb = fr.wn + b * fr.k * kLanes + g;
+    V qs[3] = {V(T(0)), V(T(0)), V(T(0))}, h[9], sum_a[3] = {V(T(0)), V(T(0)), V(T(0))}, D(T(0));  // see `table`
+    for (V& e : h) e = V(T(0));
+    for (std::size_t j = 0; j < fr.k; ++j) {
+      const V w = L::load(wb + j * kLanes);
+      const T qx = fr.points[j] * ls, qy = fr.points[fr.k + j] * ls, qz = fr.points[2 * fr.k + j] * ls;
+      weighted_centroid(qs, w, {V(qx), V(qy), V(qz)});
+      const V ph[3] = {(V(px[j]) - vx) - ps[0], (V(py[j]) - vy) - ps[1], (V(pz[j]) - vz) - ps[2]};
+      const V a[3] = {w * ph[0], w * ph[1], w * ph[2]};
+      correlation_matrix(h, {V(qx - fr.centre[0]), V(qy - fr.centre[1]), V(qz - fr.centre[2])}, a);
       for (int r = 0; r < 3; ++r) sum_a[r] = sum_a[r] + a[r];
       D = D + (a[0] * ph[0] + a[1] * ph[1] + a[2] * ph[2]);
     }
@@ -271,6 +312,8 @@ struct DeformKernel {
         v0[nb] = b * kLanes + g;
         if (fr.weights == WeightSource::on_the_fly)
           on_the_fly(fr, v0[nb], p[nb]);
+        else if (fr.weights == WeightSource::weights)
+          weights_only(fr, b, g, p[nb]);
         else
           table(fr, b, g, p[nb]);
         if (++nb == B) flush();

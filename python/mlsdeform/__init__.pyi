@@ -25,7 +25,7 @@ class Deformer:
         method: _Method = ...,
         segment_weight: Literal["paper_constant", "exact_integral"] = ...,
         threads: int = ...,
-        weight_storage: Literal["automatic", "precomputed", "on_the_fly"] = ...,
+        weight_storage: Literal["automatic", "precomputed", "on_the_fly", "precomputed_weights"] = ...,
         backend: Literal["simd", "scalar"] = ...,
         precompute_budget_bytes: int = ...,
         dtype: Optional[npt.DTypeLike] = ...,

@@ -88,7 +88,7 @@ with dtype=). points: (k, 3) rest positions of point handles; segments: a pair (
 segment end points. transform: "rigid" | "similarity" | "affine"; exponent: u in w = |p - v|^-u (>= 1);
 method: "axis_angle" (the paper's) | "horn_quaternion" | "horn_matrix" | "kanatani" | "svd";
 segment_weight: "paper_constant" | "exact_integral"; threads: 0 = all cores; weight_storage:
-"automatic" | "precomputed" | "on_the_fly"; faces: (m, 3) vertex indices of the mesh's triangles, needed for
+"automatic" | "precomputed" | "on_the_fly" | "precomputed_weights"; faces: (m, 3) vertex indices of the mesh's triangles, needed for
 arap_iterations > 0: that many surface-ARAP iterations after MLS (each handle's nearest vertex held where MLS
 put it); centroids: "mls" (eq. 2) | "rbf" (q* = g(p*), the RBF interpolant of the handles: the paper's
 Sec. 7-8); region: None (the whole model) or the indices of the vertices that may move (the others stay

@@ -90,7 +90,8 @@ class PyDeformer {
     o.weight_storage = parse_enum<WeightStorage>(weight_storage, "weight_storage",
                                                  {{"automatic", WeightStorage::automatic},
                                                   {"precomputed", WeightStorage::precomputed},
-                                                  {"on_the_fly", WeightStorage::on_the_fly}});
+                                                  {"on_the_fly", WeightStorage::on_the_fly},
+                                                  {"precomputed_weights", WeightStorage::precomputed_weights}});
     o.isa = parse_enum<std::optional<Isa>>(backend, "backend", {{"simd", std::nullopt}, {"scalar", Isa::scalar}});
     o.precompute_budget_bytes = budget_bytes;
     o.arap_iterations = arap_iterations;

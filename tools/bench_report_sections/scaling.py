@@ -5,21 +5,25 @@ import matplotlib.pyplot as plt
 
 from .common import fmt, ratio, table
 
+STORAGES = ["precomputed", "on_the_fly", "precomputed_weights"]
+LABELS = {"precomputed": "precomputed", "on_the_fly": "on the fly", "precomputed_weights": "weights only"}
+
 
 def write(md, inputs):
     """Appends the section to md (a list of markdown lines)."""
     plots, sc = inputs.plots, inputs.sc
     md.append("## Scaling\n")
     md.append(
-        "`bench/bench_scaling.cpp`: float, `Options::isa` unset, all cores unless stated, for both weight "
+        "`bench/bench_scaling.cpp`: float, `Options::isa` unset, all cores unless stated, for the three weight "
         "storages (`precomputed`: stream A_i = w_i phat_i; `on_the_fly`: recompute the weights from the "
-        "distances). `memory` is `Deformer::memory_bytes()`, the precomputation's footprint. "
+        'distances; `precomputed_weights`, "weights only": stream w_i / S and form A_i from the handles). '
+        "`memory` is `Deformer::memory_bytes()`, the precomputation's footprint. "
         "`precomputed?` is what the deformer actually did (the request may not be honoured yet).\n"
     )
     sizes = [1000, 3000, 10000, 30000, 100000, 300000, 1000000]
     fig, ax = plt.subplots(figsize=(6.5, 4.5))
     rows = []
-    for st in ["precomputed", "on_the_fly"]:
+    for st in STORAGES:
         xs, ys = [], []
         for n in sizes:
             ms = sc.get(f"scaling/vertices/{st}/n:{n}", "ms_per_frame")
@@ -33,7 +37,7 @@ def write(md, inputs):
     for n in sizes + ["spot_loop3"]:
         key = f"n:{n}" if n != "spot_loop3" else n
         row = [f"{n:,}" if n != "spot_loop3" else "737,986 (spot_loop3)"]
-        for st in ["precomputed", "on_the_fly"]:
+        for st in STORAGES:
             b = sc.get(f"scaling/vertices/{st}/{key}")
             row += [
                 fmt(b["ms_per_frame"]) if b else "n/a",
@@ -57,15 +61,8 @@ def write(md, inputs):
         table(
             [
                 "vertices",
-                "precomputed ms",
-                "fps",
-                "memory MiB",
-                "precomputed?",
-                "on the fly ms",
-                "fps",
-                "memory MiB",
-                "precomputed?",
-            ],
+            ]
+            + [h for st in STORAGES for h in [f"{LABELS[st]} ms", "fps", "memory MiB", "precomputed?"]],
             rows,
         )
     )
@@ -74,7 +71,7 @@ def write(md, inputs):
     ks = [1, 2, 4, 8, 16, 32, 64, 128, 256, 512, 1024]
     fig, ax = plt.subplots(figsize=(6.5, 4.5))
     rows = []
-    for st in ["precomputed", "on_the_fly"]:
+    for st in STORAGES:
         xs, ys = [], []
         for k in ks:
             ms = sc.get(f"scaling/handles/{st}/k:{k}", "ms_per_frame")
@@ -84,7 +81,7 @@ def write(md, inputs):
             ax.loglog(xs, ys, marker="o", label=st)
     for k in ks:
         row = [k]
-        for st in ["precomputed", "on_the_fly"]:
+        for st in STORAGES:
             b = sc.get(f"scaling/handles/{st}/k:{k}")
             row += [
                 fmt(b["ms_per_frame"]) if b else "n/a",
@@ -106,19 +103,14 @@ def write(md, inputs):
         table(
             [
                 "handles",
-                "precomputed ms",
-                "ns per vertex-handle",
-                "memory MiB",
-                "on the fly ms",
-                "ns per vertex-handle",
-                "memory MiB",
-            ],
+            ]
+            + [h for st in STORAGES for h in [f"{LABELS[st]} ms", "ns per vertex-handle", "memory MiB"]],
             rows,
         )
     )
     md.append("")
     rows = []
-    for st in ["precomputed", "on_the_fly"]:
+    for st in STORAGES:
         for n in [100000, 1000000]:
             names = sorted(sc.names(f"scaling/threads/{st}/n:{n}/threads:"), key=lambda s: int(s.split(":")[-1]))
             if not names:

@@ -99,7 +99,7 @@ def write(md, inputs):
                 status(r3 is not None and r3 >= 12),
             ]
         )
-    for st in ["automatic", "precomputed", "on_the_fly"]:
+    for st in ["automatic", "precomputed", "on_the_fly", "precomputed_weights"]:
         fps = sc.get(f"scaling/vertices/{st}/n:1000000", "fps")
         if fps is None and st == "automatic":
             continue
@@ -111,7 +111,7 @@ def write(md, inputs):
                 status(fps is not None and fps >= 200),
             ]
         )
-    for st in ["automatic", "precomputed", "on_the_fly"]:
+    for st in ["automatic", "precomputed", "on_the_fly", "precomputed_weights"]:
         pair = sc.get(f"scaling/handles/{st}/k:256", "ns_per_vertex_handle")
         if pair is None:
             continue

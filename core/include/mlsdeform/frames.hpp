@@ -21,10 +21,10 @@ namespace mlsdeform {
 /// With Options::arap_iterations > 0 the rotation is the ARAP refinement's local rotation of the result (the
 /// rotation of its one-ring, as a local step computes it), the scale 1 and the linear part that rotation.
 /// Outside Options::region the identity (scale 1). A vertex on a point handle (snapped: data.hpp) takes the
-/// rotation (affine: the matrix) of the fit's limit at the handle with precomputed weights (scale 1), the
-/// identity with on-the-fly weights (docs/api.md, "Frames"). Affine, on a segment handle: with exact_integral
-/// weights the zero matrix (no frame there: transform_normals then keeps the normal), with paper_constant the
-/// fit to that segment alone, of rank 1.
+/// rotation (affine: the matrix) of the fit's limit at the handle with WeightStorage::precomputed (scale 1),
+/// the identity with on_the_fly and precomputed_weights (docs/api.md, "Frames"). Affine, on a segment handle:
+/// with exact_integral weights the zero matrix (no frame there: transform_normals then keeps the normal), with
+/// paper_constant the fit to that segment alone, of rank 1.
 /// Affine sessions have no rotation: quaternions, rotations and scales are refused (a rotation of M, its polar
 /// factor or another, is the caller's choice). linear needs Options::affine_frames: then their table holds M's
 /// coefficients too, 3 values per vertex and pseudo-handle beside alpha's 1 (the memory of a rigid session's

@@ -129,6 +129,13 @@ struct DeformerData {
   AlignedVector<T> p_local;  ///< point handles, local frame, SoA: x[k], y[k], z[k]
   T half_u = 1;              ///< u / 2: w = (dref2 / d2)^(u/2)
 
+  // WeightStorage::precomputed_weights (as on_the_fly: rigid and similarity with point handles only): the
+  // on-the-fly data above (v_local, snap, p_local; dref2 unused) and the weights themselves. Per frame A_j =
+  // w_j ((p_j - v) - (p* - v)) (kernels/deformer/deform_kernel.hpp, weights_only).
+  bool weights_only = false;
+  AlignedVector<T> weights;       ///< w_j / S, the 16 lanes of block b, handle j at (b k + j) 16 (snapped: 0)
+  AlignedVector<T> p_star_local;  ///< p* - v, local frame, SoA, padded (snapped: 0)
+
   std::size_t pseudo_handles() const { return points + 2 * segments; }
   std::size_t padded() const { return blocks * kLanes; }
   /// Values per block and pseudo-handle: 4 (omega, Ax, Ay, Az) or 1 (alpha).
@@ -144,7 +151,8 @@ struct DeformerData {
 
   std::size_t bytes() const {
     return (table.capacity() + linear_table.capacity() + p_star.capacity() + vhat.capacity() + D.capacity() +
-            v_local.capacity() + dref2.capacity() + snap.capacity() + p_local.capacity()) *
+            v_local.capacity() + dref2.capacity() + snap.capacity() + p_local.capacity() + weights.capacity() +
+            p_star_local.capacity()) *
            sizeof(T);
   }
 };

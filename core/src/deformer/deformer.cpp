@@ -141,7 +141,9 @@ struct Deformer<T>::Impl {
     kernels::DeformFrame<T> fr{};
     fr.transform = data.transform;
     fr.method = options.method;
-    fr.weights = data.on_the_fly ? kernels::WeightSource::on_the_fly : kernels::WeightSource::table;
+    fr.weights = data.weights_only ? kernels::WeightSource::weights
+                 : data.on_the_fly ? kernels::WeightSource::on_the_fly
+                                   : kernels::WeightSource::table;
     fr.n = data.n;
     fr.padded = data.padded();
     fr.table = data.table.empty() ? nullptr : data.table.data();
@@ -154,6 +156,8 @@ struct Deformer<T>::Impl {
       fr.snap = data.snap.data();
       fr.p_local = data.p_local.data();
       fr.half_u = data.half_u;
+      fr.wn = data.weights.empty() ? nullptr : data.weights.data();
+      fr.p_star_local = data.p_star_local.empty() ? nullptr : data.p_star_local.data();
     }
     fr.local_scale = T(1 / data.scale);  // 2^-e and 2^e: both numbers of T (local_frame.hpp)
     fr.world_scale = local ? T(1) : T(data.scale);
@@ -348,7 +352,7 @@ std::size_t Deformer<T>::memory_bytes() const {
 
 template <class T>
 bool Deformer<T>::uses_precomputed_weights() const {
-  return !impl().data.on_the_fly;
+  return !impl().data.on_the_fly || impl().data.weights_only;
 }
 
 template class Deformer<float>;

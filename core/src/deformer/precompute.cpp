@@ -23,17 +23,22 @@ namespace {
 /// precompute_budget_bytes (default 32 MiB, about a last-level cache), so that it never allocates more than the budget:
 /// beyond the cache the table streams from memory every frame, and recomputing the weights (two passes of a few tens of
 /// flops per handle) costs about as much as reading 16-32 bytes per handle (bench/bench_scaling.cpp measures both).
+/// WeightStorage::precomputed_weights shares the on-the-fly session data (and adds its weights): true for it too.
 template <class T>
 bool use_on_the_fly(const Options& o, const RestHandles& rh, std::size_t padded, std::size_t columns) {
   const bool supported = o.transform != Transform::affine && rh.s == 0 && o.centroids == Centroids::mls;
   const char* unsupported = o.transform == Transform::affine ? "the affine transform"
                             : rh.s != 0                      ? "segment handles"
                                                              : "Centroids::rbf";
-  if (o.weight_storage == WeightStorage::on_the_fly && !supported)
-    throw std::invalid_argument(std::string("Deformer: WeightStorage::on_the_fly supports rigid and similarity "
-                                            "transforms with point handles and MLS centroids only (got ") +
+  if ((o.weight_storage == WeightStorage::on_the_fly || o.weight_storage == WeightStorage::precomputed_weights) &&
+      !supported)
+    throw std::invalid_argument(std::string("Deformer: WeightStorage::") +
+                                (o.weight_storage == WeightStorage::on_the_fly ? "on_the_fly" : "precomputed_weights") +
+                                " supports rigid and similarity transforms with point handles and MLS centroids "
+                                "only (got " +
                                 unsupported + "); use precomputed or automatic");
-  if (o.weight_storage != WeightStorage::automatic) return o.weight_storage == WeightStorage::on_the_fly;
+  if (o.weight_storage != WeightStorage::automatic)
+    return o.weight_storage == WeightStorage::on_the_fly || o.weight_storage == WeightStorage::precomputed_weights;
   const double components = o.transform != Transform::affine || o.affine_frames ? 4 : 1;  // affine: alpha (+ B_j)
   const double table = double(padded) * double(columns) * components * sizeof(T);
   if (!(table > double(o.precompute_budget_bytes))) return false;
@@ -97,7 +102,7 @@ DeformerData<T> precompute(const Points<T>& vertices, const Handles<T>& handles,
   // Fixed handles cost a table column each unless folded (fold.hpp), which only the table can do.
   const std::size_t fold = fixed.count > kFoldedHandles ? fixed.count : 0;
   if (use_on_the_fly<T>(o, rh, np, rh.P.size() - fold + (fold ? kFoldedHandles : 0))) {
-    precompute_on_the_fly(data, vertices, scene, rh, o, arena, cancel);
+    precompute_on_the_fly(data, vertices, scene, rh, o, arena, cancel);  // and precomputed_weights' weights
     return data;
   }
   data.folded = fold;

@@ -1,5 +1,6 @@
 // Paper Sec. 5 for on-the-fly weights (WeightStorage::on_the_fly): no table; the rest geometry in the local
-// frame, from which the kernels recompute the weights every frame (kernels/deformer/deform_kernel.hpp).
+// frame, from which the kernels recompute the weights every frame (kernels/deformer/deform_kernel.hpp). With
+// WeightStorage::precomputed_weights also the weights themselves, normalised, and p* (eq. 2).
 #include "core/src/deformer/precompute.hpp"
 
 #include "core/src/deformer/snap.hpp"
@@ -13,6 +14,37 @@ namespace mlsdeform::detail {
 
 using Vec3d = Eigen::Vector3d;
 
+namespace {
+
+/// WeightStorage::precomputed_weights: vertex i's normalised weights w_j / S into data.weights and p* - v into
+/// data.p_star_local, in double from the coordinates the frame reads (vt: v_local rounded to T, p_local),
+/// relative to the nearest handle as the on-the-fly pass computes them (w_j = (d2 / |p_j - v|^2)^(u/2), all in
+/// (0, 1]), each rounded once to T. The per-frame pass (deform_kernel.hpp, weights_only) then forms
+/// phat_j = (p_j - v) - (p* - v) and A_j = (w_j / S) phat_j as the on-the-fly pass does.
+template <class T>
+void weights_of_vertex(DeformerData<T>& data, std::size_t i, const Vec3d& vt, double d2, double half_u) {
+  const std::size_t k = data.points, np = data.padded(), b = i / kLanes, lane = i % kLanes;
+  double S = 0;
+  Vec3d ps = Vec3d::Zero();
+  T* w = data.weights.data() + b * k * kLanes + lane;
+  for (std::size_t j = 0; j < k; ++j) {
+    const Vec3d p(double(data.p_local[j]), double(data.p_local[k + j]), double(data.p_local[2 * k + j]));
+    const double r2 = d2 / (p - vt).squaredNorm();
+    const double wj = half_u == 1 ? r2 : std::pow(r2, half_u);
+    S += wj;
+    ps += wj * (p - vt);
+  }
+  for (std::size_t j = 0; j < k; ++j) {
+    const Vec3d p(double(data.p_local[j]), double(data.p_local[k + j]), double(data.p_local[2 * k + j]));
+    const double r2 = d2 / (p - vt).squaredNorm();
+    w[j * kLanes] = T((half_u == 1 ? r2 : std::pow(r2, half_u)) / S);
+  }
+  ps /= S;
+  for (int c = 0; c < 3; ++c) data.p_star_local[std::size_t(c) * np + i] = T(ps[c]);
+}
+
+}  // namespace
+
 template <class T>
 void precompute_on_the_fly(DeformerData<T>& data, const Points<T>& vertices, const LocalFrame& scene,
                            const RestHandles& rh, const Options& o, tbb::task_arena* arena, const CancelCheck& cancel) {
@@ -23,6 +55,11 @@ void precompute_on_the_fly(DeformerData<T>& data, const Points<T>& vertices, con
   data.dref2.assign(np, T(1));
   data.snap.assign(np, T(-1));
   data.p_local.assign(3 * k, T(0));
+  data.weights_only = o.weight_storage == WeightStorage::precomputed_weights;
+  if (data.weights_only) {
+    data.weights.assign(np * k, T(0));
+    data.p_star_local.assign(3 * np, T(0));
+  }
   for (std::size_t j = 0; j < k; ++j)
     for (int c = 0; c < 3; ++c) data.p_local[std::size_t(c) * k + j] = T(rh.P[j][c]);
   parallel_ranges(data.blocks, o.threads, arena, [&](std::size_t b0, std::size_t b1) {
@@ -45,6 +82,8 @@ void precompute_on_the_fly(DeformerData<T>& data, const Points<T>& vertices, con
       // handle's weight dref2 / d2 infinite.
       if (snaps<T>(std::sqrt(d2), std::sqrt(near.d_second)) || !(T(d2) >= std::numeric_limits<T>::min()))
         data.snap[i] = T(near.nearest);
+      else if (data.weights_only)
+        weights_of_vertex(data, i, vt, d2, double(data.half_u));
     }
   });
 }

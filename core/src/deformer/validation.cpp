@@ -41,7 +41,7 @@ void check_options(const Options& o) {
                                   ": this CPU cannot run it");
   }
   if (o.weight_storage != WeightStorage::automatic && o.weight_storage != WeightStorage::precomputed &&
-      o.weight_storage != WeightStorage::on_the_fly)
+      o.weight_storage != WeightStorage::on_the_fly && o.weight_storage != WeightStorage::precomputed_weights)
     throw std::invalid_argument("Deformer: unknown WeightStorage value " +
                                 std::to_string(static_cast<int>(o.weight_storage)));
   if (o.centroids != Centroids::mls && o.centroids != Centroids::rbf)

@@ -14,7 +14,7 @@ D_ = mlsdeform.Deformer
 
 def build(args):
     # ---- the deformer against the direct numpy MLS ----
-    storages = ("automatic", "precomputed", "on_the_fly")
+    storages = ("automatic", "precomputed", "on_the_fly", "precomputed_weights")
     combos = []
     for dt in DTYPES:
         for transform in ("rigid", "similarity", "affine"):
@@ -26,7 +26,7 @@ def build(args):
 
             def f(g, dt=dt, transform=transform, s=s, u=u, backend=backend, i=i):
                 V, P, Q, A, B, C, D = cloud(g, n=400, k=6, s=s, dtype=dt)
-                storage = storages[i % 3] if (s == 0 and transform != "affine") else storages[i % 2]
+                storage = storages[i % 4] if (s == 0 and transform != "affine") else storages[i % 2]
                 method = METHODS[i % 5]
                 seg = (A, B) if s else None
                 d = D_(
