@@ -16,8 +16,8 @@
 //
 // A lane policy L provides: T (the element type), V (the lane type), W (its width, dividing kLanes);
 // load(p) (W lanes from p, aligned for W > 1), store(v, p) (W lanes to p); relative_weight(r2, half_u)
-// (the on-the-fly weight (r2)^(u/2)); fit(method, h, r) (R from the unnormalised H, h row-major) and
-// fit_tile<B>(method, h, r, nb) (fit for nb <= B batches, h overwritten), with kFitTile = B. The two
+// (the on-the-fly weight (r2)^(u/2)); fit_tile<B>(method, h, r, nb) (R from the unnormalised H of nb <= B
+// batches, h row-major, overwritten), with kFitTile = B. The two
 // policies differ only there: the scalar reference fits by fit_rotation, which has every RotationMethod and
 // std::pow, the lanes by their branch-free fits and exp2(log2) (the SIMD tables run axis_angle and
 // horn_quaternion).

@@ -28,20 +28,9 @@ struct SimdLanes {
     return exp2(V(half_u) * log2(r2));
   }
 
-  /// R from the unnormalised H: the SIMD tables run axis_angle and horn_quaternion (the session falls back
-  /// to the scalar table for the other methods).
-  MLSDEFORM_KERNEL_INLINE static void fit(RotationMethod method, const V (&h)[9], V (&r)[9]) {
-    V hn[9];
-    for (int i = 0; i < 9; ++i) hn[i] = h[i];  // the fit normalises its argument in place
-    std::size_t careful = 0;                   // not reported per frame
-    if (method == RotationMethod::horn_quaternion)
-      fit_rotation<HornJacobiFit>(hn, r, careful);
-    else
-      fit_rotation<AxisAngleFit>(hn, r, careful);
-  }
-
-  /// fit for nb <= B batches side by side, each lane bitwise as fit (axis_angle: fit_rotation_tile; h is
-  /// overwritten).
+  /// R from the unnormalised H of nb <= B batches (h is normalised in place): the SIMD tables run axis_angle,
+  /// its batches side by side (fit_rotation_tile: each lane bitwise as fit_rotation<AxisAngleFit> alone), and
+  /// horn_quaternion (the session falls back to the scalar table for the other methods).
   template <std::size_t B>
   MLSDEFORM_KERNEL_INLINE static void fit_tile(RotationMethod method, V (&h)[B][9], V (&r)[B][9], std::size_t nb) {
     std::size_t careful = 0;  // not reported per frame
