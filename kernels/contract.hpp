@@ -11,6 +11,7 @@
 #include <mlsdeform/enums.hpp>
 
 #include <cstddef>
+#include <cstdint>
 
 namespace mlsdeform::kernels {
 
@@ -53,6 +54,39 @@ static constexpr int kMaxSweeps = 12;
 /// 2^-17.33, as literals: no std::cbrt may be emitted in an ISA object.
 template <class T>
 static constexpr T kCarefulTau = sizeof(T) == 4 ? T(0.5 * 4.92156660e-3) : T(0.5 * 6.0554544523933395e-6);
+
+// ---------------------------------------------------------------------------------------------------------
+// The ARAP local step's one-ring sums (core/src/arap/ring_correlation.hpp, kernels/arap/ring_correlation.hpp)
+// ---------------------------------------------------------------------------------------------------------
+
+/// One local step's sums over an ARAP session's one-rings (core/src/arap/arap_refiner.cpp), in the session's
+/// units, in both layouts: CSR, which the scalar reference reads (the neighbours of i are nbr[start[i] ..
+/// start[i + 1]), with w_ij in w and w_ij (p_i - p_j) in we, 3 per edge), and padded into blocks of kLanes
+/// vertices, which the SIMD twin reads: block b has the slots [slot_begin[b], slot_begin[b + 1]), as many as
+/// its largest valence; slot s gives lane l (vertex kLanes b + l) its neighbour's row offset 3 j at
+/// slot_x[s kLanes + l], w_ij (p_i - p_j) at slot_a[(3 s + c) kLanes + l] and w_ij at slot_w[s kLanes + l],
+/// the CSR's neighbours in order, then padding slots of the lane's own row with weight 0. self[b kLanes + l]
+/// is 3 i, or for a lane past n the block's first vertex's (its results are not stored).
+template <class T>
+struct RingFrame {
+  std::size_t n;    ///< vertices
+  const double* x;  ///< positions, row-major n x 3
+  const std::ptrdiff_t* start;
+  const std::ptrdiff_t* nbr;
+  const double* w;
+  const double* we;
+  const std::size_t* slot_begin;
+  const std::int64_t* self;
+  const std::int64_t* slot_x;
+  const double* slot_a;
+  const double* slot_w;
+  /// Output: S_i scaled by a power of two to max |S_i| in [1, 2) and rounded to T, entry (r, c) at
+  /// H[(3 r + c) n + i] (the batched fit's layout, FitRotationsFn).
+  T* H;
+  /// nullptr, or the energy's record per vertex (core/src/arap/ring_energy.hpp): S_i unscaled (9 values,
+  /// row-major) and sum_j w_ij |x_i - x_j|^2, at ring[10 i].
+  double* ring;
+};
 
 // ---------------------------------------------------------------------------------------------------------
 // The frame of one deformation

@@ -24,6 +24,10 @@ using FitRotationsFn = void (*)(const T* H, T* R, std::size_t stride, std::size_
 template <class T>
 using DeformBlocksFn = void (*)(const DeformFrame<T>& frame, std::size_t block_begin, std::size_t block_end);
 
+/// The ARAP local step's one-ring sums over blocks [block_begin, block_end) of kLanes vertices (RingFrame).
+template <class T>
+using RingCorrelationFn = void (*)(const RingFrame<T>& frame, std::size_t block_begin, std::size_t block_end);
+
 struct KernelTable {
   const char* name;         ///< "scalar", "sse4_2", "avx2", "avx512"
   std::size_t lanes_float;  ///< SIMD lanes for float and double (1 for the scalar reference)
@@ -34,6 +38,8 @@ struct KernelTable {
   FitRotationsFn<double> fit_horn_d;
   DeformBlocksFn<float> deform_f;  ///< SIMD: the methods axis_angle and horn_quaternion; scalar: all
   DeformBlocksFn<double> deform_d;
+  RingCorrelationFn<float> ring_correlation_f;  ///< the sums in double either way; H rounded to float or double
+  RingCorrelationFn<double> ring_correlation_d;
   bool (*all_finite_f)(const float* x, std::size_t count);  ///< kernels/all_finite.hpp, with the ISA's flags
   bool (*all_finite_d)(const double* x, std::size_t count);
 };

@@ -43,9 +43,11 @@ struct DeformerEntries {
         in, out, n, [](const Rotation<V>& x, Quaternion<V>& y) { kernels::rotation_quaternion(x.r, y.q); });
   }
 
-  /// The table with the rotation stages' entries R (a struct of the same static functions).
+  /// The table with the rotation stages' entries R (a struct of the same static functions) and the ARAP local
+  /// step's sums.
   template <class R>
-  static StageEntries<T> table(const char* isa) {
+  static StageEntries<T> table(const char* isa,
+                               void (*ring_correlation)(const kernels::RingFrame<T>&, std::size_t, std::size_t)) {
     return {isa,
             L::W,
             &R::invariants,
@@ -57,7 +59,8 @@ struct DeformerEntries {
             &correlation_matrix,
             &similarity_scale,
             &apply,
-            &rotation_quaternion};
+            &rotation_quaternion,
+            ring_correlation};
   }
 };
 

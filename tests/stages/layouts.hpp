@@ -8,6 +8,8 @@
 // stage (for_lanes transposes). J, the pseudo-handles of the deformer's sums, is fixed at kJ.
 #pragma once
 
+#include "kernels/contract.hpp"
+
 #include <cstddef>
 #include <cstring>
 
@@ -89,6 +91,9 @@ struct StageEntries {
   void (*similarity_scale)(const SimilarityIn<T>* in, Scalar<T>* out, std::size_t n);
   void (*apply)(const ApplyIn<T>* in, Point<T>* out, std::size_t n);
   void (*rotation_quaternion)(const Rotation<T>* in, Quaternion<T>* out, std::size_t n);
+  /// The ARAP local step's one-ring sums: no lane-wise struct (a lane gathers its neighbours' rows), the
+  /// kernel table's entry itself over a frame of both layouts (kernels/contract.hpp, RingFrame).
+  void (*ring_correlation)(const kernels::RingFrame<T>& frame, std::size_t block_begin, std::size_t block_end);
 };
 
 /// The tables: the scalar reference's (scalar_entries.cpp) and each ISA's (entries_<isa>.cpp).

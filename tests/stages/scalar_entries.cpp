@@ -1,8 +1,10 @@
 // The scalar reference's table of stage entries (baseline flags, like core/): the rotation stages of
-// core/src/rotation/ one matrix at a time, and the deformer's stage bodies at width 1 (deformer_entries.hpp).
+// core/src/rotation/ one matrix at a time, the deformer's stage bodies at width 1 (deformer_entries.hpp) and
+// the ARAP local step's sums over the CSR one-rings (core/src/arap/ring_correlation.hpp).
 #include "tests/stages/deformer_entries.hpp"
 #include "tests/stages/layouts.hpp"
 
+#include "core/src/arap/ring_correlation.hpp"
 #include "core/src/deformer/reference.hpp"
 #include "core/src/rotation/axis_angle.hpp"
 
@@ -62,8 +64,8 @@ struct RotationEntries {
 
 template <class T>
 const StageEntries<T>& scalar_entries() {
-  static const StageEntries<T> table =
-      DeformerEntries<detail::ScalarLanes<T>>::template table<RotationEntries<T>>("scalar");
+  static const StageEntries<T> table = DeformerEntries<detail::ScalarLanes<T>>::template table<RotationEntries<T>>(
+      "scalar", &detail::ring_correlation<T>);
   return table;
 }
 template const StageEntries<float>& scalar_entries<float>();

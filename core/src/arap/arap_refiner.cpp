@@ -1,6 +1,7 @@
 // Surface ARAP (Sorkine & Alexa 2007) as a refinement of the MLS result: the session (arap.hpp documents the
-// energy and the weights). Local step: one S_i per vertex, gathered over its one-ring (CSR), and its rotation
-// by the active ISA's batched fit (SIMD lanes), chunk by chunk. Global step: the reduced cotangent Laplacian of the
+// energy and the weights). Local step: one S_i per vertex, summed over its one-ring by the active ISA's
+// ring_correlation (SIMD lanes over padded blocks of the one-rings, or the scalar reference over the CSR), and
+// its rotation by the active ISA's batched fit, chunk by chunk. Global step: the reduced cotangent Laplacian of the
 // free vertices, factorised once and solved for the three right-hand sides per iteration (subtree_ldlt.hpp),
 // with nothing allocated.
 //
@@ -13,6 +14,7 @@
 // units of 2^f through the factor 2^(e - f) <= 1, which is itself scale-free.)
 #include "core/src/arap/anderson.hpp"
 #include "core/src/arap/one_rings.hpp"
+#include "core/src/arap/ring_correlation.hpp"
 #include "core/src/arap/ring_energy.hpp"
 #include "core/src/arap/subtree_ldlt.hpp"
 #include "core/src/dispatch.hpp"
@@ -47,6 +49,7 @@ using RowPoints = Eigen::Matrix<double, Eigen::Dynamic, 3, Eigen::RowMajor>;
 /// Vertices per task of the local step and the right-hand side (each vertex's work is its own: any cut gives
 /// the same bits); small enough that a mesh of a few thousand vertices still splits evenly over the threads.
 constexpr std::size_t kGrain = 256;
+static_assert(kGrain % kernels::kLanes == 0, "a task of the local step is whole blocks of the one-ring sums");
 
 }  // namespace
 
@@ -69,6 +72,7 @@ struct ArapRefiner<T>::Impl {
   detail::SubtreeLdlt solver;  ///< L_ff, factorised
   std::vector<double> we;      ///< w_ij (p_i - p_j) per directed edge (3 values), in the CSR order; units 2^e
   std::vector<double> c;       ///< c_i = sum_j w_ij (p_i - p_j) per vertex (3 values); units 2^e
+  detail::PaddedRings padded;  ///< the one-rings and `we` in blocks, for the SIMD sums (ring_correlation.hpp)
 
   // Scratch, sized once.
   RowPoints X;             ///< current positions times 2^-f (refine), the caller's units after it
@@ -80,54 +84,25 @@ struct ArapRefiner<T>::Impl {
   std::unique_ptr<detail::Anderson> anderson;  ///< ArapAcceleration::anderson only, with `energy`
   detail::RingEnergy energy;
 
-  /// For every vertex S_i = sum_j w_ij (x_i - x_j)(p_i - p_j)^T and its rotation R_i, by the active kernel
-  /// table's batched axis/angle fit on each chunk of vertices (one parallel pass: S, fit, R in double).
-  /// With `with_energy`, returns E(x, R) in the units of X squared (ring_energy.hpp).
+  /// For every vertex S_i = sum_j w_ij (x_i - x_j)(p_i - p_j)^T, normalised to a power of two, by the active
+  /// kernel table's ring_correlation (ring_correlation.hpp), and its rotation R_i, by the table's batched
+  /// axis/angle fit, chunk by chunk (one parallel pass: S, fit, R in double). With `with_energy`, returns
+  /// E(x, R) in the units of X squared (ring_energy.hpp).
   double local_step(bool with_energy = false) {
     const std::size_t nn = std::size_t(n);
+    const kernels::KernelTable& table = detail::active_kernels();
     kernels::FitRotationsFn<T> fit;
+    kernels::RingCorrelationFn<T> sums;
     if constexpr (std::is_same_v<T, float>)
-      fit = detail::active_kernels().fit_axis_angle_f;
+      fit = table.fit_axis_angle_f, sums = table.ring_correlation_f;
     else
-      fit = detail::active_kernels().fit_axis_angle_d;
+      fit = table.fit_axis_angle_d, sums = table.ring_correlation_d;
+    const kernels::RingFrame<T> frame = detail::ring_frame<T>(nn, X.data(), start, nbr, w, we, padded, H.data(),
+                                                              with_energy ? energy.ring.data() : nullptr);
     detail::parallel_ranges((nn + kGrain - 1) / kGrain, options.threads, arena.get(),
                             [&](std::size_t c0, std::size_t c1) {
                               const std::size_t i0 = c0 * kGrain, i1 = std::min(nn, c1 * kGrain);
-                              for (std::size_t i = i0; i < i1; ++i) {
-                                // Nine named sums: an array here is packed into pairs and shuffled by the
-                                // compiler, slower than the plain scalar code.
-                                double s0 = 0, s1 = 0, s2 = 0, s3 = 0, s4 = 0, s5 = 0, s6 = 0, s7 = 0, s8 = 0;
-                                double dd = 0;  // sum_j w_ij |x_i - x_j|^2, for the energy
-                                const double* xi = X.data() + 3 * i;
-                                for (Eigen::Index e = start[i]; e < start[i + 1]; ++e) {
-                                  const double* xj = X.data() + 3 * nbr[std::size_t(e)];
-                                  const double* a = we.data() + 3 * e;
-                                  const double d0 = xi[0] - xj[0], d1 = xi[1] - xj[1], d2 = xi[2] - xj[2];
-                                  s0 += d0 * a[0], s1 += d0 * a[1], s2 += d0 * a[2];
-                                  s3 += d1 * a[0], s4 += d1 * a[1], s5 += d1 * a[2];
-                                  s6 += d2 * a[0], s7 += d2 * a[1], s8 += d2 * a[2];
-                                  if (with_energy)
-                                    dd += w[std::size_t(e)] * (d0 * d0 + d1 * d1 + d2 * d2);  // not on the plain path
-                                }
-                                // The fit is invariant under positive scaling of S_i: by a power of two to
-                                // max |S_i| in [1, 2), exactly, so that rounding to T neither overflows nor
-                                // drops a ring whose deformation is small against the mesh.
-                                double s[9] = {s0, s1, s2, s3, s4, s5, s6, s7, s8};
-                                if (with_energy) energy.store(i, s, dd);
-                                double m = 0;
-                                for (const double x : s) m = std::max(m, std::abs(x));
-                                if (m > 0) {
-                                  const int k = std::ilogb(m);
-                                  // 2^-k is a double for k >= -1023; below, two factors.
-                                  if (k < -1000) {
-                                    for (double& x : s) x *= 0x1p1000;
-                                    m *= 0x1p1000;
-                                  }
-                                  const double to_unit = std::ldexp(1.0, -std::ilogb(m));
-                                  for (double& x : s) x *= to_unit;
-                                }
-                                for (int k = 0; k < 9; ++k) H[std::size_t(k) * nn + i] = T(s[k]);
-                              }
+                              sums(frame, i0 / kernels::kLanes, (i1 + kernels::kLanes - 1) / kernels::kLanes);
                               fit(H.data(), R.data(), nn, i0, i1, nullptr);  // S_i is finite: X is
                               for (std::size_t i = i0; i < i1; ++i)
                                 for (std::size_t k = 0; k < 9; ++k) Rd[9 * i + k] = double(R[k * nn + i]);
@@ -207,6 +182,7 @@ ArapRefiner<T>::ArapRefiner(const Points<T>& rest, const Triangles& triangles,
         m.we[3 * std::size_t(e) + std::size_t(k)] = v;
         m.c[3 * i + std::size_t(k)] += v;
       }
+  m.padded = detail::pad_one_rings(m.start, m.nbr, m.w, m.we);
 
   // Constrained vertices; components without one are held at the start position.
   std::vector<char> is_constrained(nn, 0);
@@ -382,8 +358,8 @@ std::size_t ArapRefiner<T>::memory_bytes() const {
   const Impl& m = *impl_;
   const auto bytes = [](const auto& v) { return v.size() * sizeof(v[0]); };
   return m.solver.memory_bytes() + bytes(m.start) + bytes(m.nbr) + bytes(m.w) + bytes(m.we) + bytes(m.c) +
-         bytes(m.row) + bytes(m.free_vertices) + bytes(m.H) + bytes(m.R) + bytes(m.Rd) + bytes(m.y) +
-         bytes(m.energy.ring) + bytes(m.energy.q) + bytes(m.energy.chunks) +
+         m.padded.memory_bytes() + bytes(m.row) + bytes(m.free_vertices) + bytes(m.H) + bytes(m.R) + bytes(m.Rd) +
+         bytes(m.y) + bytes(m.energy.ring) + bytes(m.energy.q) + bytes(m.energy.chunks) +
          (m.anderson ? m.anderson->memory_bytes() : 0) + std::size_t(m.P.size() + m.X.size()) * sizeof(double);
 }
 

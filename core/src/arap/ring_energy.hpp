@@ -16,7 +16,9 @@
 namespace mlsdeform::detail {
 
 struct RingEnergy {
-  std::vector<double> ring;    ///< per vertex: S_i (9 values, row-major, unscaled) and sum_j w_ij |x_i - x_j|^2
+  /// Per vertex: S_i (9 values, row-major, unscaled) and sum_j w_ij |x_i - x_j|^2, written by the local step's
+  /// sums (RingFrame::ring, kernels/contract.hpp).
+  std::vector<double> ring;
   std::vector<double> q;       ///< per vertex: sum_j w_ij |p_i - p_j|^2, in the rest pose's units
   std::vector<double> chunks;  ///< E's partial sums per chunk of vertices
 
@@ -33,11 +35,6 @@ struct RingEnergy {
     chunks.assign((n + grain - 1) / grain, 0.0);
   }
   bool empty() const { return q.empty(); }
-
-  void store(std::size_t i, const double (&s)[9], double dd) {
-    std::copy(s, s + 9, ring.data() + 10 * i);
-    ring[10 * i + 9] = dd;
-  }
 
   /// Chunks [c0, c1) of `grain` vertices (of n): per chunk sum_i E_i with the rotations Rd (row-major, 9 per
   /// vertex), the rest terms scaled to the positions' units by rest_to_x.
