@@ -13,6 +13,10 @@ export function installInteraction(ctx) {
   let down = null, groupStart = null;
 
   const cast = (e) => {
+    // The camera and the markers as they are now, not as the last rendered frame left them: a click may come
+    // before the first frame after a mesh is opened (the rays then started at the origin and missed).
+    scene.updateMatrixWorld();
+    camera.updateMatrixWorld();
     const rect = renderer.domElement.getBoundingClientRect();
     raycaster.setFromCamera(new THREE.Vector2(((e.clientX - rect.left) / rect.width) * 2 - 1,
       -((e.clientY - rect.top) / rect.height) * 2 + 1), camera);
