@@ -1,5 +1,5 @@
 # The deformer's tests once more under each forced instruction set (MLSDEFORM_ISA). The kernel tests
-# (test_stages, test_batch_fit, test_batch_accuracy, test_deformer_simd, test_rotation_rank1, and test_arap's
+# (test_stages, test_stages_ring, test_batch_fit, test_batch_accuracy, test_deformer_simd, test_rotation_rank1, and test_arap's
 # local-step case) loop over every ISA the CPU runs themselves; these run the best one only by default. An ISA the CPU lacks is refused by the library
 # ("this CPU cannot run it"): the test then reports itself skipped. Release build only (label no_sanitizer):
 # under the sanitizers the segment tests alone take minutes per ISA.

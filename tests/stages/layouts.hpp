@@ -1,5 +1,6 @@
-// The stage test's entries (tests/test_stages.cpp): each paper stage of docs/design.md on n lanes, through
-// one table per instruction set, so that the test holds each SIMD stage against its scalar twin. Built
+// The stage tests' entries (tests/test_stages.cpp, tests/test_stages_ring.cpp): each paper stage of
+// docs/design.md on n lanes, through one table per instruction set (tests/stages/table.hpp picks one), so
+// that the tests hold each SIMD stage against its scalar twin. Built
 // beside the library, not in it: the scalar table (scalar_entries.cpp) with the baseline flags, one table
 // per ISA (entries_<isa>.cpp, lane_entries.hpp) with the kernels' flags; no Catch2 here.
 //

@@ -32,7 +32,7 @@ add_library(mlsdeform_web_catch_main STATIC ${PROJECT_SOURCE_DIR}/web/tests/catc
 target_include_directories(mlsdeform_web_catch_main SYSTEM PRIVATE ${CMAKE_BINARY_DIR}/sysdeps)  # web/cmake/deps.cmake
 target_compile_options(mlsdeform_web_catch_main PRIVATE ${_test_opt})
 
-set(MLSDEFORM_WEB_TESTS test_stages test_deformer test_arap)
+set(MLSDEFORM_WEB_TESTS test_stages test_stages_ring test_deformer test_arap)
 foreach(name ${MLSDEFORM_WEB_TESTS})
   add_executable(web_${name} ${_src}/${name}.cpp)
   target_link_libraries(web_${name} PRIVATE mlsdeform::mlsdeform mlsdeform_web_test_support mlsdeform_web_catch_main
@@ -45,4 +45,6 @@ foreach(name ${MLSDEFORM_WEB_TESTS})
   add_test(NAME web:${name} COMMAND node --no-experimental-fetch $<TARGET_FILE:web_${name}>)
   set_tests_properties(web:${name} PROPERTIES LABELS web TIMEOUT 900)
 endforeach()
-target_link_libraries(web_test_stages PRIVATE mlsdeform_web_stage_entries)
+foreach(name test_stages test_stages_ring)
+  target_link_libraries(web_${name} PRIVATE mlsdeform_web_stage_entries)
+endforeach()
