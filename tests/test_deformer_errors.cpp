@@ -268,3 +268,36 @@ TEMPLATE_TEST_CASE("point handles at one rest position must keep one target", "[
   def.set_point_target(3, Vector3<T>(1, 2, 3));
   CHECK_NOTHROW(def.deform(out));
 }
+
+// The finiteness check runs on each thread's own blocks (deformer.cpp, run); the error must still name the
+// smallest overflowing vertex, whichever thread found it first, for either output layout. Similarity: two
+// handles 2^-10 apart pulled max(T) / 256 apart scale the scene by 2^10 max(T) / 256, so a vertex 1 away from
+// them lands near 4 max(T) and overflows, while one at a handle's rest position lands on its target.
+TEMPLATE_TEST_CASE("an overflowing deformed position is named by its smallest vertex on any thread count",
+                   "[deformer][errors]", float, double) {
+  using T = TestType;
+  constexpr Eigen::Index n = 200;  // 13 blocks of 16: split between two threads at vertex 112
+  for (const std::vector<Eigen::Index>& far :
+       {std::vector<Eigen::Index>{41, 77, 150, 199}, std::vector<Eigen::Index>{150, 199},
+        std::vector<Eigen::Index>{0, 120}}) {
+    Points<T> v = Points<T>::Zero(n, 3);  // at the first handle
+    for (const Eigen::Index i : far) v.row(i) << 1, T(0.5), 0;
+    Points<T> hp(2, 3);
+    hp << 0, 0, 0, T(1) / 1024, 0, 0;
+    const Handles<T> rest{hp, {}, {}};
+    Handles<T> moved = rest;
+    moved.points(1, 0) = std::numeric_limits<T>::max() / 256;
+    for (const int threads : {1, 2}) {
+      Options o;
+      o.transform = Transform::similarity;
+      o.threads = threads;
+      const Deformer<T> d(v, rest, o);
+      const std::string want = "vertex " + std::to_string(far.front()) + "'s deformed position overflows";
+      INFO(threads << " threads, " << want);
+      Points<T> out;
+      CHECK_THROWS_WITH(d.deform(moved, out), Catch::Contains(want));
+      PointsRowMajor<T> buffer(n, 3);
+      CHECK_THROWS_WITH(d.deform(moved, InterleavedView<T>(buffer.data(), n, 3)), Catch::Contains(want));
+    }
+  }
+}

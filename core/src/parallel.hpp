@@ -9,6 +9,7 @@
 #if !MLSDEFORM_SERIAL
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
+#include <tbb/partitioner.h>
 #endif
 
 #include <cstddef>
@@ -26,24 +27,35 @@ inline void throw_if_cancelled(const CancelCheck& cancel) {
   if (cancel && cancel()) throw Cancelled();
 }
 
+/// How parallel_ranges cuts its range: `balanced`, TBB's auto_partitioner (work stealing, for work that varies
+/// from index to index); `fixed`, TBB's static_partitioner (one even piece per thread, the same pieces on every
+/// call with the same count and arena: for uniform work repeated on the same data, such as a session's frames,
+/// where each thread then finds its piece's data in its own core's cache).
+enum class Split { balanced, fixed };
+
 /// Calls f(begin, end) on sub-ranges covering [0, count): once with the whole range when threads == 1 or
 /// count <= 1 (always in the serial build, core/src/threading.hpp), else from tbb::parallel_for (in `arena` if given,
 /// else the calling thread's arena). Each index's work must not depend on how the range is cut (every caller's results
 /// are bitwise the same for any thread count).
 template <class F>
-void parallel_ranges(std::size_t count, int threads, tbb::task_arena* arena, const F& f) {
+void parallel_ranges(std::size_t count, int threads, tbb::task_arena* arena, const F& f,
+                     Split split = Split::balanced) {
   if (count == 0) return;
 #if MLSDEFORM_SERIAL
-  (void)threads, (void)arena;
+  (void)threads, (void)arena, (void)split;
   f(std::size_t(0), count);
 #else
   if (threads == 1 || count == 1) {
     f(std::size_t(0), count);
     return;
   }
+  const tbb::blocked_range<std::size_t> all(0, count);
+  const auto body = [&](const tbb::blocked_range<std::size_t>& r) { f(r.begin(), r.end()); };
   auto run = [&] {
-    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, count),
-                      [&](const tbb::blocked_range<std::size_t>& r) { f(r.begin(), r.end()); });
+    if (split == Split::fixed)
+      tbb::parallel_for(all, body, tbb::static_partitioner());
+    else
+      tbb::parallel_for(all, body);
   };
   if (arena)
     arena->execute(run);
