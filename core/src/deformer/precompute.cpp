@@ -16,16 +16,31 @@ namespace mlsdeform::detail {
 
 namespace {
 
-/// WeightStorage (deformer.hpp): on the fly is implemented for rigid and similarity with point handles
-/// only. `automatic` picks it (and refuses settings without it) when the precomputed table (16 bytes per
-/// vertex and handle in float, 32 in double; affine 4 and 8 for alpha, as much as rigid with Options::affine_frames'
-/// B_j, data.hpp) would exceed
-/// precompute_budget_bytes (default 32 MiB, about a last-level cache), so that it never allocates more than the budget:
-/// beyond the cache the table streams from memory every frame, and recomputing the weights (two passes of a few tens of
-/// flops per handle) costs about as much as reading 16-32 bytes per handle (bench/bench_scaling.cpp measures both).
-/// WeightStorage::precomputed_weights shares the on-the-fly session data (and adds its weights): true for it too.
+/// What a session streams each frame (WeightStorage, deformer.hpp).
+enum class Storage { table, on_the_fly, weights };
+
+/// WeightStorage::automatic takes the precomputed table (16 bytes per vertex and handle in float, 32 in double;
+/// affine 4 and 8 for alpha, as much as rigid with Options::affine_frames' B_j: data.hpp) while it stays in the
+/// cache, kTableCacheBytes; beyond it, where they are supported (rigid and similarity with point handles and MLS
+/// centroids), the precomputed weights alone (4 bytes per vertex and handle in float, 8 in double) while they fit
+/// precompute_budget_bytes, and beyond that the weights on the fly. Measured on Zen 5 (AVX-512, float, random
+/// scenes, medians of back-to-back frames, us per frame on 1 thread / both cores; bench_scaling times the
+/// storages side by side):
+///   1,058 x 322 (table 5.3 MiB):  table 78.8 / 43.5,  weights 98.2 / 55.2
+///   6,146 x 256 (table 24 MiB):   table 633 / 243,    weights 472 / 233,   on the fly 1024 / 575
+///   10,000 x 256 (table 41 MiB):  table 1387 / 584,   weights 800 / 416,   on the fly 1709 / 861
+///   10^6 x 10 (table 160 MiB, weights 40 MiB), both cores: table 6.07 ms, weights 5.15, on the fly 6.21
+/// In the cache the table's 16 bytes cost less than forming A_j from the weights; from memory, the 4 bytes win.
+/// A region whose ring's fixed handles are folded into four (fold.hpp, `folded`) keeps the table while it fits
+/// the budget, as settings without on-the-fly weights do: the weights and on the fly pay for every ring handle.
+/// Those are on the fly beyond the budget; settings without on-the-fly weights are refused beyond it
+/// (std::invalid_argument naming the size and the budget): automatic never allocates more than the budget.
+inline constexpr double kTableCacheBytes = 16 << 20;
+
+/// The storage for o.weight_storage; `columns` are the table's pseudo-handles, `folded` whether fixed handles
+/// were folded into them (fold.hpp).
 template <class T>
-bool use_on_the_fly(const Options& o, const RestHandles& rh, std::size_t padded, std::size_t columns) {
+Storage choose_storage(const Options& o, const RestHandles& rh, std::size_t padded, std::size_t columns, bool folded) {
   const bool supported = o.transform != Transform::affine && rh.s == 0 && o.centroids == Centroids::mls;
   const char* unsupported = o.transform == Transform::affine ? "the affine transform"
                             : rh.s != 0                      ? "segment handles"
@@ -37,12 +52,26 @@ bool use_on_the_fly(const Options& o, const RestHandles& rh, std::size_t padded,
                                 " supports rigid and similarity transforms with point handles and MLS centroids "
                                 "only (got " +
                                 unsupported + "); use precomputed or automatic");
-  if (o.weight_storage != WeightStorage::automatic)
-    return o.weight_storage == WeightStorage::on_the_fly || o.weight_storage == WeightStorage::precomputed_weights;
+  switch (o.weight_storage) {
+    case WeightStorage::precomputed:
+      return Storage::table;
+    case WeightStorage::on_the_fly:
+      return Storage::on_the_fly;
+    case WeightStorage::precomputed_weights:
+      return Storage::weights;
+    case WeightStorage::automatic:
+      break;
+  }
+  const double budget = double(o.precompute_budget_bytes);
   const double components = o.transform != Transform::affine || o.affine_frames ? 4 : 1;  // affine: alpha (+ B_j)
   const double table = double(padded) * double(columns) * components * sizeof(T);
-  if (!(table > double(o.precompute_budget_bytes))) return false;
-  if (supported) return true;
+  if (supported && !folded) {
+    if (table <= std::min(budget, kTableCacheBytes)) return Storage::table;
+    const double weights = double(padded) * double(rh.k) * sizeof(T);
+    return weights <= budget ? Storage::weights : Storage::on_the_fly;
+  }
+  if (table <= budget) return Storage::table;
+  if (supported) return Storage::on_the_fly;
   char msg[512];
   std::snprintf(
       msg, sizeof msg,
@@ -50,7 +79,7 @@ bool use_on_the_fly(const Options& o, const RestHandles& rh, std::size_t padded,
       "precompute_budget_bytes = %.1f MiB, and on-the-fly weights support only rigid and similarity "
       "transforms with point handles and MLS centroids (got %s); raise Options::precompute_budget_bytes (CLI: "
       "--weight-budget MiB) or set WeightStorage::precomputed to allow it",
-      table / 1048576.0, padded, columns, double(o.precompute_budget_bytes) / 1048576.0, unsupported);
+      table / 1048576.0, padded, columns, budget / 1048576.0, unsupported);
   throw std::invalid_argument(msg);
 }
 
@@ -101,8 +130,9 @@ DeformerData<T> precompute(const Points<T>& vertices, const Handles<T>& handles,
   const std::size_t np = data.padded();
   // Fixed handles cost a table column each unless folded (fold.hpp), which only the table can do.
   const std::size_t fold = fixed.count > kFoldedHandles ? fixed.count : 0;
-  if (use_on_the_fly<T>(o, rh, np, rh.P.size() - fold + (fold ? kFoldedHandles : 0))) {
-    precompute_on_the_fly(data, vertices, scene, rh, o, arena, cancel);  // and precomputed_weights' weights
+  const Storage storage = choose_storage<T>(o, rh, np, rh.P.size() - fold + (fold ? kFoldedHandles : 0), fold != 0);
+  if (storage != Storage::table) {
+    precompute_on_the_fly(data, vertices, scene, rh, o, storage == Storage::weights, arena, cancel);
     return data;
   }
   data.folded = fold;

@@ -34,9 +34,11 @@ void precompute_table(DeformerData<T>& data, const Points<T>& vertices, const Lo
                       const FixedHandles<T>& fixed);
 
 /// The on-the-fly session data: the rest vertices and handles in the local frame, each vertex's squared
-/// distance to its nearest handle (weights are relative to it), and the handle a vertex sits on, if any.
+/// distance to its nearest handle (weights are relative to it), and the handle a vertex sits on, if any; with
+/// `weights_only` (WeightStorage::precomputed_weights), also each vertex's normalised weights and p*.
 template <class T>
 void precompute_on_the_fly(DeformerData<T>& data, const Points<T>& vertices, const LocalFrame& scene,
-                           const RestHandles& rh, const Options& o, tbb::task_arena* arena, const CancelCheck& cancel);
+                           const RestHandles& rh, const Options& o, bool weights_only, tbb::task_arena* arena,
+                           const CancelCheck& cancel);
 
 }  // namespace mlsdeform::detail

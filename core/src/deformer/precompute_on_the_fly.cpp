@@ -47,7 +47,8 @@ void weights_of_vertex(DeformerData<T>& data, std::size_t i, const Vec3d& vt, do
 
 template <class T>
 void precompute_on_the_fly(DeformerData<T>& data, const Points<T>& vertices, const LocalFrame& scene,
-                           const RestHandles& rh, const Options& o, tbb::task_arena* arena, const CancelCheck& cancel) {
+                           const RestHandles& rh, const Options& o, bool weights_only, tbb::task_arena* arena,
+                           const CancelCheck& cancel) {
   const std::size_t np = data.padded(), k = rh.k;
   data.on_the_fly = true;
   data.half_u = T(o.weight_exponent / 2);
@@ -55,7 +56,7 @@ void precompute_on_the_fly(DeformerData<T>& data, const Points<T>& vertices, con
   data.dref2.assign(np, T(1));
   data.snap.assign(np, T(-1));
   data.p_local.assign(3 * k, T(0));
-  data.weights_only = o.weight_storage == WeightStorage::precomputed_weights;
+  data.weights_only = weights_only;
   if (data.weights_only) {
     data.weights.assign(np * k, T(0));
     data.p_star_local.assign(3 * np, T(0));
@@ -89,8 +90,10 @@ void precompute_on_the_fly(DeformerData<T>& data, const Points<T>& vertices, con
 }
 
 template void precompute_on_the_fly<float>(DeformerData<float>&, const Points<float>&, const LocalFrame&,
-                                           const RestHandles&, const Options&, tbb::task_arena*, const CancelCheck&);
+                                           const RestHandles&, const Options&, bool, tbb::task_arena*,
+                                           const CancelCheck&);
 template void precompute_on_the_fly<double>(DeformerData<double>&, const Points<double>&, const LocalFrame&,
-                                            const RestHandles&, const Options&, tbb::task_arena*, const CancelCheck&);
+                                            const RestHandles&, const Options&, bool, tbb::task_arena*,
+                                            const CancelCheck&);
 
 }  // namespace mlsdeform::detail
