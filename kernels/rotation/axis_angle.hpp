@@ -208,7 +208,20 @@ void fit_range_axis_angle(const scalar_of<V>* H, scalar_of<V>* R, std::size_t st
   using T = scalar_of<V>;
   constexpr std::size_t W = V::size, B = kFitTileBatches<V>;
   std::size_t careful = 0, i = begin;
-  for (; i + B * W <= end; i += B * W) fit_tile_axis_angle<B, V>(H, R, stride, i, B, careful);
+  // Streamed from memory, the 9 rows of H and R of the tile two tiles ahead are prefetched (B W values each):
+  // the hardware prefetcher alone left the core waiting on them. Same process, AVX-512 (Zen 5), ns per fit,
+  // streamed / in cache: float 8.77 -> 8.23 / 6.81, double 16.6 -> 15.5 / 12.1; AVX2 float 15.7 -> 11.1 / 10.4.
+  // (Four tiles ahead measured no better.) On data in cache they cost an issue slot each.
+  constexpr std::size_t kPrefetchTiles = 2, line = 64 / sizeof(T), tile = B * W;
+  for (; i + tile <= end; i += tile) {
+    if (const std::size_t ahead = i + kPrefetchTiles * tile; ahead + tile <= end)
+      for (std::size_t e = 0; e < 9; ++e)
+        for (std::size_t k = 0; k < tile; k += line) {
+          __builtin_prefetch(H + e * stride + ahead + k);
+          __builtin_prefetch(R + e * stride + ahead + k, 1);
+        }
+    fit_tile_axis_angle<B, V>(H, R, stride, i, B, careful);
+  }
   if (const std::size_t nb = (end - i) / W; nb > 0) {
     fit_tile_axis_angle<B, V>(H, R, stride, i, nb, careful);
     i += nb * W;
