@@ -276,7 +276,7 @@ TEMPLATE_TEST_CASE("point handles at one rest position must keep one target", "[
 TEMPLATE_TEST_CASE("an overflowing deformed position is named by its smallest vertex on any thread count",
                    "[deformer][errors]", float, double) {
   using T = TestType;
-  constexpr Eigen::Index n = 200;  // 13 blocks of 16: split between two threads at vertex 112
+  constexpr Eigen::Index n = 200;  // 13 blocks of 16, cut between two threads near the middle
   for (const std::vector<Eigen::Index>& far :
        {std::vector<Eigen::Index>{41, 77, 150, 199}, std::vector<Eigen::Index>{150, 199},
         std::vector<Eigen::Index>{0, 120}}) {
