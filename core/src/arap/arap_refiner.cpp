@@ -75,18 +75,20 @@ struct ArapRefiner<T>::Impl {
   detail::PaddedRings padded;  ///< the one-rings and `we` in blocks, for the SIMD sums (ring_correlation.hpp)
 
   // Scratch, sized once.
-  RowPoints X;             ///< current positions times 2^-f (refine), the caller's units after it
-  bool refined = false;    ///< X holds a refine()'s result
-  double rest_to_x = 1;    ///< 2^(e - f): the rest terms of b in the units of X
-  std::vector<T> H, R;     ///< 3 x 3 x n, SoA, for fit_rotations
-  std::vector<double> Rd;  ///< R_i in double, row-major, 9 values per vertex
-  std::vector<double> y;   ///< the three right-hand sides, permuted and interleaved (3 values per row)
+  RowPoints X;           ///< current positions times 2^-f (refine), the caller's units after it
+  bool refined = false;  ///< X holds a refine()'s result
+  double rest_to_x = 1;  ///< 2^(e - f): the rest terms of b in the units of X
+  std::vector<T> H, R;   ///< 3 x 3 x n, SoA, for fit_rotations
+  /// R_i row-major, 9 values per vertex, in T: the global step reads a neighbour's R_j at random, and float
+  /// halves those bytes (each value is widened to double exactly where it is used, as a double copy was).
+  std::vector<T> Rd;
+  std::vector<double> y;  ///< the three right-hand sides, permuted and interleaved (3 values per row)
   std::unique_ptr<detail::Anderson> anderson;  ///< ArapAcceleration::anderson only, with `energy`
   detail::RingEnergy energy;
 
   /// For every vertex S_i = sum_j w_ij (x_i - x_j)(p_i - p_j)^T, normalised to a power of two, by the active
   /// kernel table's ring_correlation (ring_correlation.hpp), and its rotation R_i, by the table's batched
-  /// axis/angle fit, chunk by chunk (one parallel pass: S, fit, R in double). With `with_energy`, returns
+  /// axis/angle fit, chunk by chunk (one parallel pass: S, fit, R row-major). With `with_energy`, returns
   /// E(x, R) in the units of X squared (ring_energy.hpp).
   double local_step(bool with_energy = false) {
     const std::size_t nn = std::size_t(n);
@@ -105,7 +107,7 @@ struct ArapRefiner<T>::Impl {
                               sums(frame, i0 / kernels::kLanes, (i1 + kernels::kLanes - 1) / kernels::kLanes);
                               fit(H.data(), R.data(), nn, i0, i1, nullptr);  // S_i is finite: X is
                               for (std::size_t i = i0; i < i1; ++i)
-                                for (std::size_t k = 0; k < 9; ++k) Rd[9 * i + k] = double(R[k * nn + i]);
+                                for (std::size_t k = 0; k < 9; ++k) Rd[9 * i + k] = R[k * nn + i];
                               if (with_energy) energy.finish(c0, c1, kGrain, nn, Rd.data(), rest_to_x);
                             });
     return with_energy ? energy.total() : 0.0;
@@ -116,8 +118,9 @@ struct ArapRefiner<T>::Impl {
   /// backward substitution on the three interleaved right-hand sides at once).
   void global_step() {
     const std::size_t nf = free_vertices.size();
-    auto rotate_add = [](const double* Rm, const double* v, double(&b)[3]) {
-      for (int r = 0; r < 3; ++r) b[r] += 0.5 * (Rm[3 * r] * v[0] + Rm[3 * r + 1] * v[1] + Rm[3 * r + 2] * v[2]);
+    auto rotate_add = [](const T* Rm, const double* v, double(&b)[3]) {
+      for (int r = 0; r < 3; ++r)
+        b[r] += 0.5 * (double(Rm[3 * r]) * v[0] + double(Rm[3 * r + 1]) * v[1] + double(Rm[3 * r + 2]) * v[2]);
     };
     detail::parallel_ranges((nf + kGrain - 1) / kGrain, options.threads, arena.get(),
                             [&](std::size_t c0, std::size_t c1) {
@@ -232,7 +235,7 @@ ArapRefiner<T>::ArapRefiner(const Points<T>& rest, const Triangles& triangles,
   m.X.resize(m.n, 3);
   m.H.assign(9 * nn, T(0));
   m.R.assign(9 * nn, T(0));
-  m.Rd.assign(9 * nn, 0.0);
+  m.Rd.assign(9 * nn, T(0));
   m.y.assign(3 * std::size_t(nf), 0.0);
   if (options.acceleration == ArapAcceleration::anderson) {
     m.anderson = std::make_unique<detail::Anderson>(3 * nn, options.anderson_window, options.threads, m.arena.get());

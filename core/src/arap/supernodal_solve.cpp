@@ -8,12 +8,98 @@
 
 namespace mlsdeform::detail {
 
+namespace {
+
+/// a_k[i] += g0[i] w[k] + g1[i] w[3 + k] + g2[i] w[6 + k] + g3[i] w[9 + k] for the three right-hand sides
+/// k, added left to right; w: four rows of z, 3 values each. Restrict-qualified so that the compiler runs
+/// the rows two (SSE2) or more at a time without run-time alias checks.
+void update4(std::size_t m, const double* __restrict g0, const double* __restrict g1, const double* __restrict g2,
+             const double* __restrict g3, const double* __restrict w, double* __restrict a0, double* __restrict a1,
+             double* __restrict a2) {
+  const double w00 = w[0], w01 = w[1], w02 = w[2], w10 = w[3], w11 = w[4], w12 = w[5];
+  const double w20 = w[6], w21 = w[7], w22 = w[8], w30 = w[9], w31 = w[10], w32 = w[11];
+  for (std::size_t i = 0; i < m; ++i) {
+    const double h0 = g0[i], h1 = g1[i], h2 = g2[i], h3 = g3[i];
+    a0[i] = (((a0[i] + h0 * w00) + h1 * w10) + h2 * w20) + h3 * w30;
+    a1[i] = (((a1[i] + h0 * w01) + h1 * w11) + h2 * w21) + h3 * w31;
+    a2[i] = (((a2[i] + h0 * w02) + h1 * w12) + h2 * w22) + h3 * w32;
+  }
+}
+
+void update1(std::size_t m, const double* __restrict g, const double* __restrict w, double* __restrict a0,
+             double* __restrict a1, double* __restrict a2) {
+  const double w0 = w[0], w1 = w[1], w2 = w[2];
+  for (std::size_t i = 0; i < m; ++i) a0[i] += g[i] * w0, a1[i] += g[i] * w1, a2[i] += g[i] * w2;
+}
+
+/// The backward sums z_k -= sum_i g[i] x_k[i] of one column g (k: the three right-hand sides), each as two
+/// partial sums, over the even and the odd rows (ascending), then (even + odd): two independent chains per
+/// sum, which the compiler holds in one SSE2 register. The order depends on m alone, never on the threads.
+void dot1(std::size_t m, const double* __restrict g, const double* __restrict x0, const double* __restrict x1,
+          const double* __restrict x2, double* __restrict z) {
+  double e0 = 0, e1 = 0, e2 = 0, o0 = 0, o1 = 0, o2 = 0;
+  std::size_t i = 0;
+  for (; i + 2 <= m; i += 2) {
+    e0 += g[i] * x0[i], e1 += g[i] * x1[i], e2 += g[i] * x2[i];
+    o0 += g[i + 1] * x0[i + 1], o1 += g[i + 1] * x1[i + 1], o2 += g[i + 1] * x2[i + 1];
+  }
+  double s0 = e0 + o0, s1 = e1 + o1, s2 = e2 + o2;
+  if (i < m) s0 += g[i] * x0[i], s1 += g[i] * x1[i], s2 += g[i] * x2[i];
+  z[0] -= s0, z[1] -= s1, z[2] -= s2;
+}
+
+/// dot1 for two columns g and h (z: their two rows, 3 values each) in one sweep over x.
+void dot2(std::size_t m, const double* __restrict g, const double* __restrict h, const double* __restrict x0,
+          const double* __restrict x1, const double* __restrict x2, double* __restrict z) {
+  double e0 = 0, e1 = 0, e2 = 0, o0 = 0, o1 = 0, o2 = 0;
+  double f0 = 0, f1 = 0, f2 = 0, p0 = 0, p1 = 0, p2 = 0;
+  std::size_t i = 0;
+  for (; i + 2 <= m; i += 2) {
+    const double a0 = x0[i], a1 = x1[i], a2 = x2[i], b0 = x0[i + 1], b1 = x1[i + 1], b2 = x2[i + 1];
+    e0 += g[i] * a0, e1 += g[i] * a1, e2 += g[i] * a2;
+    o0 += g[i + 1] * b0, o1 += g[i + 1] * b1, o2 += g[i + 1] * b2;
+    f0 += h[i] * a0, f1 += h[i] * a1, f2 += h[i] * a2;
+    p0 += h[i + 1] * b0, p1 += h[i + 1] * b1, p2 += h[i + 1] * b2;
+  }
+  double s0 = e0 + o0, s1 = e1 + o1, s2 = e2 + o2, t0 = f0 + p0, t1 = f1 + p1, t2 = f2 + p2;
+  if (i < m) {
+    s0 += g[i] * x0[i], s1 += g[i] * x1[i], s2 += g[i] * x2[i];
+    t0 += h[i] * x0[i], t1 += h[i] * x1[i], t2 += h[i] * x2[i];
+  }
+  z[0] -= s0, z[1] -= s1, z[2] -= s2, z[3] -= t0, z[4] -= t1, z[5] -= t2;
+}
+
+/// q_k[i] -= g0[i] w_k[0], then g1[i] w_k[1], g2[i] w_k[2], g3[i] w_k[3], in that order (k: the three
+/// right-hand sides, planar): four columns of the forward triangular solve applied to the rows below them.
+void subtract4(std::size_t m, const double* __restrict g0, const double* __restrict g1, const double* __restrict g2,
+               const double* __restrict g3, const double* w0, const double* w1, const double* w2, double* __restrict q0,
+               double* __restrict q1, double* __restrict q2) {
+  const double u00 = w0[0], u01 = w0[1], u02 = w0[2], u03 = w0[3];
+  const double u10 = w1[0], u11 = w1[1], u12 = w1[2], u13 = w1[3];
+  const double u20 = w2[0], u21 = w2[1], u22 = w2[2], u23 = w2[3];
+  for (std::size_t i = 0; i < m; ++i) {
+    const double h0 = g0[i], h1 = g1[i], h2 = g2[i], h3 = g3[i];
+    q0[i] = (((q0[i] - h0 * u00) - h1 * u01) - h2 * u02) - h3 * u03;
+    q1[i] = (((q1[i] - h0 * u10) - h1 * u11) - h2 * u12) - h3 * u13;
+    q2[i] = (((q2[i] - h0 * u20) - h1 * u21) - h2 * u22) - h3 * u23;
+  }
+}
+
+}  // namespace
+
 SupernodalSolve::SupernodalSolve(SupernodalFactor factor, std::size_t bins) : f(std::move(factor)) {
   const std::size_t ns = f.first.size() - 1;
   const auto columns = [&](std::size_t t) { return f.first[t + 1] - f.first[t]; };
   const auto height = [&](std::size_t t) { return f.row_start[t + 1] - f.row_start[t]; };
   std::vector<double> work(ns);
   for (std::size_t t = 0; t < ns; ++t) work[t] = double(columns(t)) * double(height(t));
+  // The diagonal's reciprocals: the substitutions multiply (a division's latency, paid once per column per
+  // solve, was a tenth of the forward pass on spot_loop3).
+  inverse.resize(f.perm.size());
+  for (std::size_t t = 0; t < ns; ++t)
+    for (int c = 0; c < columns(t); ++c)
+      inverse[std::size_t(f.first[t] + c)] =
+          1 / f.values[f.value_start[t] + std::size_t(c) * std::size_t(height(t)) + std::size_t(c)];
   for (const double w : work) shared_from += w / 64;
   std::vector<std::pair<int, int>> subtrees;
   cut_tree(f.super_parent, work, bins, subtrees, top);
@@ -59,54 +145,65 @@ SupernodalSolve::SupernodalSolve(SupernodalFactor factor, std::size_t bins) : f(
       need[bins] = std::max(need[bins], std::size_t(height(t) - columns(t)));
     }
   }
-  for (std::size_t k = 0; k <= bins; ++k) scratch[k].assign(3 * need[k], 0.0);
+  // Each part's scratch: the rows below a supernode (3 values each), then its own columns, planar.
+  int widest = 0;
+  for (std::size_t t = 0; t < ns; ++t) widest = std::max(widest, columns(t));
+  planar_at.resize(bins + 1);
+  for (std::size_t k = 0; k <= bins; ++k) {
+    planar_at[k] = 3 * need[k];
+    scratch[k].assign(3 * (need[k] + std::size_t(widest)), 0.0);
+  }
 }
 
-/// Forward substitution with supernode t: where `diagonal`, its own rows z = G_11^-1 y (in place); then the
-/// rows at positions p0 .. p1 below: y_r -= sum_c G_rc z_c, the sum over the columns c ascending, into `acc`.
-void SupernodalSolve::forward(double* y, std::size_t t, int p0, int p1, bool diagonal, double* acc) const {
+/// Forward substitution with supernode t: where `diagonal`, its own rows z = G_11^-1 y (in place, by way of
+/// `planar`: 3 nc values); then the rows at positions p0 .. p1 below: y_r -= sum_c G_rc z_c, the sum over the
+/// columns c ascending, into `acc`.
+void SupernodalSolve::forward(double* y, std::size_t t, int p0, int p1, bool diagonal, double* acc,
+                              double* planar) const {
   const int f0 = f.first[t], nc = f.first[t + 1] - f0, nr = f.row_start[t + 1] - f.row_start[t];
   const double* G = f.values.data() + f.value_start[t];
   const int* rows = f.rows.data() + f.row_start[t];
   double* z = y + 3 * std::size_t(f0);
-  if (diagonal)
-    for (int c = 0; c < nc; ++c) {
-      const double* g = G + std::size_t(c) * std::size_t(nr);
-      double* zc = z + 3 * c;
-      zc[0] /= g[c], zc[1] /= g[c], zc[2] /= g[c];
-      for (int r = c + 1; r < nc; ++r) {
-        double* zr = z + 3 * r;
-        zr[0] -= g[r] * zc[0], zr[1] -= g[r] * zc[1], zr[2] -= g[r] * zc[2];
+  if (diagonal) {
+    // Column by column: q_c *= 1 / G_cc, then q_r -= G_rc q_c for the rows r > c of the block, each row's
+    // subtractions in ascending c. Four columns at a time below their own 4 x 4 triangle, on the planar copy
+    // (the rows two or more per instruction): the same operations in the same order as one column at a time.
+    const std::size_t n = std::size_t(nc);
+    const double* d = inverse.data() + f0;
+    double *q0 = planar, *q1 = planar + n, *q2 = planar + 2 * n;
+    for (std::size_t r = 0; r < n; ++r) q0[r] = z[3 * r], q1[r] = z[3 * r + 1], q2[r] = z[3 * r + 2];
+    const auto column = [&](std::size_t c) { return G + c * std::size_t(nr); };
+    std::size_t c = 0;
+    for (; c + 4 <= n; c += 4) {
+      for (std::size_t j = c; j < c + 4; ++j) {
+        const double* g = column(j);
+        q0[j] *= d[j], q1[j] *= d[j], q2[j] *= d[j];
+        for (std::size_t r = j + 1; r < c + 4; ++r) q0[r] -= g[r] * q0[j], q1[r] -= g[r] * q1[j], q2[r] -= g[r] * q2[j];
       }
+      const std::size_t b = c + 4;
+      subtract4(n - b, column(c) + b, column(c + 1) + b, column(c + 2) + b, column(c + 3) + b, q0 + c, q1 + c, q2 + c,
+                q0 + b, q1 + b, q2 + b);
     }
+    for (; c < n; ++c) {
+      const double* g = column(c);
+      q0[c] *= d[c], q1[c] *= d[c], q2[c] *= d[c];
+      for (std::size_t r = c + 1; r < n; ++r) q0[r] -= g[r] * q0[c], q1[r] -= g[r] * q1[c], q2[r] -= g[r] * q2[c];
+    }
+    for (std::size_t r = 0; r < n; ++r) z[3 * r] = q0[r], z[3 * r + 1] = q1[r], z[3 * r + 2] = q2[r];
+  }
   if (p1 <= p0) return;
   const std::size_t m = std::size_t(p1 - p0);
   // The three right-hand sides' accumulators one after the other (acc, acc + m, acc + 2 m): each is then a
   // plain loop over the rows, which the compiler runs two rows per instruction.
   double *a0 = acc, *a1 = acc + m, *a2 = acc + 2 * m;
   std::fill(acc, acc + 3 * m, 0.0);
-  // Four columns per sweep over the rows (each row still adds its terms column by column, ascending: the
-  // same bits as one column per sweep, with a quarter of the accumulators' loads and stores).
+  // Four columns per sweep over the rows, all three right-hand sides in the same sweep: each entry of the
+  // block is read once. Each row still adds its terms column by column, ascending (the same bits as one
+  // column per sweep).
   const auto column = [&](int c) { return G + std::size_t(c) * std::size_t(nr) + p0; };
-  const auto sweep4 = [m](double* a, const double* g0, const double* g1, const double* g2, const double* g3, double w0,
-                          double w1, double w2, double w3) {
-    for (std::size_t i = 0; i < m; ++i) a[i] = (((a[i] + g0[i] * w0) + g1[i] * w1) + g2[i] * w2) + g3[i] * w3;
-  };
   int c = 0;
-  for (; c + 4 <= nc; c += 4) {
-    const double *g0 = column(c), *g1 = column(c + 1), *g2 = column(c + 2), *g3 = column(c + 3);
-    const double* zc = z + 3 * c;
-    sweep4(a0, g0, g1, g2, g3, zc[0], zc[3], zc[6], zc[9]);
-    sweep4(a1, g0, g1, g2, g3, zc[1], zc[4], zc[7], zc[10]);
-    sweep4(a2, g0, g1, g2, g3, zc[2], zc[5], zc[8], zc[11]);
-  }
-  for (; c < nc; ++c) {
-    const double* g = column(c);
-    const double z0 = z[3 * c], z1 = z[3 * c + 1], z2 = z[3 * c + 2];
-    for (std::size_t i = 0; i < m; ++i) a0[i] += g[i] * z0;
-    for (std::size_t i = 0; i < m; ++i) a1[i] += g[i] * z1;
-    for (std::size_t i = 0; i < m; ++i) a2[i] += g[i] * z2;
-  }
+  for (; c + 4 <= nc; c += 4) update4(m, column(c), column(c + 1), column(c + 2), column(c + 3), z + 3 * c, a0, a1, a2);
+  for (; c < nc; ++c) update1(m, column(c), z + 3 * c, a0, a1, a2);
   for (std::size_t i = 0; i < m; ++i) {
     double* yr = y + 3 * std::size_t(rows[std::size_t(p0) + i]);
     yr[0] -= a0[i], yr[1] -= a1[i], yr[2] -= a2[i];
@@ -118,9 +215,10 @@ void SupernodalSolve::forward(double* y, std::size_t t, int p0, int p1, bool dia
 void SupernodalSolve::gather(const double* y, std::size_t t, double* xb) const {
   const int nc = f.first[t + 1] - f.first[t], nr = f.row_start[t + 1] - f.row_start[t];
   const int* rows = f.rows.data() + f.row_start[t] + nc;
-  for (std::size_t i = 0; i < std::size_t(nr - nc); ++i) {
+  const std::size_t m = std::size_t(nr - nc);
+  for (std::size_t i = 0; i < m; ++i) {
     const double* x = y + 3 * std::size_t(rows[i]);
-    xb[3 * i] = x[0], xb[3 * i + 1] = x[1], xb[3 * i + 2] = x[2];
+    xb[i] = x[0], xb[m + i] = x[1], xb[2 * m + i] = x[2];
   }
 }
 
@@ -129,38 +227,30 @@ void SupernodalSolve::below(double* y, std::size_t t, int c0, int c1, const doub
   const double* G = f.values.data() + f.value_start[t];
   double* z = y + 3 * std::size_t(f0);
   const std::size_t m = std::size_t(nr - nc);
-  // Two columns per sweep (each column's sum still runs over the rows ascending: the same bits as one).
+  const double *x0 = xb, *x1 = xb + m, *x2 = xb + 2 * m;
   const auto column = [&](int c) { return G + std::size_t(c) * std::size_t(nr) + nc; };
   int c = c0;
-  for (; c + 2 <= c1; c += 2) {
-    const double *g0 = column(c), *g1 = column(c + 1);
-    double s0 = 0, s1 = 0, s2 = 0, t0 = 0, t1 = 0, t2 = 0;
-    for (std::size_t i = 0; i < m; ++i) {
-      const double x0 = xb[3 * i], x1 = xb[3 * i + 1], x2 = xb[3 * i + 2];
-      s0 += g0[i] * x0, s1 += g0[i] * x1, s2 += g0[i] * x2;
-      t0 += g1[i] * x0, t1 += g1[i] * x1, t2 += g1[i] * x2;
-    }
-    z[3 * c] -= s0, z[3 * c + 1] -= s1, z[3 * c + 2] -= s2;
-    z[3 * c + 3] -= t0, z[3 * c + 4] -= t1, z[3 * c + 5] -= t2;
-  }
-  for (; c < c1; ++c) {
-    const double* g = column(c);
-    double s0 = 0, s1 = 0, s2 = 0;
-    for (std::size_t i = 0; i < m; ++i) s0 += g[i] * xb[3 * i], s1 += g[i] * xb[3 * i + 1], s2 += g[i] * xb[3 * i + 2];
-    z[3 * c] -= s0, z[3 * c + 1] -= s1, z[3 * c + 2] -= s2;
-  }
+  for (; c + 2 <= c1; c += 2) dot2(m, column(c), column(c + 1), x0, x1, x2, z + 3 * c);
+  for (; c < c1; ++c) dot1(m, column(c), x0, x1, x2, z + 3 * c);
 }
 
-void SupernodalSolve::diagonal_back(double* y, std::size_t t) const {
+void SupernodalSolve::diagonal_back(double* y, std::size_t t, double* planar) const {
   const int f0 = f.first[t], nc = f.first[t + 1] - f0, nr = f.row_start[t + 1] - f.row_start[t];
   const double* G = f.values.data() + f.value_start[t];
   double* z = y + 3 * std::size_t(f0);
-  for (int j = nc; j-- > 0;) {
-    const double* g = G + std::size_t(j) * std::size_t(nr);
-    double v0 = z[3 * j], v1 = z[3 * j + 1], v2 = z[3 * j + 2];
-    for (int r = j + 1; r < nc; ++r) v0 -= g[r] * z[3 * r], v1 -= g[r] * z[3 * r + 1], v2 -= g[r] * z[3 * r + 2];
-    z[3 * j] = v0 / g[j], z[3 * j + 1] = v1 / g[j], z[3 * j + 2] = v2 / g[j];
+  const std::size_t n = std::size_t(nc);
+  const double* d = inverse.data() + f0;
+  double *q0 = planar, *q1 = planar + n, *q2 = planar + 2 * n;
+  for (std::size_t r = 0; r < n; ++r) q0[r] = z[3 * r], q1[r] = z[3 * r + 1], q2[r] = z[3 * r + 2];
+  // x_j = (z_j - sum_{r > j} G_rj x_r) (1 / G_jj), the sum as dot1's (even and odd rows apart, then added), on the
+  // planar copy.
+  for (std::size_t j = n; j-- > 0;) {
+    const double* g = G + j * std::size_t(nr);
+    double v[3] = {q0[j], q1[j], q2[j]};
+    dot1(n - j - 1, g + j + 1, q0 + j + 1, q1 + j + 1, q2 + j + 1, v);
+    q0[j] = v[0] * d[j], q1[j] = v[1] * d[j], q2[j] = v[2] * d[j];
   }
+  for (std::size_t r = 0; r < n; ++r) z[3 * r] = q0[r], z[3 * r + 1] = q1[r], z[3 * r + 2] = q2[r];
 }
 
 void SupernodalSolve::solve(std::vector<double>& yv, int threads, tbb::task_arena* arena) const {
@@ -172,7 +262,8 @@ void SupernodalSolve::solve(std::vector<double>& yv, int threads, tbb::task_aren
     for (std::size_t k = k0; k < k1; ++k)
       for (std::size_t q = range_start[k]; q < range_start[k + 1]; ++q)
         for (int t = ranges[q].first; t <= ranges[q].second; ++t)
-          forward(y, std::size_t(t), nc(std::size_t(t)), top_start[std::size_t(t)], true, scratch[k].data());
+          forward(y, std::size_t(t), nc(std::size_t(t)), top_start[std::size_t(t)], true, scratch[k].data(),
+                  scratch[k].data() + planar_at[k]);
   });
   // The top's large blocks (the dissection's top separators: a third of spot_loop3's entries) are shared by
   // the threads: rows of an update, or columns of a backward sum, in chunks (each row's or column's sum is
@@ -181,18 +272,19 @@ void SupernodalSolve::solve(std::vector<double>& yv, int threads, tbb::task_aren
   constexpr int kChunk = 256;
   const auto large = [&](std::size_t t) { return threads != 1 && double(nc(t)) * double(nr(t)) >= shared_from; };
   double* acc = scratch.back().data();
+  double* planar = acc + planar_at.back();
   for (const int t : tail) {
     const auto u = std::size_t(t);
     const int p0 = top_start[u], p1 = nr(u);
     const bool own = p0 == nc(u) && std::binary_search(top.begin(), top.end(), t);
     if (!large(u)) {
-      forward(y, u, p0, p1, own, acc);
+      forward(y, u, p0, p1, own, acc, planar);
       continue;
     }
-    forward(y, u, p0, p0, own, acc);
+    forward(y, u, p0, p0, own, acc, planar);
     parallel_ranges(std::size_t(p1 - p0 + kChunk - 1) / kChunk, threads, arena, [&](std::size_t k0, std::size_t k1) {
       const int q0 = p0 + int(k0) * kChunk, q1 = std::min(p1, p0 + int(k1) * kChunk);
-      forward(y, u, q0, q1, false, acc + 3 * std::size_t(q0 - p0));
+      forward(y, u, q0, q1, false, acc + 3 * std::size_t(q0 - p0), nullptr);
     });
   }
   for (std::size_t k = top.size(); k-- > 0;) {
@@ -205,7 +297,7 @@ void SupernodalSolve::solve(std::vector<double>& yv, int threads, tbb::task_aren
                       });
     else
       below(y, u, 0, nc(u), acc);
-    diagonal_back(y, u);
+    diagonal_back(y, u, planar);
   }
   parallel_ranges(parts, threads, arena, [&](std::size_t k0, std::size_t k1) {
     for (std::size_t k = k0; k < k1; ++k)
@@ -214,7 +306,7 @@ void SupernodalSolve::solve(std::vector<double>& yv, int threads, tbb::task_aren
           const auto u = std::size_t(t);
           gather(y, u, scratch[k].data());
           below(y, u, 0, nc(u), scratch[k].data());
-          diagonal_back(y, u);
+          diagonal_back(y, u, scratch[k].data() + planar_at[k]);
         }
   });
 }
@@ -223,7 +315,7 @@ std::size_t SupernodalSolve::memory_bytes() const {
   const auto bytes = [](const auto& v) { return v.capacity() * sizeof(v[0]); };
   std::size_t s = bytes(f.first) + bytes(f.row_start) + bytes(f.rows) + bytes(f.super_parent) + bytes(f.perm) +
                   bytes(f.value_start) + bytes(f.values) + bytes(top_start) + bytes(ranges) + bytes(range_start) +
-                  bytes(top) + bytes(tail);
+                  bytes(top) + bytes(tail) + bytes(inverse);
   for (const auto& v : scratch) s += bytes(v);
   return s;
 }

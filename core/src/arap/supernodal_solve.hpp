@@ -7,10 +7,12 @@
 // supernodes above them. Forward: the parts in parallel, each supernode updating the rows below it that are
 // not in the top; then, one thread, every supernode with rows in the top (ascending) updates them, and the
 // top's supernodes solve their blocks in turn (the large blocks' rows shared by the threads). Backward: the
-// top (the large blocks' columns shared), then the parts in parallel. Each row's
-// update from a supernode is one sum over the supernode's columns in ascending order, whichever pass
-// computes it, and the updates reach a row in ascending supernode order: the same bits for any thread count
-// and any cut. Nothing is allocated per solve (each part's scratch is sized by schedule()).
+// top (the large blocks' columns shared), then the parts in parallel. Forward, each row's update from a
+// supernode is one sum over the supernode's columns in ascending order, whichever pass computes it, and the
+// updates reach a row in ascending supernode order; backward, each column's sum over its block's rows is
+// computed whole by one call, its even and odd rows apart (two chains: the rows stream at memory speed
+// rather than at one add's latency), then added. So the same bits for any thread count and any cut.
+// Nothing is allocated per solve (each part's scratch is sized by schedule()).
 #pragma once
 
 #include "core/src/arap/supernodal_ldlt.hpp"
@@ -31,19 +33,21 @@ class SupernodalSolve {
   std::size_t memory_bytes() const;
 
  private:
-  void forward(double* y, std::size_t t, int p0, int p1, bool diagonal, double* acc) const;
+  void forward(double* y, std::size_t t, int p0, int p1, bool diagonal, double* acc, double* planar) const;
   void gather(const double* y, std::size_t t, double* xb) const;
   void below(double* y, std::size_t t, int c0, int c1, const double* xb) const;
-  void diagonal_back(double* y, std::size_t t) const;
+  void diagonal_back(double* y, std::size_t t, double* planar) const;
 
   SupernodalFactor f;
-  std::vector<int> top_start;  ///< supernode t's rows from row position top_start[t] on are in the top
+  std::vector<double> inverse;  ///< 1 / G_cc for each column c
+  std::vector<int> top_start;   ///< supernode t's rows from row position top_start[t] on are in the top
   /// Part k's subtrees: ranges[range_start[k] .. range_start[k + 1]), each [lo, hi] of supernodes.
   std::vector<std::pair<int, int>> ranges;
   std::vector<std::size_t> range_start;
   std::vector<int> top, tail;  ///< the top's supernodes; those with rows in the top (top's included), ascending
   double shared_from = 0;      ///< blocks with at least this many entries are shared by the threads (solve())
   mutable std::vector<std::vector<double>> scratch;  ///< per part, and one for the top (the last)
+  std::vector<std::size_t> planar_at;                ///< where each scratch's planar copy of a supernode's rows starts
 };
 
 }  // namespace mlsdeform::detail
