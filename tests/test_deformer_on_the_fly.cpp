@@ -71,7 +71,7 @@ TEST_CASE("on-the-fly weights: unsupported settings are refused, automatic follo
   seg.segment_b = s.rest.points.bottomRows(1);
   CHECK_THROWS_WITH(Deformer<float>(s.vertices, seg, o), Catch::Contains("point handles and MLS centroids only"));
   o.weight_storage = WeightStorage::automatic;
-  CHECK(Deformer<float>(s.vertices, s.rest, o).uses_precomputed_weights());  // 2000 x 8 x 16 B << 32 MiB
+  CHECK(Deformer<float>(s.vertices, s.rest, o).uses_precomputed_weights());  // 2000 x 8 x 16 B << 64 MiB
   o.precompute_budget_bytes = 1000;
   CHECK(!Deformer<float>(s.vertices, s.rest, o).uses_precomputed_weights());
   // Segments and affine have no on-the-fly weights: over the budget they are refused, naming the budget.

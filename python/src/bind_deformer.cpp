@@ -73,13 +73,13 @@ void bind_deformer(py::module_& m) {
            py::arg("transform") = "rigid", py::arg("exponent") = 2.0, py::arg("method") = "axis_angle",
            py::arg("segment_weight") = "paper_constant", py::arg("threads") = 0,
            py::arg("weight_storage") = "automatic", py::arg("backend") = "simd",
-           py::arg("precompute_budget_bytes") = std::size_t(32) << 20, py::arg("dtype") = py::none(),
+           py::arg("precompute_budget_bytes") = std::size_t(64) << 20, py::arg("dtype") = py::none(),
            py::arg("faces") = py::none(), py::arg("arap_iterations") = 0, py::arg("centroids") = "mls",
            py::arg("region") = py::none(), py::arg("arap_acceleration") = "none", py::arg("arap_warm_start") = false,
            py::arg("affine_frames") = false,
            R"(Deformer(vertices, *, points=None, segments=None, transform="rigid", exponent=2.0,
 method="axis_angle", segment_weight="paper_constant", threads=0, weight_storage="automatic",
-backend="simd", precompute_budget_bytes=32 MiB, dtype=None, faces=None, arap_iterations=0, centroids="mls",
+backend="simd", precompute_budget_bytes=64 MiB, dtype=None, faces=None, arap_iterations=0, centroids="mls",
 region=None, arap_acceleration="none", arap_warm_start=False, affine_frames=False)
 
 A deformation session (paper Sec. 5): precomputes what depends on the rest pose only.
