@@ -93,8 +93,8 @@ SupernodalSolve::SupernodalSolve(SupernodalFactor factor, std::size_t bins) : f(
   const auto height = [&](std::size_t t) { return f.row_start[t + 1] - f.row_start[t]; };
   std::vector<double> work(ns);
   for (std::size_t t = 0; t < ns; ++t) work[t] = double(columns(t)) * double(height(t));
-  // The diagonal's reciprocals: the substitutions multiply (a division's latency, paid once per column per
-  // solve, was a tenth of the forward pass on spot_loop3).
+  // The diagonal's reciprocals: the substitutions multiply (on spot_loop3 the divisions, and the stores that
+  // waited on them, were a fifth of the forward pass's profile samples).
   inverse.resize(f.perm.size());
   for (std::size_t t = 0; t < ns; ++t)
     for (int c = 0; c < columns(t); ++c)
