@@ -12,12 +12,14 @@
 namespace mlsdeform::cli {
 namespace {
 
-/// v / |v|, scaled first by its largest component so that no square overflows or underflows; false (v left
-/// alone) for a zero or non-finite v.
+/// v / |v|, scaled first by the power of two of its largest component (exactly) so that no square overflows or
+/// underflows; false (v left alone) for a zero or non-finite v. (Not by 1 / largest: for a subnormal largest
+/// component below 2^-1024 that reciprocal overflows, and a normal such as (0, 0, 5e-324) became NaN.)
 bool normalise(double* v) {
   const double big = std::max(std::max(std::fabs(v[0]), std::fabs(v[1])), std::fabs(v[2]));
   if (!(big > 0) || !std::isfinite(big)) return false;
-  const double inv = 1 / big, s[3] = {v[0] * inv, v[1] * inv, v[2] * inv};
+  const int e = std::ilogb(big);
+  const double s[3] = {std::ldexp(v[0], -e), std::ldexp(v[1], -e), std::ldexp(v[2], -e)};
   const double inv_len = 1 / std::sqrt(s[0] * s[0] + s[1] * s[1] + s[2] * s[2]);
   for (int r = 0; r < 3; ++r) v[r] = s[r] * inv_len;
   return true;
