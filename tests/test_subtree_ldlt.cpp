@@ -90,12 +90,20 @@ std::vector<double> packed(const SubtreeLdlt& s, const Eigen::MatrixX3d& b) {
 TEST_CASE("SubtreeLdlt: the same bits for any schedule and thread count, residual within the LDL^T bound",
           "[arap][ldlt]") {
   using Method = SubtreeLdlt::Method;
-  std::vector<Method> methods{Method::simplicial, Method::supernodal_mit};
+  // supernodal_mit twice: substituted by its blocks (column_limit 0) and converted to columns (any limit at
+  // least its size: these matrices are all small).
+  struct Variant {
+    Method method;
+    std::size_t column_limit;
+  };
+  constexpr std::size_t blocks = 0, columns = SubtreeLdlt::kColumnLimit;
+  std::vector<Variant> variants{
+      {Method::simplicial, columns}, {Method::supernodal_mit, blocks}, {Method::supernodal_mit, columns}};
   if (mlsdeform::detail::supernodal_available())
-    methods.push_back(Method::supernodal);
+    variants.push_back({Method::supernodal, columns});
   else
     WARN("this build has no supernodal factorisation (MLSDEFORM_CHOLMOD=OFF): simplicial only");
-  for (const Method method : methods) {
+  for (const auto [method, column_limit] : variants) {
     const bool supernodal = method != Method::simplicial;
     // The supernodal factorisations in the order of coordinate_nested_dissection (as ArapRefiner gives the
     // rows' points) and, where no points are given, in AMD's order (CHOLMOD's, or Eigen's for ours).
@@ -112,22 +120,23 @@ TEST_CASE("SubtreeLdlt: the same bits for any schedule and thread count, residua
         const Eigen::Index n = A.rows();
         const auto points = grid_points(sh.pieces, sh.rows, sh.cols);
         const auto* x = with_points ? &points : nullptr;
-        INFO((method == Method::supernodal_mit ? "supernodal_mit"
-              : supernodal                     ? "supernodal"
-                                               : "simplicial")
+        INFO((method == Method::supernodal_mit
+                  ? (column_limit == blocks ? "supernodal_mit (blocks)" : "supernodal_mit (columns)")
+              : supernodal ? "supernodal"
+                           : "simplicial")
              << (with_points ? " (points)" : "") << ", n = " << n << ", " << sh.pieces << " pieces");
         Eigen::MatrixX3d b(n, 3);
         for (Eigen::Index i = 0; i < n; ++i)
           for (int k = 0; k < 3; ++k) b(i, k) = g.uniform<double>(-1, 1);
 
         SubtreeLdlt ref;
-        REQUIRE(ref.compute(A, 1, method, x));
+        REQUIRE(ref.compute(A, 1, method, x, column_limit));
         std::vector<double> y1 = packed(ref, b);
         ref.solve(y1, 1, nullptr);
         for (const std::size_t bins : {2, 3, 5, 8})
           for (const int threads : {1, 0}) {
             SubtreeLdlt s;
-            REQUIRE(s.compute(A, bins, method, x));
+            REQUIRE(s.compute(A, bins, method, x, column_limit));
             std::vector<double> y = packed(s, b);
             s.solve(y, threads, nullptr);
             INFO("bins " << bins << ", threads " << threads);
@@ -269,48 +278,49 @@ TEST_CASE("SubtreeLdlt supernodal_mit: Eigen's SimplicialLDLT solution within th
     int pieces, rows, cols, held;
   };
   for (const Shape sh : {Shape{1, 30, 30, 1}, Shape{3, 12, 15, 2}, Shape{2, 20, 22, 6}, Shape{4, 1, 9, 1}})
-    for (const bool with_points : {true, false}) {
-      Eigen::Matrix<double, Eigen::Dynamic, 3> points;
-      const Sparse A = reduced_laplacian(g, sh.pieces, sh.rows, sh.cols, sh.held, points);
-      const Eigen::Index n = A.rows();
-      INFO("n = " << n << ", " << sh.pieces << " pieces, " << sh.held << " held each"
-                  << (with_points ? ", points" : ""));
-      Eigen::MatrixX3d b(n, 3);
-      for (Eigen::Index i = 0; i < n; ++i)
-        for (int k = 0; k < 3; ++k) b(i, k) = g.uniform<double>(-1, 1);
-      SubtreeLdlt s;
-      REQUIRE(s.compute(A, 2, Method::supernodal_mit, with_points ? &points : nullptr));
-      std::vector<double> y = packed(s, b);
-      s.solve(y, 0, nullptr);
-      Eigen::SimplicialLDLT<Sparse> eigen(A);
-      REQUIRE(eigen.info() == Eigen::Success);
-      const Eigen::MatrixX3d xe = eigen.solve(b);
+    for (const bool with_points : {true, false})
+      for (const std::size_t column_limit : {std::size_t(0), SubtreeLdlt::kColumnLimit}) {  // blocks, columns
+        Eigen::Matrix<double, Eigen::Dynamic, 3> points;
+        const Sparse A = reduced_laplacian(g, sh.pieces, sh.rows, sh.cols, sh.held, points);
+        const Eigen::Index n = A.rows();
+        INFO("n = " << n << ", " << sh.pieces << " pieces, " << sh.held << " held each"
+                    << (with_points ? ", points" : "") << (column_limit ? ", columns" : ", blocks"));
+        Eigen::MatrixX3d b(n, 3);
+        for (Eigen::Index i = 0; i < n; ++i)
+          for (int k = 0; k < 3; ++k) b(i, k) = g.uniform<double>(-1, 1);
+        SubtreeLdlt s;
+        REQUIRE(s.compute(A, 2, Method::supernodal_mit, with_points ? &points : nullptr, column_limit));
+        std::vector<double> y = packed(s, b);
+        s.solve(y, 0, nullptr);
+        Eigen::SimplicialLDLT<Sparse> eigen(A);
+        REQUIRE(eigen.info() == Eigen::Success);
+        const Eigen::MatrixX3d xe = eigen.solve(b);
 
-      const Eigen::MatrixXd dense = Eigen::MatrixXd(A);
-      const LD u = std::numeric_limits<double>::epsilon() / 2, norm1 = dense.cwiseAbs().colwise().sum().maxCoeff();
-      const LD lambda =
-          LD(Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd>(dense, Eigen::EigenvaluesOnly).eigenvalues()(0)) -
-          LD(n) * u * norm1;
-      REQUIRE(lambda > 0);
-      const auto gamma = [&](int k) { return LD(k) * u / (1 - LD(k) * u); };
-      const SubtreeLdlt::Factor f = s.factor();
-      const LD ours = gamma(3 * longest(n, f.col_start.data(), f.rows.data()) + 6) *
-                      ldl_norm(n, f.col_start.data(), f.rows.data(), f.values.data(), f.D.data());
-      const auto& Le = eigen.matrixL().nestedExpression();
-      const Eigen::VectorXd De = eigen.vectorD();
-      const LD theirs = gamma(3 * longest(n, Le.outerIndexPtr(), Le.innerIndexPtr()) + 2) *
-                        ldl_norm(n, Le.outerIndexPtr(), Le.innerIndexPtr(), Le.valuePtr(), De.data());
-      for (int k = 0; k < 3; ++k) {
-        LD diff = 0, x2 = 0, xe2 = 0;
-        for (Eigen::Index i = 0; i < n; ++i) {
-          const LD x = y[3 * std::size_t(s.row_of(i)) + std::size_t(k)];
-          diff += (x - LD(xe(i, k))) * (x - LD(xe(i, k))), x2 += x * x, xe2 += LD(xe(i, k)) * LD(xe(i, k));
+        const Eigen::MatrixXd dense = Eigen::MatrixXd(A);
+        const LD u = std::numeric_limits<double>::epsilon() / 2, norm1 = dense.cwiseAbs().colwise().sum().maxCoeff();
+        const LD lambda =
+            LD(Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd>(dense, Eigen::EigenvaluesOnly).eigenvalues()(0)) -
+            LD(n) * u * norm1;
+        REQUIRE(lambda > 0);
+        const auto gamma = [&](int k) { return LD(k) * u / (1 - LD(k) * u); };
+        const SubtreeLdlt::Factor f = s.factor();
+        const LD ours = gamma(3 * longest(n, f.col_start.data(), f.rows.data()) + 6) *
+                        ldl_norm(n, f.col_start.data(), f.rows.data(), f.values.data(), f.D.data());
+        const auto& Le = eigen.matrixL().nestedExpression();
+        const Eigen::VectorXd De = eigen.vectorD();
+        const LD theirs = gamma(3 * longest(n, Le.outerIndexPtr(), Le.innerIndexPtr()) + 2) *
+                          ldl_norm(n, Le.outerIndexPtr(), Le.innerIndexPtr(), Le.valuePtr(), De.data());
+        for (int k = 0; k < 3; ++k) {
+          LD diff = 0, x2 = 0, xe2 = 0;
+          for (Eigen::Index i = 0; i < n; ++i) {
+            const LD x = y[3 * std::size_t(s.row_of(i)) + std::size_t(k)];
+            diff += (x - LD(xe(i, k))) * (x - LD(xe(i, k))), x2 += x * x, xe2 += LD(xe(i, k)) * LD(xe(i, k));
+          }
+          const LD bound = (ours * std::sqrt(x2) + theirs * std::sqrt(xe2)) / lambda;
+          INFO("column " << k << ": |x - x_eigen| " << double(std::sqrt(diff)) << ", bound " << double(bound));
+          CHECK(std::sqrt(diff) <= bound);
         }
-        const LD bound = (ours * std::sqrt(x2) + theirs * std::sqrt(xe2)) / lambda;
-        INFO("column " << k << ": |x - x_eigen| " << double(std::sqrt(diff)) << ", bound " << double(bound));
-        CHECK(std::sqrt(diff) <= bound);
       }
-    }
 }
 
 TEST_CASE("coordinate_nested_dissection: a permutation, separators last, less fill than the natural order",

@@ -43,6 +43,15 @@ struct BlockStorage final : SubtreeLdlt::Storage {
   std::size_t bytes() const override { return solve.memory_bytes(); }
 };
 
+/// The library's own supernodal factor converted to columns, its relaxed zeros dropped (a small factor: see
+/// SubtreeLdlt::compute).
+struct ColumnStorage final : SubtreeLdlt::Storage {
+  ColumnLdlt c;
+  std::size_t bytes() const override {
+    return c.col_start.size() * sizeof(int) + c.rows.size() * sizeof(int) + c.values.size() * sizeof(double);
+  }
+};
+
 #if MLSDEFORM_HAVE_CHOLMOD
 /// CHOLMOD's factor, converted to a simplicial L D L^T whose columns hold the diagonal (D) first; `start`
 /// indexes the strictly lower rest, moved to the front of the arrays.
@@ -139,7 +148,7 @@ SubtreeLdlt::SubtreeLdlt(SubtreeLdlt&&) noexcept = default;
 SubtreeLdlt& SubtreeLdlt::operator=(SubtreeLdlt&&) noexcept = default;
 
 bool SubtreeLdlt::compute(const Eigen::SparseMatrix<double>& A, std::size_t bins, Method method,
-                          const Eigen::Matrix<double, Eigen::Dynamic, 3>* points) {
+                          const Eigen::Matrix<double, Eigen::Dynamic, 3>* points, std::size_t column_limit) {
   storage.reset();
   Lp = Li = nullptr, Lx = nullptr;
   blocks = nullptr;
@@ -148,6 +157,16 @@ bool SubtreeLdlt::compute(const Eigen::SparseMatrix<double>& A, std::size_t bins
     SupernodalFactor f;
     if (!supernodal_cholesky(A, points, int(bins), f)) return false;
     perm = f.perm;
+    if (f.values.size() <= column_limit) {
+      auto s = std::make_unique<ColumnStorage>();
+      s->c = to_columns(f, true);
+      f = SupernodalFactor();
+      D = std::move(s->c.D);
+      Lp = s->c.col_start.data(), Li = s->c.rows.data(), Lx = s->c.values.data();
+      storage = std::move(s);
+      schedule(bins);
+      return true;
+    }
     auto s = std::make_unique<BlockStorage>(SupernodalSolve(std::move(f), bins));
     blocks = &s->solve;
     storage = std::move(s);
@@ -209,22 +228,34 @@ void SubtreeLdlt::forward(std::vector<double>& y, const Cols& cols, First p0, La
     const auto k = 3 * std::size_t(col);
     const double z0 = y[k], z1 = y[k + 1], z2 = y[k + 2];
     for (int p = p0(col); p < p1(col); ++p) {
+      const double l = Lx[p];  // once: the stores to y might otherwise alias it
       double* t = y.data() + 3 * std::size_t(Li[p]);
-      t[0] -= Lx[p] * z0, t[1] -= Lx[p] * z1, t[2] -= Lx[p] * z2;
+      t[0] -= l * z0, t[1] -= l * z1, t[2] -= l * z2;
     }
   }
 }
 
-/// x_c = z_c / D_c - sum_r L_rc x_r for the columns order[k0 .. k1), last first, in place in y.
+/// x_c = z_c / D_c - sum_r L_rc x_r for the columns order[k0 .. k1), last first, in place in y. The sum runs as
+/// two partial sums, over the column's even and its odd entries, then added: two chains of additions instead
+/// of one. Each column's sum is whole in one call, so the bits are the same for any schedule.
 void SubtreeLdlt::backward(std::vector<double>& y, std::size_t k0, std::size_t k1) const {
   for (std::size_t k = k1; k-- > k0;) {
     const auto col = std::size_t(order[k]);
-    double x0 = y[3 * col] / D[col], x1 = y[3 * col + 1] / D[col], x2 = y[3 * col + 2] / D[col];
-    for (int p = Lp[col]; p < Lp[col + 1]; ++p) {
+    double e0 = 0, e1 = 0, e2 = 0, o0 = 0, o1 = 0, o2 = 0;
+    int p = Lp[col];
+    for (; p + 1 < Lp[col + 1]; p += 2) {
       const double* t = y.data() + 3 * std::size_t(Li[p]);
-      x0 -= Lx[p] * t[0], x1 -= Lx[p] * t[1], x2 -= Lx[p] * t[2];
+      const double* u = y.data() + 3 * std::size_t(Li[p + 1]);
+      e0 += Lx[p] * t[0], e1 += Lx[p] * t[1], e2 += Lx[p] * t[2];
+      o0 += Lx[p + 1] * u[0], o1 += Lx[p + 1] * u[1], o2 += Lx[p + 1] * u[2];
     }
-    y[3 * col] = x0, y[3 * col + 1] = x1, y[3 * col + 2] = x2;
+    if (p < Lp[col + 1]) {
+      const double* t = y.data() + 3 * std::size_t(Li[p]);
+      e0 += Lx[p] * t[0], e1 += Lx[p] * t[1], e2 += Lx[p] * t[2];
+    }
+    y[3 * col] = y[3 * col] / D[col] - (e0 + o0);
+    y[3 * col + 1] = y[3 * col + 1] / D[col] - (e1 + o1);
+    y[3 * col + 2] = y[3 * col + 2] / D[col] - (e2 + o2);
   }
 }
 

@@ -59,13 +59,14 @@ struct SupernodalFactor {
   std::vector<double> values;
 };
 
-/// The factor as L D L^T by columns (L_rc = G_rc / G_cc, D_c = G_cc^2; the relaxed supernodes' zeros kept):
-/// L's strictly lower part, rows ascending, column c's at rows[col_start[c] .. col_start[c + 1]).
+/// The factor as L D L^T by columns (L_rc = G_rc / G_cc, D_c = G_cc^2; the relaxed supernodes' zeros kept, or
+/// with `drop_zeros` every entry that is zero dropped): L's strictly lower part, rows ascending, column c's at
+/// rows[col_start[c] .. col_start[c + 1]).
 struct ColumnLdlt {
   std::vector<int> col_start, rows;
   std::vector<double> values, D;
 };
-ColumnLdlt to_columns(const SupernodalFactor& f);
+ColumnLdlt to_columns(const SupernodalFactor& f, bool drop_zeros = false);
 
 /// Factorises A (symmetric positive definite, both triangles stored) on at most `threads` threads (0: the
 /// calling arena's), in the order of coordinate_nested_dissection where `points` are given and that leaves

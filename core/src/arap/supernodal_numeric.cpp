@@ -102,11 +102,22 @@ void cut_tree(const std::vector<int>& super_parent, const std::vector<double>& o
   for (const int r : roots) parts.emplace_back(r - size[std::size_t(r)] + 1, r);
 }
 
-ColumnLdlt to_columns(const SupernodalFactor& f) {
+ColumnLdlt to_columns(const SupernodalFactor& f, bool drop_zeros) {
   const std::size_t ns = f.first.size() - 1, n = f.perm.size();
+  const auto kept = [&](double v) { return !drop_zeros || v != 0; };
+  std::size_t entries = 0;  // sized first: no reallocation, and the peak is the final size
+  for (std::size_t t = 0; t < ns; ++t) {
+    const int nc = f.first[t + 1] - f.first[t], nr = f.row_start[t + 1] - f.row_start[t];
+    const double* B = f.values.data() + f.value_start[t];
+    for (int c = 0; c < nc; ++c)
+      for (int r = c + 1; r < nr; ++r) entries += kept(B[std::size_t(c) * std::size_t(nr) + std::size_t(r)]);
+  }
   ColumnLdlt out;
   out.D.resize(n);
-  out.col_start.assign(1, 0);
+  out.col_start.resize(n + 1);
+  out.rows.resize(entries);
+  out.values.resize(entries);
+  std::size_t to = 0;
   for (std::size_t t = 0; t < ns; ++t) {
     const int f0 = f.first[t], nc = f.first[t + 1] - f0, nr = f.row_start[t + 1] - f.row_start[t];
     const int* rows = f.rows.data() + f.row_start[t];
@@ -114,13 +125,16 @@ ColumnLdlt to_columns(const SupernodalFactor& f) {
     for (int c = 0; c < nc; ++c) {
       const double g = B[std::size_t(c) * std::size_t(nr) + std::size_t(c)];
       out.D[std::size_t(f0 + c)] = g * g;
+      out.col_start[std::size_t(f0 + c)] = int(to);
       for (int r = c + 1; r < nr; ++r) {
-        out.rows.push_back(rows[r]);
-        out.values.push_back(B[std::size_t(c) * std::size_t(nr) + std::size_t(r)] / g);
+        const double v = B[std::size_t(c) * std::size_t(nr) + std::size_t(r)];
+        if (!kept(v)) continue;
+        out.rows[to] = rows[r];
+        out.values[to++] = v / g;
       }
-      out.col_start.push_back(int(out.rows.size()));
     }
   }
+  out.col_start[n] = int(to);
   return out;
 }
 
