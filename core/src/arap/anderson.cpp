@@ -6,8 +6,11 @@
 #include <algorithm>
 #include <atomic>
 #include <cmath>
+#include <limits>
 #include <stdexcept>
 #include <string>
+#include <type_traits>
+#include <utility>
 
 namespace mlsdeform::detail {
 
@@ -15,6 +18,64 @@ namespace {
 
 /// Positions per chunk of the reductions: the chunks, not the threads, fix the order of every sum.
 constexpr std::size_t kChunk = 2048;
+
+/// The pointers chunk_sums works on (after_global's names).
+struct Columns {
+  const double* x;  ///< G(x_k)
+  const double* x_prev;
+  double* g_last;
+  double* f_last;
+  double* dF;
+  double* dG;
+  std::size_t n, slot;
+  double* partial;  ///< the chunk's 2 w sums
+  std::size_t w;
+};
+
+/// One chunk [e0, e1) of after_global's pass, for Held slots held: F, the new differences (with `add`), and the
+/// 2 Held dot products. All of them in one sweep: each dot still adds its terms in ascending e from zero (the
+/// bits of one sweep per dot), but its chain of additions runs beside the others' instead of after them, and
+/// the columns are read once.
+template <int Held>
+void chunk_sums(const Columns& c, bool add, std::size_t e0, std::size_t e1) {
+  double new_dot[Held > 0 ? Held : 1] = {}, rhs[Held > 0 ? Held : 1] = {};
+  double* dfs = c.dF + c.slot * c.n;
+  double* dgs = c.dG + c.slot * c.n;
+  for (std::size_t e = e0; e < e1; ++e) {
+    const double g = c.x[e], f = g - c.x_prev[e];
+    if (add) dfs[e] = f - c.f_last[e], dgs[e] = g - c.g_last[e];
+    c.f_last[e] = f, c.g_last[e] = g;
+    for (int j = 0; j < Held; ++j) {
+      const double dfj = c.dF[std::size_t(j) * c.n + e];
+      if (add) new_dot[j] += dfs[e] * dfj;
+      rhs[j] += f * dfj;
+    }
+  }
+  for (std::size_t j = 0; j < 2 * c.w; ++j) c.partial[j] = 0;
+  for (int j = 0; j < Held; ++j) c.partial[j] = new_dot[j], c.partial[c.w + std::size_t(j)] = rhs[j];
+}
+
+/// x_e -= sum_j theta_j dG_j[e] for e in [e0, e1), Held columns, j ascending; whether every x_e is finite.
+template <int Held>
+bool extrapolate(double* x, const double* dG, std::size_t n, const double* theta, std::size_t e0, std::size_t e1) {
+  bool finite = true;
+  for (std::size_t e = e0; e < e1; ++e) {
+    double v = x[e];
+    for (int j = 0; j < Held; ++j) v -= theta[j] * dG[std::size_t(j) * n + e];
+    x[e] = v;
+    finite &= std::abs(v) <= std::numeric_limits<double>::max();  // false for NaN too
+  }
+  return finite;
+}
+
+/// f(std::integral_constant<int, held>) for held in [0, Anderson::kMaxWindow].
+template <class F>
+void with_held(int held, const F& f) {
+  [&]<int... H>(std::integer_sequence<int, H...>) {
+    static_cast<void>(((held == H ? (f(std::integral_constant<int, H>{}), true) : false) || ...));
+  }
+  (std::make_integer_sequence<int, Anderson::kMaxWindow + 1>{});
+}
 
 }  // namespace
 
@@ -56,24 +117,17 @@ void Anderson::after_global(std::span<double> x) {
   parallel_ranges(chunks_, threads_, arena_, [&](std::size_t c0, std::size_t c1) {
     for (std::size_t c = c0; c < c1; ++c) {
       const std::size_t e0 = c * kChunk, e1 = std::min(n, e0 + kChunk);
-      double* p = partial_.data() + c * 2 * w;
-      std::fill(p, p + 2 * w, 0.0);
-      double* dfs = dF_.data() + std::size_t(slot) * n;
-      double* dgs = dG_.data() + std::size_t(slot) * n;
-      for (std::size_t e = e0; e < e1; ++e) {
-        const double g = x[e], f = g - x_prev_[e];
-        if (add) dfs[e] = f - f_last_[e], dgs[e] = g - g_last_[e];
-        f_last_[e] = f, g_last_[e] = g;
-      }
-      for (int j = 0; j < held; ++j) {
-        const double* dfj = dF_.data() + std::size_t(j) * n;
-        double new_dot = 0, rhs = 0;
-        for (std::size_t e = e0; e < e1; ++e) {
-          if (add) new_dot += dfs[e] * dfj[e];
-          rhs += f_last_[e] * dfj[e];
-        }
-        p[j] = new_dot, p[w + std::size_t(j)] = rhs;
-      }
+      const Columns cols = {x.data(),
+                            x_prev_.data(),
+                            g_last_.data(),
+                            f_last_.data(),
+                            dF_.data(),
+                            dG_.data(),
+                            n,
+                            std::size_t(slot),
+                            partial_.data() + c * 2 * w,
+                            w};
+      with_held(held, [&](auto h) { chunk_sums<decltype(h)::value>(cols, add, e0, e1); });
     }
   });
   fresh_ = false;
@@ -112,13 +166,10 @@ void Anderson::after_global(std::span<double> x) {
   // (theta out of all proportion) falls back to the plain step.
   std::atomic<bool> finite = true;
   parallel_ranges(chunks_, threads_, arena_, [&](std::size_t c0, std::size_t c1) {
+    const std::size_t e0 = c0 * kChunk, e1 = std::min(n, c1 * kChunk);
     bool ok = true;
-    for (std::size_t e = c0 * kChunk; e < std::min(n, c1 * kChunk); ++e) {
-      double v = x[e];
-      for (int j = 0; j < count_; ++j) v -= theta(j) * dG_[std::size_t(j) * n + e];
-      x[e] = v;
-      ok = ok && std::isfinite(v);
-    }
+    with_held(count_,
+              [&](auto h) { ok = extrapolate<decltype(h)::value>(x.data(), dG_.data(), n, theta.data(), e0, e1); });
     if (!ok) finite.store(false, std::memory_order_relaxed);
   });
   if (!finite) plain(x);

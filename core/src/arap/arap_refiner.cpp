@@ -69,6 +69,11 @@ struct ArapRefiner<T>::Impl {
   /// with no constrained vertex: it keeps its start position).
   std::vector<Eigen::Index> row;
   std::vector<Eigen::Index> free_vertices;
+  /// The held neighbours of free vertex f (their terms w_ij x_j go to the right-hand side), in the CSR
+  /// order: held_nbr[held_start[f] .. held_start[f + 1]), their weights in held_w.
+  std::vector<std::size_t> held_start;
+  std::vector<Eigen::Index> held_nbr;
+  std::vector<double> held_w;
   detail::SubtreeLdlt solver;  ///< L_ff, factorised
   std::vector<double> we;      ///< w_ij (p_i - p_j) per directed edge (3 values), in the CSR order; units 2^e
   std::vector<double> c;       ///< c_i = sum_j w_ij (p_i - p_j) per vertex (3 values); units 2^e
@@ -133,11 +138,8 @@ struct ArapRefiner<T>::Impl {
                                   rotate_add(Rd.data() + 9 * j, we.data() + 3 * e, b);
                                 }
                                 for (double& x : b) x *= rest_to_x;
-                                for (Eigen::Index e = start[i]; e < start[i + 1]; ++e) {
-                                  const auto j = std::size_t(nbr[std::size_t(e)]);
-                                  if (row[j] < 0)  // held: to the right-hand side
-                                    for (int k = 0; k < 3; ++k) b[k] += w[std::size_t(e)] * X(Eigen::Index(j), k);
-                                }
+                                for (std::size_t e = held_start[f]; e < held_start[f + 1]; ++e)
+                                  for (int k = 0; k < 3; ++k) b[k] += held_w[e] * X(held_nbr[e], k);
                                 for (int k = 0; k < 3; ++k)
                                   y[3 * std::size_t(solver.row_of(Eigen::Index(f))) + std::size_t(k)] = b[k];
                               }
@@ -211,6 +213,13 @@ ArapRefiner<T>::ArapRefiner(const Points<T>& rest, const Triangles& triangles,
     }
 
   const Eigen::Index nf = Eigen::Index(m.free_vertices.size());
+  m.held_start.assign(1, 0);
+  for (const Eigen::Index i : m.free_vertices) {
+    for (Eigen::Index e = m.start[std::size_t(i)]; e < m.start[std::size_t(i) + 1]; ++e)
+      if (m.row[std::size_t(m.nbr[std::size_t(e)])] < 0)
+        m.held_nbr.push_back(m.nbr[std::size_t(e)]), m.held_w.push_back(m.w[std::size_t(e)]);
+    m.held_start.push_back(m.held_nbr.size());
+  }
   const Eigen::SparseMatrix<double> L = detail::reduced_laplacian({m.start, m.nbr, m.w}, m.row, m.free_vertices);
   // One part of the substitution per thread the local step may use (detail::make_arena's rule).
   const int cores = tbb::info::default_concurrency();
@@ -361,9 +370,10 @@ std::size_t ArapRefiner<T>::memory_bytes() const {
   const Impl& m = *impl_;
   const auto bytes = [](const auto& v) { return v.size() * sizeof(v[0]); };
   return m.solver.memory_bytes() + bytes(m.start) + bytes(m.nbr) + bytes(m.w) + bytes(m.we) + bytes(m.c) +
-         m.padded.memory_bytes() + bytes(m.row) + bytes(m.free_vertices) + bytes(m.H) + bytes(m.R) + bytes(m.Rd) +
-         bytes(m.y) + bytes(m.energy.ring) + bytes(m.energy.q) + bytes(m.energy.chunks) +
-         (m.anderson ? m.anderson->memory_bytes() : 0) + std::size_t(m.P.size() + m.X.size()) * sizeof(double);
+         m.padded.memory_bytes() + bytes(m.row) + bytes(m.free_vertices) + bytes(m.held_start) + bytes(m.held_nbr) +
+         bytes(m.held_w) + bytes(m.H) + bytes(m.R) + bytes(m.Rd) + bytes(m.y) + bytes(m.energy.ring) +
+         bytes(m.energy.q) + bytes(m.energy.chunks) + (m.anderson ? m.anderson->memory_bytes() : 0) +
+         std::size_t(m.P.size() + m.X.size()) * sizeof(double);
 }
 
 bool supernodal_factorisation_available() { return detail::supernodal_available(); }
