@@ -37,8 +37,9 @@ class SubtreeLdlt {
   /// compute()'s default column_limit, 2^24 values (128 MiB of blocks). Below it the columns substitute faster
   /// (the relaxed zeros dropped), measured on the 2-core AMD EPYC Zen 5: the 6,890-vertex body 320 -> 200 us (best of
   /// 2,000), its two 1:4 subdivisions (110,210 vertices, 4.7 million values) 16.1 -> 9.2-10.4 ms on two threads, as
-  /// fast as CHOLMOD's columns. Above it (spot_loop3: 50.7 million values) the conversion's copy would raise the
-  /// set-up's peak memory by about a third (1.69 against 1.23 GiB), for no gain in wall time when last measured.
+  /// fast as CHOLMOD's columns. Above it (spot_loop3: 50.7 million values) the conversion's copy raised the set-up's
+  /// peak memory by a third (1.67 against 1.24 GiB) and its time by 2.7 s, for little gain (one thread: 158 against
+  /// 167-200 CPU ms per substitution; two: 107 against 102-143 ms, within the noise).
   static constexpr std::size_t kColumnLimit = std::size_t(1) << 24;
   SubtreeLdlt();
   ~SubtreeLdlt();
