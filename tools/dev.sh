@@ -84,12 +84,12 @@ case "${1:-}" in
     ctest --test-dir build --output-on-failure -j "$jobs"
     # Sanitizers and assertions in one build: the C++ tests, the program and its tests under AddressSanitizer +
     # UndefinedBehaviorSanitizer, with every assertion on (assert, Eigen's eigen_assert, oneTBB's TBB_USE_DEBUG,
-    # which TBB::tbb's CMake target defines in Debug, libstdc++'s _GLIBCXX_ASSERTIONS). -O1 drops no assertion and no sanitizer check, keeps Eigen's and
-    # xsimd's inline templates from running as calls, and compiles in about half the time -O3 takes under the
-    # sanitizers (the kernels are -O3 in every build: kernels/CMakeLists.txt). No benchmarks or Python module
-    # (an extension would need the sanitizers' runtime preloaded into python3): they drive the same library
-    # through its public API, which the C++ tests cover, and run in the Release build above. CHOLMOD off: the
-    # library's own factorisation is tested here, CHOLMOD's above.
+    # which TBB::tbb's CMake target defines in Debug, libstdc++'s _GLIBCXX_ASSERTIONS). -O1 drops no assertion and
+    # no sanitizer check, keeps Eigen's and xsimd's inline templates from running as calls, and compiles in about
+    # half the time -O3 takes under the sanitizers (the kernels are -O3 in every build: kernels/CMakeLists.txt).
+    # No benchmarks or Python module (an extension would need the sanitizers' runtime preloaded into python3):
+    # they drive the same library through its public API, which the C++ tests cover, and run in the Release build
+    # above. CHOLMOD off: the library's own factorisation is tested here, CHOLMOD's above.
     build build-asan -DCMAKE_BUILD_TYPE=Debug "-DCMAKE_CXX_FLAGS_DEBUG=-O1 -D_GLIBCXX_ASSERTIONS" \
       -DMLSDEFORM_SANITIZE=ON -DMLSDEFORM_BUILD_BENCH=OFF -DMLSDEFORM_WERROR=ON -DMLSDEFORM_CHOLMOD=OFF
     ASAN_OPTIONS=detect_leaks=1 UBSAN_OPTIONS=print_stacktrace=1 \

@@ -157,20 +157,18 @@ bool SubtreeLdlt::compute(const Eigen::SparseMatrix<double>& A, std::size_t bins
     SupernodalFactor f;
     if (!supernodal_cholesky(A, points, int(bins), f)) return false;
     perm = f.perm;
-    if (f.values.size() <= column_limit) {
-      auto s = std::make_unique<ColumnStorage>();
-      s->c = to_columns(f, true);
-      f = SupernodalFactor();
-      D = std::move(s->c.D);
-      Lp = s->c.col_start.data(), Li = s->c.rows.data(), Lx = s->c.values.data();
+    if (f.values.size() > column_limit) {  // its own substitution, by blocks
+      auto s = std::make_unique<BlockStorage>(SupernodalSolve(std::move(f), bins));
+      blocks = &s->solve;
       storage = std::move(s);
-      schedule(bins);
       return true;
     }
-    auto s = std::make_unique<BlockStorage>(SupernodalSolve(std::move(f), bins));
-    blocks = &s->solve;
+    auto s = std::make_unique<ColumnStorage>();
+    s->c = to_columns(f, true);
+    f = SupernodalFactor();  // the blocks freed before the schedule's arrays are made
+    D = std::move(s->c.D);
+    Lp = s->c.col_start.data(), Li = s->c.rows.data(), Lx = s->c.values.data();
     storage = std::move(s);
-    return true;
   } else if (method == Method::supernodal && A.rows() > 0) {
 #if MLSDEFORM_HAVE_CHOLMOD
     auto s = std::make_unique<CholmodStorage>();
