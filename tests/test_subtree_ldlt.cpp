@@ -90,20 +90,27 @@ std::vector<double> packed(const SubtreeLdlt& s, const Eigen::MatrixX3d& b) {
 TEST_CASE("SubtreeLdlt: the same bits for any schedule and thread count, residual within the LDL^T bound",
           "[arap][ldlt]") {
   using Method = SubtreeLdlt::Method;
-  // supernodal_mit twice: substituted by its blocks (column_limit 0) and converted to columns (any limit at
-  // least its size: these matrices are all small).
+  // supernodal_mit three times: substituted by its blocks (column_limit 0) and converted to columns (any limit
+  // at least its size: these matrices are all small); and with every supernode of 16 columns or more taking its
+  // updates 8 columns at a time (split_columns 16: by default only supernodes of 256, which only the last
+  // shape's top has), so that the chunks' bounds fall everywhere: on supernodes with rows below their
+  // columns, and inside descendants' updates.
   struct Variant {
     Method method;
     std::size_t column_limit;
+    int split_columns;
   };
   constexpr std::size_t blocks = 0, columns = SubtreeLdlt::kColumnLimit;
-  std::vector<Variant> variants{
-      {Method::simplicial, columns}, {Method::supernodal_mit, blocks}, {Method::supernodal_mit, columns}};
+  constexpr int whole = mlsdeform::detail::kSplitColumns, chunked = 16;
+  std::vector<Variant> variants{{Method::simplicial, columns, whole},
+                                {Method::supernodal_mit, blocks, whole},
+                                {Method::supernodal_mit, columns, whole},
+                                {Method::supernodal_mit, columns, chunked}};
   if (mlsdeform::detail::supernodal_available())
-    variants.push_back({Method::supernodal, columns});
+    variants.push_back({Method::supernodal, columns, whole});
   else
     WARN("this build has no supernodal factorisation (MLSDEFORM_CHOLMOD=OFF): simplicial only");
-  for (const auto [method, column_limit] : variants) {
+  for (const auto [method, column_limit, split_columns] : variants) {
     const bool supernodal = method != Method::simplicial;
     // The supernodal factorisations in the order of coordinate_nested_dissection (as ArapRefiner gives the
     // rows' points) and, where no points are given, in AMD's order (CHOLMOD's, or Eigen's for ours).
@@ -124,19 +131,20 @@ TEST_CASE("SubtreeLdlt: the same bits for any schedule and thread count, residua
                   ? (column_limit == blocks ? "supernodal_mit (blocks)" : "supernodal_mit (columns)")
               : supernodal ? "supernodal"
                            : "simplicial")
-             << (with_points ? " (points)" : "") << ", n = " << n << ", " << sh.pieces << " pieces");
+             << (with_points ? " (points)" : "") << ", split_columns " << split_columns << ", n = " << n << ", "
+             << sh.pieces << " pieces");
         Eigen::MatrixX3d b(n, 3);
         for (Eigen::Index i = 0; i < n; ++i)
           for (int k = 0; k < 3; ++k) b(i, k) = g.uniform<double>(-1, 1);
 
         SubtreeLdlt ref;
-        REQUIRE(ref.compute(A, 1, method, x, column_limit));
+        REQUIRE(ref.compute(A, 1, method, x, column_limit, split_columns));
         std::vector<double> y1 = packed(ref, b);
         ref.solve(y1, 1, nullptr);
         for (const std::size_t bins : {2, 3, 5, 8})
           for (const int threads : {1, 0}) {
             SubtreeLdlt s;
-            REQUIRE(s.compute(A, bins, method, x, column_limit));
+            REQUIRE(s.compute(A, bins, method, x, column_limit, split_columns));
             std::vector<double> y = packed(s, b);
             s.solve(y, threads, nullptr);
             INFO("bins " << bins << ", threads " << threads);

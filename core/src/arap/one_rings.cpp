@@ -105,19 +105,40 @@ OneRings cotangent_one_rings(const Eigen::Matrix<double, Eigen::Dynamic, 3>& P, 
 
 Eigen::SparseMatrix<double> reduced_laplacian(const OneRingsView& rings, const std::vector<Eigen::Index>& row,
                                               const std::vector<Eigen::Index>& free_vertices) {
+  // Written by columns directly (L is symmetric: column row[i] holds row i's entries), in place of triplets and
+  // their two sorting passes (spot_loop3: 1.0 -> 0.2 s of the set-up). Rows ascend within each column: a
+  // ring's neighbours ascend, and so do their rows (row[] numbers the free vertices in ascending order); the
+  // diagonal goes in between. No entry repeats, so nothing is summed that the triplets did not sum.
   const auto nf = Eigen::Index(free_vertices.size());
-  std::vector<Eigen::Triplet<double>> entries;
+  Eigen::SparseMatrix<double> L(nf, nf);
+  std::size_t entries = 0;
   for (const Eigen::Index i : free_vertices) {
+    ++entries;
+    for (Eigen::Index e = rings.start[std::size_t(i)]; e < rings.start[std::size_t(i) + 1]; ++e)
+      entries += row[std::size_t(rings.nbr[std::size_t(e)])] >= 0;
+  }
+  L.resizeNonZeros(Eigen::Index(entries));
+  int* outer = L.outerIndexPtr();
+  int* inner = L.innerIndexPtr();
+  double* value = L.valuePtr();
+  std::size_t p = 0;
+  for (Eigen::Index f = 0; f < nf; ++f) {
+    const auto i = std::size_t(free_vertices[std::size_t(f)]);
+    outer[f] = int(p);
     double diag = 0;
-    for (Eigen::Index e = rings.start[std::size_t(i)]; e < rings.start[std::size_t(i) + 1]; ++e) {
+    std::size_t diag_at = 0;
+    bool placed = false;
+    for (Eigen::Index e = rings.start[i]; e < rings.start[i + 1]; ++e) {
       diag += rings.w[std::size_t(e)];
       const Eigen::Index rj = row[std::size_t(rings.nbr[std::size_t(e)])];
-      if (rj >= 0) entries.emplace_back(row[std::size_t(i)], rj, -rings.w[std::size_t(e)]);
+      if (rj < 0) continue;
+      if (!placed && rj > f) diag_at = p++, placed = true;
+      inner[p] = int(rj), value[p++] = -rings.w[std::size_t(e)];
     }
-    entries.emplace_back(row[std::size_t(i)], row[std::size_t(i)], diag);
+    if (!placed) diag_at = p++;
+    inner[diag_at] = int(f), value[diag_at] = diag;
   }
-  Eigen::SparseMatrix<double> L(nf, nf);
-  L.setFromTriplets(entries.begin(), entries.end());
+  outer[nf] = int(p);
   return L;
 }
 

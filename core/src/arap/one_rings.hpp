@@ -33,7 +33,7 @@ struct OneRingsView {
 OneRings cotangent_one_rings(const Eigen::Matrix<double, Eigen::Dynamic, 3>& P, const Triangles& triangles);
 
 /// The cotangent Laplacian reduced to the free vertices (row[i] >= 0 their row, -1 for a held vertex, in
-/// the order of free_vertices): L_ii = sum_j w_ij, L_ij = -w_ij between free vertices.
+/// the order of free_vertices, which ascends): L_ii = sum_j w_ij, L_ij = -w_ij between free vertices.
 Eigen::SparseMatrix<double> reduced_laplacian(const OneRingsView& rings, const std::vector<Eigen::Index>& row,
                                               const std::vector<Eigen::Index>& free_vertices);
 

@@ -148,14 +148,15 @@ SubtreeLdlt::SubtreeLdlt(SubtreeLdlt&&) noexcept = default;
 SubtreeLdlt& SubtreeLdlt::operator=(SubtreeLdlt&&) noexcept = default;
 
 bool SubtreeLdlt::compute(const Eigen::SparseMatrix<double>& A, std::size_t bins, Method method,
-                          const Eigen::Matrix<double, Eigen::Dynamic, 3>* points, std::size_t column_limit) {
+                          const Eigen::Matrix<double, Eigen::Dynamic, 3>* points, std::size_t column_limit,
+                          int split_columns) {
   storage.reset();
   Lp = Li = nullptr, Lx = nullptr;
   blocks = nullptr;
   D.clear(), perm.clear(), order.clear(), part_start.clear(), top_start.clear(), tail_cols.clear();
   if (method == Method::supernodal_mit && A.rows() > 0) {
     SupernodalFactor f;
-    if (!supernodal_cholesky(A, points, int(bins), f)) return false;
+    if (!supernodal_cholesky(A, points, int(bins), f, split_columns)) return false;
     perm = f.perm;
     if (f.values.size() > column_limit) {  // its own substitution, by blocks
       auto s = std::make_unique<BlockStorage>(SupernodalSolve(std::move(f), bins));

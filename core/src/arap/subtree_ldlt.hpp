@@ -15,6 +15,7 @@
 //    others' columns (compute()'s column_limit).
 #pragma once
 
+#include "core/src/arap/supernodal_ldlt.hpp"
 #include "core/src/threading.hpp"
 
 #include <Eigen/SparseCore>
@@ -51,9 +52,10 @@ class SubtreeLdlt {
   /// a build without it throws std::invalid_argument.
   /// supernodal_mit's factor is substituted by columns, as the others', where its blocks hold at most
   /// `column_limit` values (relaxed zeros included; the conversion drops them), else by its blocks.
+  /// `split_columns`: supernodal_mit's (supernodal_ldlt.hpp, kSplitColumns).
   bool compute(const Eigen::SparseMatrix<double>& A, std::size_t bins, Method method = Method::simplicial,
                const Eigen::Matrix<double, Eigen::Dynamic, 3>* points = nullptr,
-               std::size_t column_limit = kColumnLimit);
+               std::size_t column_limit = kColumnLimit, int split_columns = kSplitColumns);
   /// Where row i of A lives in the substitution's vectors: at 3 * row_of(i) (P's indices).
   int row_of(Eigen::Index i) const { return perm[std::size_t(i)]; }
   /// A x = b for three right-hand sides: y holds b in and x out, 3 values per row of A, at 3 * row_of(i).

@@ -27,10 +27,42 @@ struct Scratch {
   std::vector<double> W;
 };
 
-/// Supernode t's block G(rows, columns) from A's columns and its descendants' updates, in the order of
-/// update_start (ascending descendants), then factorised in place: G_11 = chol(A_11 - updates), G_21 =
-/// (A_21 - updates) G_11^-T. False where the diagonal block is not positive definite.
-bool factor_supernode(const Sparse& A, const SupernodalSymbolic& s, std::size_t t, double* values, Scratch& w) {
+// A supernode of at least split_columns columns (supernodal_cholesky) takes its updates split_columns / 2 of
+// its columns at a time (subtract_updates), the chunks in parallel at the top of the tree.
+/// Subtracts from columns [c0, c1) of supernode t's block B (nr rows; w.map: where each row of L sits in it)
+/// its descendants' updates, in the order of update_start (ascending descendants). Each update is d's
+/// G(p0 .., :) G(p0 .. p1, :)^T, its lower trapezoid, restricted to those columns: the product of d's rows
+/// from the first such column down with those columns' rows.
+void subtract_updates(const SupernodalSymbolic& s, std::size_t t, const double* values, double* B, int nr, int c0,
+                      int c1, const std::vector<int>& map, std::vector<double>& scratch) {
+  const int f0 = s.first[t];
+  for (std::size_t u = s.update_start[t]; u < s.update_start[t + 1]; ++u) {
+    const SupernodalSymbolic::Update up = s.updates[u];
+    const auto d = std::size_t(up.d);
+    const int dc = s.first[d + 1] - s.first[d], dr = s.row_start[d + 1] - s.row_start[d];
+    const int* drows = s.rows.data() + s.row_start[d];
+    // d's rows p0 .. p1 are t's columns, ascending: those in [c0, c1) are positions a .. b.
+    const int a = int(std::lower_bound(drows + up.p0, drows + up.p1, f0 + c0) - drows),
+              b = int(std::lower_bound(drows + a, drows + up.p1, f0 + c1) - drows);
+    if (a == b) continue;
+    const int m = dr - a, k = b - a;
+    const ConstBlock G(values + s.value_start[d], dr, dc, Eigen::OuterStride<>(dr));
+    scratch.resize(std::size_t(m) * std::size_t(k));
+    Eigen::Map<Eigen::MatrixXd> W(scratch.data(), m, k);
+    W.noalias() = G.middleRows(a, m) * G.middleRows(a, k).transpose();
+    for (int cc = 0; cc < k; ++cc) {
+      double* column = B + std::size_t(drows[a + cc] - f0) * std::size_t(nr);
+      for (int rr = cc; rr < m; ++rr) column[map[std::size_t(drows[a + rr])]] -= W(rr, cc);
+    }
+  }
+}
+
+/// Supernode t's block G(rows, columns) from A's columns and its descendants' updates (subtract_updates; in
+/// chunks of split_columns / 2 columns, on up to `threads` threads of `arena`, where it has at least
+/// split_columns), then factorised in place: G_11 = chol(A_11 - updates), G_21 = (A_21 - updates) G_11^-T.
+/// False where the diagonal block is not positive definite.
+bool factor_supernode(const Sparse& A, const SupernodalSymbolic& s, std::size_t t, double* values, Scratch& w,
+                      int split_columns, int threads, tbb::task_arena* arena) {
   const int f0 = s.first[t], nc = s.first[t + 1] - f0, nr = s.row_start[t + 1] - s.row_start[t];
   const int* rows = s.rows.data() + s.row_start[t];
   double* B = values + s.value_start[t];
@@ -41,20 +73,15 @@ bool factor_supernode(const Sparse& A, const SupernodalSymbolic& s, std::size_t 
       const int i = s.pos[std::size_t(it.row())];
       if (i >= f0 + c) B[std::size_t(c) * std::size_t(nr) + std::size_t(w.map[std::size_t(i)])] += it.value();
     }
-  for (std::size_t u = s.update_start[t]; u < s.update_start[t + 1]; ++u) {
-    const SupernodalSymbolic::Update up = s.updates[u];
-    const auto d = std::size_t(up.d);
-    const int dc = s.first[d + 1] - s.first[d], dr = s.row_start[d + 1] - s.row_start[d];
-    const int* drows = s.rows.data() + s.row_start[d];
-    const int m = dr - up.p0, k = up.p1 - up.p0;
-    const ConstBlock G(values + s.value_start[d], dr, dc, Eigen::OuterStride<>(dr));
-    w.W.resize(std::size_t(m) * std::size_t(k));
-    Eigen::Map<Eigen::MatrixXd> W(w.W.data(), m, k);
-    W.noalias() = G.middleRows(up.p0, m) * G.middleRows(up.p0, k).transpose();
-    for (int cc = 0; cc < k; ++cc) {
-      double* column = B + std::size_t(drows[up.p0 + cc] - f0) * std::size_t(nr);
-      for (int rr = cc; rr < m; ++rr) column[w.map[std::size_t(drows[up.p0 + rr])]] -= W(rr, cc);
-    }
+  if (nc < split_columns) {
+    subtract_updates(s, t, values, B, nr, 0, nc, w.map, w.W);
+  } else {
+    const int chunk = std::max(1, split_columns / 2);
+    parallel_ranges(std::size_t((nc + chunk - 1) / chunk), threads, arena, [&](std::size_t k0, std::size_t k1) {
+      std::vector<double> scratch;
+      for (std::size_t k = k0; k < k1; ++k)
+        subtract_updates(s, t, values, B, nr, int(k) * chunk, std::min(nc, int(k + 1) * chunk), w.map, scratch);
+    });
   }
   Block G(B, nr, nc, Eigen::OuterStride<>(nr));
   auto top = G.topRows(nc);
@@ -139,25 +166,32 @@ ColumnLdlt to_columns(const SupernodalFactor& f, bool drop_zeros) {
 }
 
 bool supernodal_cholesky(const Sparse& A, const Eigen::Matrix<double, Eigen::Dynamic, 3>* points, int threads,
-                         SupernodalFactor& out) {
+                         SupernodalFactor& out, int split_columns) {
   const auto n = std::size_t(A.rows());
   // The order: the dissection where the rows' points are given, or AMD's, whichever leaves fewer entries.
+  // The two orders are found side by side (spot_loop3: AMD and its analysis 1.5 s, the dissection and its
+  // analysis 0.5 s).
+  const auto arena = make_arena(threads);
   SupernodalSymbolic s;
   {
-    Eigen::AMDOrdering<int> amd;
-    Eigen::PermutationMatrix<Eigen::Dynamic, Eigen::Dynamic, int> P;
-    amd(A, P);  // P.indices()(k): the row eliminated k-th
-    s = analyse_order(A, std::vector<int>(P.indices().data(), P.indices().data() + n));
-    if (points) {
-      SupernodalSymbolic nd = analyse_order(A, coordinate_nested_dissection(A, *points));
-      if (nd.entries <= s.entries) s = std::move(nd);
-    }
+    SupernodalSymbolic nd;
+    parallel_ranges(points ? 2 : 1, threads, arena.get(), [&](std::size_t k0, std::size_t k1) {
+      for (std::size_t k = k0; k < k1; ++k)
+        if (k == 0) {
+          Eigen::AMDOrdering<int> amd;
+          Eigen::PermutationMatrix<Eigen::Dynamic, Eigen::Dynamic, int> P;
+          amd(A, P);  // P.indices()(k): the row eliminated k-th
+          s = analyse_order(A, std::vector<int>(P.indices().data(), P.indices().data() + n));
+        } else {
+          nd = analyse_order(A, coordinate_nested_dissection(A, *points));
+        }
+    });
+    if (points && nd.entries <= s.entries) s = std::move(nd);
   }
   find_supernodes(A, s);
   const std::size_t ns = s.first.size() - 1;
   std::vector<double> values(s.value_start[ns]);
 
-  const auto arena = make_arena(threads);
   const std::size_t bins =
       threads == 1 ? 1 : std::size_t(arena ? arena->max_concurrency() : tbb::this_task_arena::max_concurrency());
   std::vector<std::pair<int, int>> parts;
@@ -170,19 +204,21 @@ bool supernodal_cholesky(const Sparse& A, const Eigen::Matrix<double, Eigen::Dyn
     }
     cut_tree(s.super_parent, work, bins, parts, top);
   }
+  // The parts' supernodes take their chunks serially: a thread waiting on nested chunks could take up another
+  // part, and with it its own Scratch, in use. The top's, after the parts, in parallel.
   tbb::enumerable_thread_specific<Scratch> scratch([n] { return Scratch{std::vector<int>(n, 0), {}}; });
   std::atomic<bool> failed{false};
   parallel_ranges(parts.size(), threads, arena.get(), [&](std::size_t k0, std::size_t k1) {
     Scratch& w = scratch.local();
     for (std::size_t k = k0; k < k1 && !failed; ++k)
       for (int t = parts[k].first; t <= parts[k].second; ++t)
-        if (!factor_supernode(A, s, std::size_t(t), values.data(), w)) failed = true;
+        if (!factor_supernode(A, s, std::size_t(t), values.data(), w, split_columns, 1, nullptr)) failed = true;
   });
   if (failed) return false;
   {
     Scratch& w = scratch.local();
     for (const int t : top)
-      if (!factor_supernode(A, s, std::size_t(t), values.data(), w)) return false;
+      if (!factor_supernode(A, s, std::size_t(t), values.data(), w, split_columns, threads, arena.get())) return false;
   }
   scratch.clear();
 
