@@ -7,8 +7,8 @@
 #   tools/bench_report.sh --quick    a smoke test of the pipeline: 10^4 matrices, short timings; writes the
 #                                    report into build-bench/bench-results/quick-docs instead of docs/
 #
-# Environment: BUILD_DIR (default build-bench), JOBS (default nproc). Needs cmake, g++, the project's
-# dependencies (tools/install_deps.sh), zlib and python3-matplotlib.
+# Environment: BUILD_DIR (default build-bench), JOBS (default nproc). Installs what it needs with
+# tools/install_deps.sh bench (the project's dependencies and CGAL, bench_quality's reference ARAP).
 # Timings are only as good as the machine is quiet: the load average before and after is recorded.
 set -euo pipefail
 root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
@@ -18,6 +18,7 @@ jobs=${JOBS:-$(nproc 2>/dev/null || echo 2)}
 quick=0
 [[ "${1:-}" == "--quick" ]] && quick=1
 
+tools/install_deps.sh bench
 cmake -S . -B "$build" -DCMAKE_BUILD_TYPE=Release -DMLSDEFORM_BUILD_TESTS=OFF -DMLSDEFORM_BUILD_TOOLS=OFF \
   -DMLSDEFORM_BUILD_BENCH=ON -DMLSDEFORM_CHOLMOD=ON >/dev/null
 cmake --build "$build" -j "$jobs" --target bench_rotation_fit bench_table2 bench_scaling bench_roofline bench_quality

@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Installs mlsdeform's build and test dependencies from Debian 12 packages. Idempotent, and quiet when
-# everything is already there. Uses sudo when not root. Arguments add optional parts: `blender` (Blender),
-# `web` (emscripten and Chromium from Debian, and the page's npm packages into web/node_modules from
+# everything is already there. Uses sudo when not root. Arguments add optional parts: `bench` (CGAL, for
+# bench_quality's reference ARAP), `blender` (Blender), `web` (emscripten and Chromium from Debian, and the page's npm packages into web/node_modules from
 # web/package-lock.json: docs/web.md).
 set -euo pipefail
 packages=(cmake g++ make pkg-config
@@ -15,19 +15,23 @@ packages=(cmake g++ make pkg-config
   clang libclang-rt-14-dev                                                # the libFuzzer targets
   clang-format                                                            # the format check (tests/format.cmake)
   black flake8)                                                           # the Python checks (tests/python_style.cmake)
+# `install_deps.sh bench` adds CGAL 5.5 (header-only, GPL), which bench/CMakeLists.txt compiles into
+# bench_quality alone for its reference ARAP rows (tools/bench_report.sh asks for it; without it those rows are
+# skipped). Nothing else links it.
 # `install_deps.sh blender` adds Debian's Blender 3.4 for the add-on's headless test (tools/blender/).
 # `install_deps.sh web` adds emscripten (emcc 3.1.6; node-acorn for its link step) and Chromium (the browser
 # tests drive it headless), and Node with npm where there is none.
 web=0
 for arg in "$@"; do
   case "$arg" in
+    bench) packages+=(libcgal-dev) ;;
     blender) packages+=(blender) ;;
     web)
       web=1
       packages+=(emscripten node-acorn chromium)
       command -v npm >/dev/null || packages+=(nodejs npm)
       ;;
-    *) echo "install_deps: unknown part '$arg' (blender, web)" >&2; exit 2 ;;
+    *) echo "install_deps: unknown part '$arg' (bench, blender, web)" >&2; exit 2 ;;
   esac
 done
 # The page's packages (three; puppeteer-core, which drives the Debian Chromium and downloads no browser),
