@@ -1,6 +1,8 @@
 // Anderson acceleration's history and extrapolation (anderson.hpp has the method).
 #include "core/src/arap/anderson.hpp"
 
+#include "core/src/huge_pages.hpp"
+
 #include <Eigen/QR>
 
 #include <algorithm>
@@ -84,11 +86,11 @@ Anderson::Anderson(std::size_t size, int window, int threads, tbb::task_arena* a
   if (window < 1 || window > kMaxWindow)
     throw std::invalid_argument("ArapRefiner: anderson_window must be in [1, " + std::to_string(kMaxWindow) +
                                 "] (got " + std::to_string(window) + ")");
-  x_prev_.assign(size, 0.0);
-  g_last_.assign(size, 0.0);
-  f_last_.assign(size, 0.0);
-  dF_.assign(size * std::size_t(window), 0.0);
-  dG_.assign(size * std::size_t(window), 0.0);
+  assign_huge(x_prev_, size, 0.0);
+  assign_huge(g_last_, size, 0.0);
+  assign_huge(f_last_, size, 0.0);
+  assign_huge(dF_, size * std::size_t(window), 0.0);
+  assign_huge(dG_, size * std::size_t(window), 0.0);
   partial_.assign(chunks_ * 2 * std::size_t(window), 0.0);
   gram_.resize(window, window);
   gram_.setZero();

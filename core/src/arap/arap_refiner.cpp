@@ -18,6 +18,7 @@
 #include "core/src/arap/ring_energy.hpp"
 #include "core/src/arap/subtree_ldlt.hpp"
 #include "core/src/dispatch.hpp"
+#include "core/src/huge_pages.hpp"
 #include "core/src/parallel.hpp"
 #include "core/src/pow2.hpp"
 #include "core/src/threading.hpp"
@@ -178,8 +179,8 @@ ArapRefiner<T>::ArapRefiner(const Points<T>& rest, const Triangles& triangles,
   detail::OneRings rings = detail::cotangent_one_rings(m.P, triangles);
   m.start = std::move(rings.start), m.nbr = std::move(rings.nbr), m.w = std::move(rings.w);
   m.clamped = rings.clamped;
-  m.we.assign(3 * m.nbr.size(), 0.0);
-  m.c.assign(3 * nn, 0.0);
+  detail::assign_huge(m.we, 3 * m.nbr.size(), 0.0);
+  detail::assign_huge(m.c, 3 * nn, 0.0);
   for (std::size_t i = 0; i < nn; ++i)
     for (Eigen::Index e = m.start[i]; e < m.start[i + 1]; ++e)
       for (int k = 0; k < 3; ++k) {
@@ -242,10 +243,10 @@ ArapRefiner<T>::ArapRefiner(const Points<T>& rest, const Triangles& triangles,
     throw std::invalid_argument("ArapRefiner: the cotangent Laplacian could not be factorised");
 
   m.X.resize(m.n, 3);
-  m.H.assign(9 * nn, T(0));
-  m.R.assign(9 * nn, T(0));
-  m.Rd.assign(9 * nn, T(0));
-  m.y.assign(3 * std::size_t(nf), 0.0);
+  detail::assign_huge(m.H, 9 * nn, T(0));
+  detail::assign_huge(m.R, 9 * nn, T(0));
+  detail::assign_huge(m.Rd, 9 * nn, T(0));
+  detail::assign_huge(m.y, 3 * std::size_t(nf), 0.0);
   if (options.acceleration == ArapAcceleration::anderson) {
     m.anderson = std::make_unique<detail::Anderson>(3 * nn, options.anderson_window, options.threads, m.arena.get());
     m.energy.init(m.start, m.nbr, m.w, m.P, kGrain);

@@ -1,6 +1,8 @@
 // cotangent_one_rings (one_rings.hpp).
 #include "core/src/arap/one_rings.hpp"
 
+#include "core/src/huge_pages.hpp"
+
 #include <Eigen/Geometry>  // cross
 
 #include <algorithm>
@@ -43,7 +45,8 @@ OneRings cotangent_one_rings(const Eigen::Matrix<double, Eigen::Dynamic, 3>& P, 
         ++first[std::size_t(std::min(triangles(f, k), triangles(f, (k + 1) % 3))) + 1];
   }
   for (std::size_t i = 0; i < n; ++i) first[i + 1] += first[i];
-  std::vector<Half> halves(first[n]);
+  std::vector<Half> halves;
+  assign_huge(halves, first[n]);
   {
     std::vector<std::size_t> fill(first.begin(), first.end() - 1);
     for (Eigen::Index f = 0; f < triangles.rows(); ++f)
@@ -84,7 +87,8 @@ OneRings cotangent_one_rings(const Eigen::Matrix<double, Eigen::Dynamic, 3>& P, 
       ++r.start[std::size_t(halves[h].first) + 1];
     }
   for (std::size_t i = 0; i < n; ++i) r.start[i + 1] += r.start[i];
-  std::vector<Half> ring(std::size_t(r.start[n]));
+  std::vector<Half> ring;
+  assign_huge(ring, std::size_t(r.start[n]));
   std::vector<std::size_t> fill(r.start.begin(), r.start.end() - 1);
   for (std::size_t i = 0; i < n; ++i)
     for (std::size_t h = first[i]; h < merged_end[i]; ++h) {
@@ -92,8 +96,8 @@ OneRings cotangent_one_rings(const Eigen::Matrix<double, Eigen::Dynamic, 3>& P, 
       ring[fill[i]++] = {halves[h].first, w};
       ring[fill[std::size_t(halves[h].first)]++] = {Eigen::Index(i), w};
     }
-  r.nbr.resize(ring.size());
-  r.w.resize(ring.size());
+  assign_huge(r.nbr, ring.size());
+  assign_huge(r.w, ring.size());
   for (std::size_t i = 0; i < n; ++i) {
     const auto b = ring.begin() + std::ptrdiff_t(r.start[i]), e = ring.begin() + std::ptrdiff_t(r.start[i + 1]);
     std::sort(b, e);  // neighbours are distinct: by neighbour
@@ -117,7 +121,9 @@ Eigen::SparseMatrix<double> reduced_laplacian(const OneRingsView& rings, const s
     for (Eigen::Index e = rings.start[std::size_t(i)]; e < rings.start[std::size_t(i) + 1]; ++e)
       entries += row[std::size_t(rings.nbr[std::size_t(e)])] >= 0;
   }
-  L.resizeNonZeros(Eigen::Index(entries));
+  L.resizeNonZeros(Eigen::Index(entries));  // allocated, not written: advised before the loop writes them
+  advise_huge_pages(L.innerIndexPtr(), entries * sizeof(int));
+  advise_huge_pages(L.valuePtr(), entries * sizeof(double));
   int* outer = L.outerIndexPtr();
   int* inner = L.innerIndexPtr();
   double* value = L.valuePtr();

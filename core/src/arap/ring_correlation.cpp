@@ -1,6 +1,7 @@
 // The ARAP local step's one-ring sums, scalar reference, and the padded layout its SIMD twin reads
 // (ring_correlation.hpp).
 #include "core/src/arap/ring_correlation.hpp"
+#include "core/src/huge_pages.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -24,10 +25,10 @@ PaddedRings pad_one_rings(std::span<const Eigen::Index> start, std::span<const E
     r.slot_begin[b + 1] = r.slot_begin[b] + std::size_t(valence);
   }
   const std::size_t slots = r.slot_begin[blocks];
-  r.self.assign(blocks * L, 0);
-  r.slot_x.assign(slots * L, 0);
-  r.slot_a.assign(3 * slots * L, 0.0);  // padding: weight 0
-  r.slot_w.assign(slots * L, 0.0);
+  assign_huge(r.self, blocks * L, std::int64_t(0));
+  assign_huge(r.slot_x, slots * L, std::int64_t(0));
+  assign_huge(r.slot_a, 3 * slots * L, 0.0);  // padding: weight 0
+  assign_huge(r.slot_w, slots * L, 0.0);
   for (std::size_t b = 0; b < blocks; ++b)
     for (std::size_t l = 0; l < L; ++l) {
       // A lane past n stands for the block's first vertex; its results are not stored.

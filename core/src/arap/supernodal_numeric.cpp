@@ -1,6 +1,7 @@
 // The supernodal factorisation's numeric phase and its entry (supernodal_ldlt.hpp).
 #include "core/src/arap/nested_dissection.hpp"
 #include "core/src/arap/supernodal_ldlt.hpp"
+#include "core/src/huge_pages.hpp"
 #include "core/src/parallel.hpp"
 #include "core/src/threading.hpp"
 
@@ -142,8 +143,8 @@ ColumnLdlt to_columns(const SupernodalFactor& f, bool drop_zeros) {
   ColumnLdlt out;
   out.D.resize(n);
   out.col_start.resize(n + 1);
-  out.rows.resize(entries);
-  out.values.resize(entries);
+  assign_huge(out.rows, entries);
+  assign_huge(out.values, entries);
   std::size_t to = 0;
   for (std::size_t t = 0; t < ns; ++t) {
     const int f0 = f.first[t], nc = f.first[t + 1] - f0, nr = f.row_start[t + 1] - f.row_start[t];
@@ -190,7 +191,8 @@ bool supernodal_cholesky(const Sparse& A, const Eigen::Matrix<double, Eigen::Dyn
   }
   find_supernodes(A, s);
   const std::size_t ns = s.first.size() - 1;
-  std::vector<double> values(s.value_start[ns]);
+  std::vector<double> values;
+  assign_huge(values, s.value_start[ns]);
 
   const std::size_t bins =
       threads == 1 ? 1 : std::size_t(arena ? arena->max_concurrency() : tbb::this_task_arena::max_concurrency());
