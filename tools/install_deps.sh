@@ -1,8 +1,8 @@
 #!/usr/bin/env bash
 # Installs mlsdeform's build and test dependencies from Debian 12 packages. Idempotent, and quiet when
 # everything is already there. Uses sudo when not root. Arguments add optional parts: `bench` (CGAL, for
-# bench_quality's reference ARAP), `blender` (Blender), `web` (emscripten and Chromium from Debian, and the page's npm packages into web/node_modules from
-# web/package-lock.json: docs/web.md).
+# bench_quality's reference ARAP), `blender` (Blender), `web` (emscripten and Chromium from Debian, and the
+# page's npm packages into web/node_modules from web/package-lock.json: docs/web.md).
 set -euo pipefail
 packages=(cmake g++ make pkg-config
   libtbb-dev libxsimd-dev libeigen3-dev libbenchmark-dev catch2            # the library, tests, benchmarks

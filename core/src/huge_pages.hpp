@@ -1,11 +1,11 @@
 // Large arrays on transparent huge pages (Linux). A first touch of fresh memory costs a page fault per 4 KiB
 // page; in a virtual machine each fault is a trip through the hypervisor. ARAP's set-up on spot_loop3
-// (737,986 vertices) writes about 1.5 GB of new arrays, and on the 2-core AMD EPYC Zen 5 development VM its
-// faults were a fifth of the set-up's time; with the whole process on huge pages (glibc's tunable
-// glibc.malloc.hugetlb=1) the set-up took 3.4 s instead of 6.5. The library cannot set a tunable for its
-// caller, so it advises its own large arrays, before their first touch, with madvise(MADV_HUGEPAGE): one fault
-// per 2 MiB, and fewer TLB misses when the arrays are read. Where the kernel's THP setting is "never", or
-// elsewhere than Linux (emscripten included), this is nothing; the contents are never affected.
+// (737,986 vertices) writes more than a gigabyte of new arrays; on the 2-core AMD EPYC Zen 5 development VM
+// a profile put a fifth of bench_arap_solver's time in the kernel, mostly in page faults, and with the whole
+// process on huge pages (glibc's tunable glibc.malloc.hugetlb=1) the set-up took 3.4 s instead of 6.5. The library
+// cannot set a tunable for its caller, so it advises its own large arrays, before their first touch, with
+// madvise(MADV_HUGEPAGE): one fault per 2 MiB, and fewer TLB misses when the arrays are read. Where the kernel's THP
+// setting is "never", or elsewhere than Linux (emscripten included), this is nothing; the contents are never affected.
 #pragma once
 
 #include <cstddef>

@@ -1,6 +1,7 @@
 // The ARAP local step's one-ring sums, scalar reference, and the padded layout its SIMD twin reads
 // (ring_correlation.hpp).
 #include "core/src/arap/ring_correlation.hpp"
+
 #include "core/src/huge_pages.hpp"
 
 #include <algorithm>

@@ -28,8 +28,6 @@ struct Scratch {
   std::vector<double> W;
 };
 
-// A supernode of at least split_columns columns (supernodal_cholesky) takes its updates split_columns / 2 of
-// its columns at a time (subtract_updates), the chunks in parallel at the top of the tree.
 /// Subtracts from columns [c0, c1) of supernode t's block B (nr rows; w.map: where each row of L sits in it)
 /// its descendants' updates, in the order of update_start (ascending descendants). Each update is d's
 /// G(p0 .., :) G(p0 .. p1, :)^T, its lower trapezoid, restricted to those columns: the product of d's rows
