@@ -253,6 +253,12 @@ void SupernodalSolve::diagonal_back(double* y, std::size_t t, double* planar) co
   for (std::size_t r = 0; r < n; ++r) z[3 * r] = q0[r], z[3 * r + 1] = q1[r], z[3 * r + 2] = q2[r];
 }
 
+void SupernodalSolve::prefetch_block(std::size_t t) const {
+  const double* p = f.values.data() + f.value_start[t];
+  const double* e = p + std::min<std::size_t>(f.value_start[t + 1] - f.value_start[t], kPrefetchBytes / sizeof(double));
+  for (; p < e; p += 64 / sizeof(double)) __builtin_prefetch(p);
+}
+
 void SupernodalSolve::solve(std::vector<double>& yv, int threads, tbb::task_arena* arena) const {
   double* y = yv.data();
   const std::size_t parts = range_start.size() - 1;
@@ -261,9 +267,11 @@ void SupernodalSolve::solve(std::vector<double>& yv, int threads, tbb::task_aren
   parallel_ranges(parts, threads, arena, [&](std::size_t k0, std::size_t k1) {
     for (std::size_t k = k0; k < k1; ++k)
       for (std::size_t q = range_start[k]; q < range_start[k + 1]; ++q)
-        for (int t = ranges[q].first; t <= ranges[q].second; ++t)
+        for (int t = ranges[q].first; t <= ranges[q].second; ++t) {
+          if (t < ranges[q].second) prefetch_block(std::size_t(t) + 1);
           forward(y, std::size_t(t), nc(std::size_t(t)), top_start[std::size_t(t)], true, scratch[k].data(),
                   scratch[k].data() + planar_at[k]);
+        }
   });
   // The top's large blocks (the dissection's top separators: a third of spot_loop3's entries) are shared by
   // the threads: rows of an update, or columns of a backward sum, in chunks (each row's or column's sum is
@@ -304,6 +312,7 @@ void SupernodalSolve::solve(std::vector<double>& yv, int threads, tbb::task_aren
       for (std::size_t q = range_start[k]; q < range_start[k + 1]; ++q)
         for (int t = ranges[q].second; t >= ranges[q].first; --t) {
           const auto u = std::size_t(t);
+          if (t > ranges[q].first) prefetch_block(u - 1);
           gather(y, u, scratch[k].data());
           below(y, u, 0, nc(u), scratch[k].data());
           diagonal_back(y, u, scratch[k].data() + planar_at[k]);
