@@ -177,9 +177,14 @@ bool supernodal_cholesky(const Sparse& A, const Eigen::Matrix<double, Eigen::Dyn
     parallel_ranges(points ? 2 : 1, threads, arena.get(), [&](std::size_t k0, std::size_t k1) {
       for (std::size_t k = k0; k < k1; ++k)
         if (k == 0) {
-          Eigen::AMDOrdering<int> amd;
+          // AMD on A's own pattern: Eigen::AMDOrdering first forms the pattern of A^T + A, two transposed
+          // copies, which for A (both triangles stored, so structurally symmetric) is A's, in the same order:
+          // the same permutation (checked on spot_loop3 and the body's subdivisions), 1.2 -> 0.95 s on
+          // spot_loop3. minimum_degree_ordering takes its matrix, compressed, as work space: a copy.
+          Sparse pattern = A;
+          pattern.makeCompressed();
           Eigen::PermutationMatrix<Eigen::Dynamic, Eigen::Dynamic, int> P;
-          amd(A, P);  // P.indices()(k): the row eliminated k-th
+          Eigen::internal::minimum_degree_ordering(pattern, P);  // P.indices()(k): the row eliminated k-th
           s = analyse_order(A, std::vector<int>(P.indices().data(), P.indices().data() + n));
         } else {
           nd = analyse_order(A, coordinate_nested_dissection(A, *points));
