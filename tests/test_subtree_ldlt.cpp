@@ -21,6 +21,7 @@
 #include "tests/support/random.hpp"
 
 #include <Eigen/Eigenvalues>
+#include <Eigen/OrderingMethods>
 #include <Eigen/SparseCholesky>
 #include <catch2/catch.hpp>
 
@@ -366,6 +367,29 @@ TEST_CASE("coordinate_nested_dissection: a permutation, separators last, less fi
     const auto nd = fill(order), band = fill(natural);
     INFO("entries of L: nested dissection " << nd << ", natural " << band);
     CHECK(nd * 2 < band);
+  }
+}
+
+TEST_CASE("amd_order: Eigen::AMDOrdering's permutation, for compressed and uncompressed matrices", "[arap][ldlt]") {
+  // amd_order runs Eigen's minimum degree on A's own pattern instead of the pattern of A^T + A that
+  // AMDOrdering forms: for a structurally symmetric A the two are one pattern, so the orders must be equal,
+  // index for index. Several pieces (a forest), random extra edges (irregular degrees), and one matrix left
+  // uncompressed with room to spare in its columns.
+  Rng g(11);
+  for (const int extra : {0, 40, 400}) {
+    Sparse A = spd(g, 3, 17, 23, extra);
+    Eigen::AMDOrdering<int> amd;
+    Eigen::PermutationMatrix<Eigen::Dynamic, Eigen::Dynamic, int> P, Q;
+    amd(A, P);
+    mlsdeform::detail::amd_order(A, Q);
+    INFO("extra edges " << extra);
+    CHECK(P.indices() == Q.indices());
+    if (extra == 40) {
+      A.reserve(Eigen::VectorXi::Constant(A.cols(), 3));  // uncompressed
+      REQUIRE(!A.isCompressed());
+      mlsdeform::detail::amd_order(A, Q);
+      CHECK(P.indices() == Q.indices());
+    }
   }
 }
 

@@ -164,11 +164,29 @@ ColumnLdlt to_columns(const SupernodalFactor& f, bool drop_zeros) {
   return out;
 }
 
+void amd_order(const Sparse& A, Eigen::PermutationMatrix<Eigen::Dynamic, Eigen::Dynamic, int>& P) {
+  if (!A.isCompressed()) {
+    Sparse B = A;
+    B.makeCompressed();
+    return amd_order(B, P);
+  }
+  const Eigen::Index n = A.rows(), nnz = A.nonZeros(), room = nnz + nnz / 5 + 2 * n;
+  Sparse C(n, n);
+  C.resizeNonZeros(room);
+  advise_huge_pages(C.valuePtr(), std::size_t(room) * sizeof(double));
+  advise_huge_pages(C.innerIndexPtr(), std::size_t(room) * sizeof(int));
+  std::copy(A.outerIndexPtr(), A.outerIndexPtr() + n + 1, C.outerIndexPtr());
+  std::copy(A.innerIndexPtr(), A.innerIndexPtr() + nnz, C.innerIndexPtr());
+  std::copy(A.valuePtr(), A.valuePtr() + nnz, C.valuePtr());
+  C.resizeNonZeros(nnz);  // within the room: no reallocation, here or in minimum_degree_ordering
+  Eigen::internal::minimum_degree_ordering(C, P);
+}
+
 bool supernodal_cholesky(const Sparse& A, const Eigen::Matrix<double, Eigen::Dynamic, 3>* points, int threads,
                          SupernodalFactor& out, int split_columns) {
   const auto n = std::size_t(A.rows());
   // The order: the dissection where the rows' points are given, or AMD's, whichever leaves fewer entries.
-  // The two orders are found side by side (spot_loop3: AMD and its analysis 1.5 s, the dissection and its
+  // The two orders are found side by side (spot_loop3: AMD and its analysis 0.75-0.95 s, the dissection and its
   // analysis 0.5 s).
   const auto arena = make_arena(threads);
   SupernodalSymbolic s;
@@ -177,14 +195,8 @@ bool supernodal_cholesky(const Sparse& A, const Eigen::Matrix<double, Eigen::Dyn
     parallel_ranges(points ? 2 : 1, threads, arena.get(), [&](std::size_t k0, std::size_t k1) {
       for (std::size_t k = k0; k < k1; ++k)
         if (k == 0) {
-          // AMD on A's own pattern: Eigen::AMDOrdering first forms the pattern of A^T + A, two transposed
-          // copies, which for A (both triangles stored, so structurally symmetric) is A's, in the same order:
-          // the same permutation (checked on spot_loop3 and the body's subdivisions), 1.2 -> 0.95 s on
-          // spot_loop3. minimum_degree_ordering takes its matrix, compressed, as work space: a copy.
-          Sparse pattern = A;
-          pattern.makeCompressed();
           Eigen::PermutationMatrix<Eigen::Dynamic, Eigen::Dynamic, int> P;
-          Eigen::internal::minimum_degree_ordering(pattern, P);  // P.indices()(k): the row eliminated k-th
+          amd_order(A, P);  // P.indices()(k): the row eliminated k-th
           s = analyse_order(A, std::vector<int>(P.indices().data(), P.indices().data() + n));
         } else {
           nd = analyse_order(A, coordinate_nested_dissection(A, *points));
