@@ -145,6 +145,13 @@ SupernodalSolve::SupernodalSolve(SupernodalFactor factor, std::size_t bins) : f(
       need[bins] = std::max(need[bins], std::size_t(height(t) - columns(t)));
     }
   }
+  for (const int t : tail)
+    if (!in_top[std::size_t(t)]) {
+      sums_at.push_back(below_sums);
+      below_top.push_back(t);
+      below_sums += 3 * std::size_t(height(std::size_t(t)) - top_start[std::size_t(t)]);
+    }
+  if (bins > 1) tail_sums.assign(below_sums, 0.0);
   // Each part's scratch: the rows below a supernode (3 values each), then its own columns, planar.
   int widest = 0;
   for (std::size_t t = 0; t < ns; ++t) widest = std::max(widest, columns(t));
@@ -162,7 +169,6 @@ void SupernodalSolve::forward(double* y, std::size_t t, int p0, int p1, bool dia
                               double* planar) const {
   const int f0 = f.first[t], nc = f.first[t + 1] - f0, nr = f.row_start[t + 1] - f.row_start[t];
   const double* G = f.values.data() + f.value_start[t];
-  const int* rows = f.rows.data() + f.row_start[t];
   double* z = y + 3 * std::size_t(f0);
   if (diagonal) {
     // Column by column: q_c *= 1 / G_cc, then q_r -= G_rc q_c for the rows r > c of the block, each row's
@@ -192,6 +198,14 @@ void SupernodalSolve::forward(double* y, std::size_t t, int p0, int p1, bool dia
     for (std::size_t r = 0; r < n; ++r) z[3 * r] = q0[r], z[3 * r + 1] = q1[r], z[3 * r + 2] = q2[r];
   }
   if (p1 <= p0) return;
+  sums(y, t, p0, p1, acc);
+  scatter(y, t, p0, p1, acc);
+}
+
+void SupernodalSolve::sums(const double* y, std::size_t t, int p0, int p1, double* acc) const {
+  const int f0 = f.first[t], nc = f.first[t + 1] - f0, nr = f.row_start[t + 1] - f.row_start[t];
+  const double* G = f.values.data() + f.value_start[t];
+  const double* z = y + 3 * std::size_t(f0);
   const std::size_t m = std::size_t(p1 - p0);
   // The three right-hand sides' accumulators one after the other (acc, acc + m, acc + 2 m): each is then a
   // plain loop over the rows, which the compiler runs two rows per instruction.
@@ -204,6 +218,12 @@ void SupernodalSolve::forward(double* y, std::size_t t, int p0, int p1, bool dia
   int c = 0;
   for (; c + 4 <= nc; c += 4) update4(m, column(c), column(c + 1), column(c + 2), column(c + 3), z + 3 * c, a0, a1, a2);
   for (; c < nc; ++c) update1(m, column(c), z + 3 * c, a0, a1, a2);
+}
+
+void SupernodalSolve::scatter(double* y, std::size_t t, int p0, int p1, const double* acc) const {
+  const int* rows = f.rows.data() + f.row_start[t];
+  const std::size_t m = std::size_t(p1 - p0);
+  const double *a0 = acc, *a1 = acc + m, *a2 = acc + 2 * m;
   for (std::size_t i = 0; i < m; ++i) {
     double* yr = y + 3 * std::size_t(rows[std::size_t(p0) + i]);
     yr[0] -= a0[i], yr[1] -= a1[i], yr[2] -= a2[i];
@@ -281,9 +301,25 @@ void SupernodalSolve::solve(std::vector<double>& yv, int threads, tbb::task_aren
   const auto large = [&](std::size_t t) { return threads != 1 && double(nc(t)) * double(nr(t)) >= shared_from; };
   double* acc = scratch.back().data();
   double* planar = acc + planar_at.back();
+  // The subtrees' supernodes in the tail only read their own solved rows: their sums for the top's rows are
+  // computed first, in parallel, into tail_sums, and subtracted below in the tail's order (so each row's
+  // updates still arrive in ascending supernode order, each the same sum: the same bits).
+  const bool ahead = threads != 1 && !tail_sums.empty();
+  if (ahead)
+    parallel_ranges(below_top.size(), threads, arena, [&](std::size_t k0, std::size_t k1) {
+      for (std::size_t k = k0; k < k1; ++k) {
+        const auto u = std::size_t(below_top[k]);
+        sums(y, u, top_start[u], nr(u), tail_sums.data() + sums_at[k]);
+      }
+    });
+  std::size_t next = 0;  // below_top's next
   for (const int t : tail) {
     const auto u = std::size_t(t);
     const int p0 = top_start[u], p1 = nr(u);
+    if (ahead && next < below_top.size() && below_top[next] == t) {
+      scatter(y, u, p0, p1, tail_sums.data() + sums_at[next++]);
+      continue;
+    }
     const bool own = p0 == nc(u) && std::binary_search(top.begin(), top.end(), t);
     if (!large(u)) {
       forward(y, u, p0, p1, own, acc, planar);
@@ -324,7 +360,7 @@ std::size_t SupernodalSolve::memory_bytes() const {
   const auto bytes = [](const auto& v) { return v.capacity() * sizeof(v[0]); };
   std::size_t s = bytes(f.first) + bytes(f.row_start) + bytes(f.rows) + bytes(f.super_parent) + bytes(f.perm) +
                   bytes(f.value_start) + bytes(f.values) + bytes(top_start) + bytes(ranges) + bytes(range_start) +
-                  bytes(top) + bytes(tail) + bytes(inverse);
+                  bytes(top) + bytes(tail) + bytes(inverse) + bytes(below_top) + bytes(sums_at) + bytes(tail_sums);
   for (const auto& v : scratch) s += bytes(v);
   return s;
 }

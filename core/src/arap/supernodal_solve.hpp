@@ -5,8 +5,10 @@
 //
 // Threads: the supernodes' tree is cut (cut_tree) into subtrees spread over `bins` parts, and a top, the
 // supernodes above them. Forward: the parts in parallel, each supernode updating the rows below it that are
-// not in the top; then, one thread, every supernode with rows in the top (ascending) updates them, and the
-// top's supernodes solve their blocks in turn (the large blocks' rows shared by the threads). Backward: the
+// not in the top; then the parts' supernodes with rows in the top sum their updates of those rows, in
+// parallel, into a buffer (tail_sums); then, one thread, every supernode with rows in the top (ascending)
+// subtracts them (the parts' from the buffer), and the top's supernodes solve their blocks in turn (the large
+// blocks' rows shared by the threads). On one thread each supernode sums and subtracts in turn. Backward: the
 // top (the large blocks' columns shared), then the parts in parallel. Forward, each row's update from a
 // supernode is one sum over the supernode's columns in ascending order, whichever pass computes it, and the
 // updates reach a row in ascending supernode order; backward, each column's sum over its block's rows is
@@ -44,6 +46,10 @@ class SupernodalSolve {
 
  private:
   void forward(double* y, std::size_t t, int p0, int p1, bool diagonal, double* acc, double* planar) const;
+  /// forward's two halves below the diagonal block: acc = the rows p0 .. p1's sums (3 (p1 - p0) values), then
+  /// y_r -= acc_r.
+  void sums(const double* y, std::size_t t, int p0, int p1, double* acc) const;
+  void scatter(double* y, std::size_t t, int p0, int p1, const double* acc) const;
   /// Prefetches the first kPrefetchBytes of supernode t's block (or all of a smaller one): see solve().
   void prefetch_block(std::size_t t) const;
   void gather(const double* y, std::size_t t, double* xb) const;
@@ -60,6 +66,12 @@ class SupernodalSolve {
   double shared_from = 0;      ///< blocks with at least this many entries are shared by the threads (solve())
   mutable std::vector<std::vector<double>> scratch;  ///< per part, and one for the top (the last)
   std::vector<std::size_t> planar_at;                ///< where each scratch's planar copy of a supernode's rows starts
+  /// The tail's supernodes outside the top (ascending), where each one's sums for the top's rows start in
+  /// tail_sums, and tail_sums (empty for one thread: there each is summed and subtracted in turn).
+  std::vector<int> below_top;
+  std::vector<std::size_t> sums_at;
+  std::size_t below_sums = 0;
+  mutable std::vector<double> tail_sums;
 };
 
 }  // namespace mlsdeform::detail
