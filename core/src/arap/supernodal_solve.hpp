@@ -24,7 +24,7 @@
 // spot_loop3 (AMD EPYC Zen 5, with and without, alternated in one process, median of 12): 158 -> 117 ms on one
 // thread, 99.5 -> 78 ms on two. A window of the next 4-64 KiB in memory order instead gained half as much, caps
 // above 32 KiB nothing more. Factors of at most SubtreeLdlt::kColumnLimit values (the body's two subdivisions
-// included) are converted to columns and substituted by subtree_ldlt.cpp: neither this nor the tail below applies.
+// included) are converted to columns and substituted by subtree_ldlt.cpp: neither this nor the parallel tail applies.
 #pragma once
 
 #include "core/src/arap/supernodal_ldlt.hpp"
