@@ -16,12 +16,10 @@
 //   Altogether (gamma_a + gamma_b + gamma_a gamma_b <= gamma_{a+b}): |dA| <= gamma_{3w+6} P^T |L| |D| |L^T| P.
 // So |b - A x| <= gamma_k P^T |L| |D| |L^T| P |x| componentwise, k as above, which the test checks in long
 // double with the solver's own L and D.
-#include "core/src/arap/nested_dissection.hpp"
 #include "core/src/arap/subtree_ldlt.hpp"
-#include "tests/support/random.hpp"
+#include "tests/test_ldlt_common.hpp"
 
 #include <Eigen/Eigenvalues>
-#include <Eigen/OrderingMethods>
 #include <Eigen/SparseCholesky>
 #include <catch2/catch.hpp>
 
@@ -33,50 +31,13 @@
 #include <vector>
 
 using mlsdeform::detail::SubtreeLdlt;
+using mlsdeform::testing::grid_points;
 using mlsdeform::testing::Rng;
+using mlsdeform::testing::spd;
 using LD = long double;
-using Sparse = Eigen::SparseMatrix<double>;
+using mlsdeform::testing::Sparse;
 
 namespace {
-
-/// A weighted graph Laplacian plus a positive diagonal: `pieces` grids of rows x cols vertices (4-neighbour
-/// edges and one diagonal per cell), plus `extra` random edges inside each piece; weights in [0.1, 1],
-/// shifts in [1e-3, 1e-2]. The pieces share no edge: the elimination forest has several trees.
-Sparse spd(Rng& g, int pieces, int rows, int cols, int extra) {
-  const int per = rows * cols, n = pieces * per;
-  std::vector<Eigen::Triplet<double>> t;
-  const auto edge = [&](int a, int b) {
-    const double w = g.uniform<double>(0.1, 1.0);
-    t.emplace_back(a, b, -w), t.emplace_back(b, a, -w), t.emplace_back(a, a, w), t.emplace_back(b, b, w);
-  };
-  for (int p = 0; p < pieces; ++p) {
-    const int o = p * per;
-    for (int i = 0; i < rows; ++i)
-      for (int j = 0; j < cols; ++j) {
-        const int v = o + i * cols + j;
-        if (j + 1 < cols) edge(v, v + 1);
-        if (i + 1 < rows) edge(v, v + cols);
-        if (i + 1 < rows && j + 1 < cols) edge(v, v + cols + 1);
-      }
-    for (int e = 0; e < extra && per > 1; ++e) {
-      const int a = o + int(g.uniform<double>(0, per - 1e-9)), b = o + int(g.uniform<double>(0, per - 1e-9));
-      if (a != b) edge(a, b);
-    }
-  }
-  for (int v = 0; v < n; ++v) t.emplace_back(v, v, g.uniform<double>(1e-3, 1e-2));
-  Sparse A(n, n);
-  A.setFromTriplets(t.begin(), t.end());
-  return A;
-}
-
-/// The rows' points for spd(pieces, rows, cols): piece p's grid in the plane z = p, cell (i, j) at (j, i).
-Eigen::Matrix<double, Eigen::Dynamic, 3> grid_points(int pieces, int rows, int cols) {
-  Eigen::Matrix<double, Eigen::Dynamic, 3> x(Eigen::Index(pieces) * rows * cols, 3);
-  for (int p = 0; p < pieces; ++p)
-    for (int i = 0; i < rows; ++i)
-      for (int j = 0; j < cols; ++j) x.row((Eigen::Index(p) * rows + i) * cols + j) << j, i, p;
-  return x;
-}
 
 /// y for b: 3 values per row of A at 3 * row_of(i).
 std::vector<double> packed(const SubtreeLdlt& s, const Eigen::MatrixX3d& b) {
@@ -330,67 +291,6 @@ TEST_CASE("SubtreeLdlt supernodal_mit: Eigen's SimplicialLDLT solution within th
           CHECK(std::sqrt(diff) <= bound);
         }
       }
-}
-
-TEST_CASE("coordinate_nested_dissection: a permutation, separators last, less fill than the natural order",
-          "[arap][ldlt]") {
-  using mlsdeform::detail::coordinate_nested_dissection;
-  Rng g(7);
-  // A grid with random extra edges, and points that all coincide (every cut is then by row index alone).
-  for (const bool coincident : {false, true}) {
-    const Sparse A = spd(g, 2, 40, 60, coincident ? 50 : 0);
-    auto points = grid_points(2, 40, 60);
-    if (coincident) points.setConstant(0.5);
-    const std::vector<int> order = coordinate_nested_dissection(A, points);
-    INFO((coincident ? "coincident points" : "grid points"));
-    REQUIRE(order.size() == std::size_t(A.rows()));
-    std::vector<int> seen(order.size(), 0);
-    for (const int v : order) {
-      REQUIRE((v >= 0 && v < A.rows()));
-      CHECK(seen[std::size_t(v)]++ == 0);
-    }
-    CHECK(coordinate_nested_dissection(A, points) == order);  // deterministic
-    if (coincident) continue;
-    // Fill: entries of L (Eigen's symbolic factorisation of the permuted matrix, natural order) against the
-    // grid's natural order; a 40 x 60 grid's band profile fills about 40 per row, a dissection far less.
-    const auto fill = [&](const std::vector<int>& o) {
-      Eigen::PermutationMatrix<Eigen::Dynamic, Eigen::Dynamic, int> P(A.rows());
-      for (std::size_t k = 0; k < o.size(); ++k) P.indices()(o[k]) = int(k);
-      const Sparse B = P * A * P.transpose();
-      Eigen::SimplicialLDLT<Sparse, Eigen::Lower, Eigen::NaturalOrdering<int>> f;
-      f.analyzePattern(B);
-      f.factorize(B);
-      return f.matrixL().nestedExpression().nonZeros();
-    };
-    std::vector<int> natural(order.size());
-    for (std::size_t k = 0; k < natural.size(); ++k) natural[k] = int(k);
-    const auto nd = fill(order), band = fill(natural);
-    INFO("entries of L: nested dissection " << nd << ", natural " << band);
-    CHECK(nd * 2 < band);
-  }
-}
-
-TEST_CASE("amd_order: Eigen::AMDOrdering's permutation, for compressed and uncompressed matrices", "[arap][ldlt]") {
-  // amd_order runs Eigen's minimum degree on A's own pattern instead of the pattern of A^T + A that
-  // AMDOrdering forms: for a structurally symmetric A the two are one pattern, so the orders must be equal,
-  // index for index. Several pieces (a forest), random extra edges (irregular degrees), and one matrix left
-  // uncompressed with room to spare in its columns.
-  Rng g(11);
-  for (const int extra : {0, 40, 400}) {
-    Sparse A = spd(g, 3, 17, 23, extra);
-    Eigen::AMDOrdering<int> amd;
-    Eigen::PermutationMatrix<Eigen::Dynamic, Eigen::Dynamic, int> P, Q;
-    amd(A, P);
-    mlsdeform::detail::amd_order(A, Q);
-    INFO("extra edges " << extra);
-    CHECK(P.indices() == Q.indices());
-    if (extra == 40) {
-      A.reserve(Eigen::VectorXi::Constant(A.cols(), 3));  // uncompressed
-      REQUIRE(!A.isCompressed());
-      mlsdeform::detail::amd_order(A, Q);
-      CHECK(P.indices() == Q.indices());
-    }
-  }
 }
 
 TEST_CASE("SubtreeLdlt: the supernodal factorisation where the build has none is an error", "[arap][ldlt]") {
