@@ -43,4 +43,13 @@ void assign_huge(std::vector<T, A>& v, std::size_t n, const T& value = T()) {
   v.assign(n, value);
 }
 
+/// An Eigen::SparseMatrix's index and value arrays resized to n entries and advised (advise_huge_pages) before
+/// their first touch: Eigen allocates them without writing them; the caller fills them.
+template <class Sparse>
+void resize_nonzeros_huge(Sparse& m, std::size_t n) {
+  m.resizeNonZeros(static_cast<decltype(m.nonZeros())>(n));
+  advise_huge_pages(m.innerIndexPtr(), n * sizeof(*m.innerIndexPtr()));
+  advise_huge_pages(m.valuePtr(), n * sizeof(*m.valuePtr()));
+}
+
 }  // namespace mlsdeform::detail

@@ -121,9 +121,7 @@ Eigen::SparseMatrix<double> reduced_laplacian(const OneRingsView& rings, const s
     for (Eigen::Index e = rings.start[std::size_t(i)]; e < rings.start[std::size_t(i) + 1]; ++e)
       entries += row[std::size_t(rings.nbr[std::size_t(e)])] >= 0;
   }
-  L.resizeNonZeros(Eigen::Index(entries));  // allocated, not written: advised before the loop writes them
-  advise_huge_pages(L.innerIndexPtr(), entries * sizeof(int));
-  advise_huge_pages(L.valuePtr(), entries * sizeof(double));
+  resize_nonzeros_huge(L, entries);  // allocated, not written: advised before the loop writes them
   int* outer = L.outerIndexPtr();
   int* inner = L.innerIndexPtr();
   double* value = L.valuePtr();

@@ -172,9 +172,7 @@ void amd_order(const Sparse& A, Eigen::PermutationMatrix<Eigen::Dynamic, Eigen::
   }
   const Eigen::Index n = A.rows(), nnz = A.nonZeros(), room = nnz + nnz / 5 + 2 * n;
   Sparse C(n, n);
-  C.resizeNonZeros(room);
-  advise_huge_pages(C.valuePtr(), std::size_t(room) * sizeof(double));
-  advise_huge_pages(C.innerIndexPtr(), std::size_t(room) * sizeof(int));
+  resize_nonzeros_huge(C, std::size_t(room));
   std::copy(A.outerIndexPtr(), A.outerIndexPtr() + n + 1, C.outerIndexPtr());
   std::copy(A.innerIndexPtr(), A.innerIndexPtr() + nnz, C.innerIndexPtr());
   std::copy(A.valuePtr(), A.valuePtr() + nnz, C.valuePtr());
