@@ -86,6 +86,13 @@ struct RingFrame {
   /// nullptr, or the energy's record per vertex (core/src/arap/ring_energy.hpp): S_i unscaled (9 values,
   /// row-major) and sum_j w_ij |x_i - x_j|^2, at ring[10 i].
   double* ring;
+  /// The global step's rotated sums (ring_rhs, core/src/arap/ring_correlation.hpp), where not null: the local
+  /// step's rotations as R_i^T row-major (R_i's three columns side by side, 9 values per vertex, at R[9 i], and
+  /// one more value after the last: the SIMD twin's padding) and c_i = sum_j w_ij (p_i - p_j) (at c[3 i]) in;
+  /// b_i = (R_i c_i + sum_j R_j w_ij (p_i - p_j)) / 2 out, at b[3 i].
+  const T* R;
+  const double* c;
+  double* b;
 };
 
 // ---------------------------------------------------------------------------------------------------------

@@ -24,7 +24,8 @@ using FitRotationsFn = void (*)(const T* H, T* R, std::size_t stride, std::size_
 template <class T>
 using DeformBlocksFn = void (*)(const DeformFrame<T>& frame, std::size_t block_begin, std::size_t block_end);
 
-/// The ARAP local step's one-ring sums over blocks [block_begin, block_end) of kLanes vertices (RingFrame).
+/// The ARAP local step's one-ring sums, or the global step's rotated ones, over blocks [block_begin,
+/// block_end) of kLanes vertices (RingFrame).
 template <class T>
 using RingCorrelationFn = void (*)(const RingFrame<T>& frame, std::size_t block_begin, std::size_t block_end);
 
@@ -40,6 +41,8 @@ struct KernelTable {
   DeformBlocksFn<double> deform_d;
   RingCorrelationFn<float> ring_correlation_f;  ///< the sums in double either way; H rounded to float or double
   RingCorrelationFn<double> ring_correlation_d;
+  RingCorrelationFn<float> ring_rhs_f;  ///< the global step's b_i, in double; R_i in float or double
+  RingCorrelationFn<double> ring_rhs_d;
   bool (*all_finite_f)(const float* x, std::size_t count);  ///< kernels/all_finite.hpp, with the ISA's flags
   bool (*all_finite_d)(const double* x, std::size_t count);
 };

@@ -349,5 +349,6 @@ TEMPLATE_TEST_CASE("every stage table has every entry", "[stages]", float, doubl
     CHECK(t->apply);
     CHECK(t->rotation_quaternion);
     CHECK(t->ring_correlation);
+    CHECK(t->ring_rhs);
   }
 }

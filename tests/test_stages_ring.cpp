@@ -1,5 +1,6 @@
-// The stage test of docs/design.md for the ARAP local step's one-ring sums (ring_correlation): the SIMD twin
-// (kernels/arap/ring_correlation.hpp) against its scalar reference (core/src/arap/ring_correlation.cpp), on every
+// The stage tests of docs/design.md for the ARAP steps' one-ring sums (ring_correlation, and the global step's
+// ring_rhs, likewise): the SIMD twin (kernels/arap/ring_correlation.hpp) against its scalar reference
+// (core/src/arap/ring_correlation.cpp), on every
 // ISA the CPU runs, at sizes around the lane width and the block, through the stage entries of tests/stages/. The
 // two are two bodies (the scalar one over the CSR one-rings, the SIMD one over padded blocks) with the same plain
 // operations in the same order: bitwise. The raw sums are also held against long double (tests/stages/table.hpp's
@@ -112,7 +113,85 @@ void check_ring_correlation(const StageEntries<T>& simd, const StageEntries<T>& 
     }
 }
 
+/// The global step's rotated one-ring sums (ring_rhs) on a random graph of n vertices as above, with random R_i^T
+/// in T (entries in [-1, 1]: the stage does not need rotations) and c_i, w_ij (p_i - p_j) in [-1, 1]. The SIMD
+/// twin's b must be the scalar reference's bit for bit (the same plain products and sums in the same order),
+/// whole and cut into two block ranges, with a NaN in the padding value after the last R_j (the twin's spare
+/// lane reads it and must drop it). Against long double: b_ir within gamma_{K+3} of half the sum of |R_rk a_k|
+/// over its K + 1 terms (ring_correlation.hpp derives it).
+template <class T>
+void check_ring_rhs(const StageEntries<T>& simd, const StageEntries<T>& scalar, std::size_t n) {
+  std::mt19937_64 g(29 + n);
+  std::uniform_real_distribution<double> u(-1, 1);
+  std::uniform_int_distribution<int> valence(0, 9);
+  std::uniform_int_distribution<std::size_t> vertex(0, n - 1);
+  std::vector<Eigen::Index> start{0}, nbr;
+  std::vector<double> w, we, c(3 * n);
+  for (std::size_t i = 0; i < n; ++i) {
+    for (int k = valence(g); k > 0; --k) {
+      nbr.push_back(Eigen::Index(vertex(g)));
+      w.push_back((u(g) + 1) / 2);
+      for (int d = 0; d < 3; ++d) we.push_back(u(g));
+    }
+    start.push_back(Eigen::Index(nbr.size()));
+  }
+  for (double& v : c) v = u(g);
+  std::vector<T> Rt(9 * n + 1);
+  for (T& v : Rt) v = T(u(g));
+  Rt.back() = std::numeric_limits<T>::quiet_NaN();
+  const mlsdeform::detail::PaddedRings padded = mlsdeform::detail::pad_one_rings(start, nbr, w, we);
+  const std::size_t blocks = (n + kernels::kLanes - 1) / kernels::kLanes;
+  auto run_entry = [&](const StageEntries<T>& t, std::size_t cut) {
+    std::vector<double> b(3 * n, std::numeric_limits<double>::quiet_NaN());
+    const kernels::RingFrame<T> fr = mlsdeform::detail::ring_frame<T>(n, nullptr, start, nbr, w, we, padded, nullptr,
+                                                                      nullptr, Rt.data(), c.data(), b.data());
+    t.ring_rhs(fr, 0, cut);
+    t.ring_rhs(fr, cut, blocks);
+    return b;
+  };
+  const std::vector<double> ref = run_entry(scalar, blocks), got = run_entry(simd, blocks),
+                            cut = run_entry(simd, blocks / 2);
+  INFO("ring_rhs on " << n << " vertices");
+  CHECK(std::none_of(ref.begin(), ref.end(), [](double v) { return std::isnan(v); }));
+  CHECK(std::memcmp(got.data(), ref.data(), got.size() * sizeof(double)) == 0);
+  CHECK(std::memcmp(cut.data(), ref.data(), cut.size() * sizeof(double)) == 0);
+  for (std::size_t i = 0; i < n; ++i) {
+    const int K = int(start[i + 1] - start[i]);
+    for (std::size_t r = 0; r < 3; ++r) {
+      LD exact = 0, bound = 0;
+      const auto term = [&](std::size_t j, const double* a) {
+        for (std::size_t k = 0; k < 3; ++k) {
+          const LD t = LD(Rt[9 * j + 3 * k + r]) * LD(a[k]);  // R_rk = (R^T)_kr
+          exact += t / 2, bound += std::abs(t) / 2;
+        }
+      };
+      term(i, c.data() + 3 * i);
+      for (Eigen::Index e = start[i]; e < start[i + 1]; ++e)
+        term(std::size_t(nbr[std::size_t(e)]), we.data() + 3 * std::size_t(e));
+      CHECK(std::abs(LD(ref[3 * i + r]) - exact) <= gamma<double>(K + 3) * bound);
+    }
+  }
+}
+
 }  // namespace
+
+TEMPLATE_TEST_CASE("the rotated one-ring sums' SIMD stage agrees with its scalar twin on every ISA", "[stages][isa]",
+                   float, double) {
+  const StageEntries<TestType>& scalar = scalar_entries<TestType>();
+  int isas = 0;
+  for (Isa isa : supported_isas()) {
+    if (isa == Isa::scalar) continue;
+    const StageEntries<TestType>& simd = entries<TestType>(isa);
+    REQUIRE(std::string(simd.isa) == std::string(to_string(isa)));
+    constexpr std::size_t B = kernels::kLanes;  // sizes around the block the stage's ranges are in
+    for (std::size_t n : {std::size_t(1), std::size_t(2), B - 1, B, B + 1, 2 * B + 3, 5 * B}) {
+      INFO("ISA " << to_string(isa) << ", " << n << " vertices");
+      check_ring_rhs<TestType>(simd, scalar, n);
+    }
+    ++isas;
+  }
+  if (isas == 0) WARN("no SIMD instruction set on this CPU: only the scalar table exists");
+}
 
 TEMPLATE_TEST_CASE("the one-ring sums' SIMD stage agrees with its scalar twin on every ISA", "[stages][isa]", float,
                    double) {

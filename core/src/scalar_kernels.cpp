@@ -1,6 +1,6 @@
 // The scalar reference as an entry of the kernel table (kernels/kernel_table.hpp), like any ISA: the rotation
 // fits one matrix at a time (fit_rotation), the deformer's reference (deformer/reference.hpp) and the ARAP
-// local step's sums over the CSR one-rings (arap/ring_correlation.hpp), over the same layouts and the same
+// steps' one-ring sums over the CSR one-rings (arap/ring_correlation.hpp), over the same layouts and the same
 // frames as the SIMD kernels. Compiled with the baseline flags.
 #include "core/src/arap/ring_correlation.hpp"
 #include "core/src/deformer/reference.hpp"
@@ -57,6 +57,8 @@ const KernelTable& kernel_table_scalar() {
       &detail::deform_blocks_reference<double>,
       &detail::ring_correlation<float>,
       &detail::ring_correlation<double>,
+      &detail::ring_rhs<float>,
+      &detail::ring_rhs<double>,
       &all_finite<float>,
       &all_finite<double>,
   };

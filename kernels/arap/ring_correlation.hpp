@@ -38,14 +38,14 @@ void ring_correlation_blocks(const RingFrame<T>& fr, std::size_t block_begin, st
     const std::size_t slot0 = fr.slot_begin[b], slot1 = fr.slot_begin[b + 1];
     for (std::size_t l0 = 0; l0 < kLanes; l0 += W) {
       const VI self = VI::load_unaligned(fr.self + b * kLanes + l0);
-      const V xi0 = V::gather(fr.x, self), xi1 = V::gather(fr.x + 1, self), xi2 = V::gather(fr.x + 2, self);
+      const V xi0 = gather(fr.x, self), xi1 = gather(fr.x + 1, self), xi2 = gather(fr.x + 2, self);
       V s0 = zero, s1 = zero, s2 = zero, s3 = zero, s4 = zero, s5 = zero, s6 = zero, s7 = zero, s8 = zero;
       V dd = zero;
       for (std::size_t s = slot0; s < slot1; ++s) {
         const VI j = VI::load_unaligned(fr.slot_x + s * kLanes + l0);
         const double* a = fr.slot_a + 3 * s * kLanes + l0;
         const V a0 = V::load_unaligned(a), a1 = V::load_unaligned(a + kLanes), a2 = V::load_unaligned(a + 2 * kLanes);
-        const V d0 = xi0 - V::gather(fr.x, j), d1 = xi1 - V::gather(fr.x + 1, j), d2 = xi2 - V::gather(fr.x + 2, j);
+        const V d0 = xi0 - gather(fr.x, j), d1 = xi1 - gather(fr.x + 1, j), d2 = xi2 - gather(fr.x + 2, j);
         s0 = s0 + d0 * a0, s1 = s1 + d0 * a1, s2 = s2 + d0 * a2;
         s3 = s3 + d1 * a0, s4 = s4 + d1 * a1, s5 = s5 + d1 * a2;
         s6 = s6 + d2 * a0, s7 = s7 + d2 * a1, s8 = s8 + d2 * a2;

@@ -43,11 +43,12 @@ struct DeformerEntries {
         in, out, n, [](const Rotation<V>& x, Quaternion<V>& y) { kernels::rotation_quaternion(x.r, y.q); });
   }
 
-  /// The table with the rotation stages' entries R (a struct of the same static functions) and the ARAP local
-  /// step's sums.
+  /// The table with the rotation stages' entries R (a struct of the same static functions) and the ARAP
+  /// steps' one-ring sums.
   template <class R>
   static StageEntries<T> table(const char* isa,
-                               void (*ring_correlation)(const kernels::RingFrame<T>&, std::size_t, std::size_t)) {
+                               void (*ring_correlation)(const kernels::RingFrame<T>&, std::size_t, std::size_t),
+                               void (*ring_rhs)(const kernels::RingFrame<T>&, std::size_t, std::size_t)) {
     return {isa,
             L::W,
             &R::invariants,
@@ -60,7 +61,8 @@ struct DeformerEntries {
             &similarity_scale,
             &apply,
             &rotation_quaternion,
-            ring_correlation};
+            ring_correlation,
+            ring_rhs};
   }
 };
 

@@ -95,6 +95,8 @@ struct StageEntries {
   /// The ARAP local step's one-ring sums: no lane-wise struct (a lane gathers its neighbours' rows), the
   /// kernel table's entry itself over a frame of both layouts (kernels/contract.hpp, RingFrame).
   void (*ring_correlation)(const kernels::RingFrame<T>& frame, std::size_t block_begin, std::size_t block_end);
+  /// The ARAP global step's rotated one-ring sums, likewise the kernel table's entry.
+  void (*ring_rhs)(const kernels::RingFrame<T>& frame, std::size_t block_begin, std::size_t block_end);
 };
 
 /// The tables: the scalar reference's (scalar_entries.cpp) and each ISA's (entries_<isa>.cpp).

@@ -65,7 +65,7 @@ struct RotationEntries {
 template <class T>
 const StageEntries<T>& scalar_entries() {
   static const StageEntries<T> table = DeformerEntries<detail::ScalarLanes<T>>::template table<RotationEntries<T>>(
-      "scalar", &detail::ring_correlation<T>);
+      "scalar", &detail::ring_correlation<T>, &detail::ring_rhs<T>);
   return table;
 }
 template const StageEntries<float>& scalar_entries<float>();

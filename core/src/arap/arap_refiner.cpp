@@ -85,10 +85,12 @@ struct ArapRefiner<T>::Impl {
   bool refined = false;  ///< X holds a refine()'s result
   double rest_to_x = 1;  ///< 2^(e - f): the rest terms of b in the units of X
   std::vector<T> H, R;   ///< 3 x 3 x n, SoA, for fit_rotations
-  /// R_i row-major, 9 values per vertex, in T: the global step reads a neighbour's R_j at random, and float
-  /// halves those bytes (each value is widened to double exactly where it is used, as a double copy was).
+  /// R_i^T row-major (R_i's columns side by side, as ring_rhs reads them), 9 values per vertex and one of
+  /// padding, in T: the global step reads a neighbour's R_j at random, and float halves those bytes (each value is
+  /// widened to double exactly where it is used, as a double copy was).
   std::vector<T> Rd;
-  std::vector<double> y;  ///< the three right-hand sides, permuted and interleaved (3 values per row)
+  std::vector<double> bsum;  ///< the global step's rotated sums b_i per vertex (3 values), units 2^e
+  std::vector<double> y;     ///< the three right-hand sides, permuted and interleaved (3 values per row)
   std::unique_ptr<detail::Anderson> anderson;  ///< ArapAcceleration::anderson only, with `energy`
   detail::RingEnergy energy;
 
@@ -113,38 +115,40 @@ struct ArapRefiner<T>::Impl {
                               sums(frame, i0 / kernels::kLanes, (i1 + kernels::kLanes - 1) / kernels::kLanes);
                               fit(H.data(), R.data(), nn, i0, i1, nullptr);  // S_i is finite: X is
                               for (std::size_t i = i0; i < i1; ++i)
-                                for (std::size_t k = 0; k < 9; ++k) Rd[9 * i + k] = R[k * nn + i];
+                                for (std::size_t k = 0; k < 9; ++k) Rd[9 * i + k] = R[(3 * (k % 3) + k / 3) * nn + i];
                               if (with_energy) energy.finish(c0, c1, kGrain, nn, Rd.data(), rest_to_x);
                             });
     return with_energy ? energy.total() : 0.0;
   }
 
-  /// b_i = sum_j (w_ij / 2)(R_i + R_j)(p_i - p_j) = (R_i c_i + sum_j R_j w_ij (p_i - p_j)) / 2, in the units
-  /// of X (times rest_to_x), plus w_ij x_j for each held neighbour; then L_ff x = b by the factor (forward, diagonal,
-  /// backward substitution on the three interleaved right-hand sides at once).
+  /// b_i = sum_j (w_ij / 2)(R_i + R_j)(p_i - p_j) = (R_i c_i + sum_j R_j w_ij (p_i - p_j)) / 2, by the active
+  /// kernel table's ring_rhs (ring_correlation.hpp), in the units of X (times rest_to_x), plus w_ij x_j for each
+  /// held neighbour; then L_ff x = b by the factor (forward, diagonal, backward substitution on the three
+  /// interleaved right-hand sides at once).
   void global_step() {
-    const std::size_t nf = free_vertices.size();
-    auto rotate_add = [](const T* Rm, const double* v, double(&b)[3]) {
-      for (int r = 0; r < 3; ++r)
-        b[r] += 0.5 * (double(Rm[3 * r]) * v[0] + double(Rm[3 * r + 1]) * v[1] + double(Rm[3 * r + 2]) * v[2]);
-    };
-    detail::parallel_ranges((nf + kGrain - 1) / kGrain, options.threads, arena.get(),
-                            [&](std::size_t c0, std::size_t c1) {
-                              for (std::size_t f = c0 * kGrain; f < std::min(nf, c1 * kGrain); ++f) {
-                                const auto i = std::size_t(free_vertices[f]);
-                                double b[3] = {0, 0, 0};
-                                rotate_add(Rd.data() + 9 * i, c.data() + 3 * i, b);
-                                for (Eigen::Index e = start[i]; e < start[i + 1]; ++e) {
-                                  const auto j = std::size_t(nbr[std::size_t(e)]);
-                                  rotate_add(Rd.data() + 9 * j, we.data() + 3 * e, b);
-                                }
-                                for (double& x : b) x *= rest_to_x;
-                                for (std::size_t e = held_start[f]; e < held_start[f + 1]; ++e)
-                                  for (int k = 0; k < 3; ++k) b[k] += held_w[e] * X(held_nbr[e], k);
-                                for (int k = 0; k < 3; ++k)
-                                  y[3 * std::size_t(solver.row_of(Eigen::Index(f))) + std::size_t(k)] = b[k];
-                              }
-                            });
+    const std::size_t nn = std::size_t(n), nf = free_vertices.size();
+    const kernels::KernelTable& table = detail::active_kernels();
+    kernels::RingCorrelationFn<T> sums;
+    if constexpr (std::is_same_v<T, float>)
+      sums = table.ring_rhs_f;
+    else
+      sums = table.ring_rhs_d;
+    const kernels::RingFrame<T> frame = detail::ring_frame<T>(nn, X.data(), start, nbr, w, we, padded, nullptr, nullptr,
+                                                              Rd.data(), c.data(), bsum.data());
+    detail::parallel_ranges(
+        (nn + kGrain - 1) / kGrain, options.threads, arena.get(), [&](std::size_t c0, std::size_t c1) {
+          const std::size_t i0 = c0 * kGrain, i1 = std::min(nn, c1 * kGrain);
+          sums(frame, i0 / kernels::kLanes, (i1 + kernels::kLanes - 1) / kernels::kLanes);
+          for (std::size_t i = i0; i < i1; ++i) {
+            const Eigen::Index f = row[i];
+            if (f < 0) continue;
+            double b[3];
+            for (int k = 0; k < 3; ++k) b[k] = bsum[3 * i + std::size_t(k)] * rest_to_x;
+            for (std::size_t e = held_start[std::size_t(f)]; e < held_start[std::size_t(f) + 1]; ++e)
+              for (int k = 0; k < 3; ++k) b[k] += held_w[e] * X(held_nbr[e], k);
+            for (int k = 0; k < 3; ++k) y[3 * std::size_t(solver.row_of(f)) + std::size_t(k)] = b[k];
+          }
+        });
     solver.solve(y, options.threads, arena.get());
     detail::parallel_ranges((nf + kGrain - 1) / kGrain, options.threads, arena.get(),
                             [&](std::size_t c0, std::size_t c1) {
@@ -245,7 +249,8 @@ ArapRefiner<T>::ArapRefiner(const Points<T>& rest, const Triangles& triangles,
   m.X.resize(m.n, 3);
   detail::assign_huge(m.H, 9 * nn, T(0));
   detail::assign_huge(m.R, 9 * nn, T(0));
-  detail::assign_huge(m.Rd, 9 * nn, T(0));
+  detail::assign_huge(m.Rd, 9 * nn + 1, T(0));  // + 1: ring_rhs's padding (RingFrame)
+  detail::assign_huge(m.bsum, 3 * nn, 0.0);
   detail::assign_huge(m.y, 3 * std::size_t(nf), 0.0);
   if (options.acceleration == ArapAcceleration::anderson) {
     m.anderson = std::make_unique<detail::Anderson>(3 * nn, options.anderson_window, options.threads, m.arena.get());
@@ -372,7 +377,7 @@ std::size_t ArapRefiner<T>::memory_bytes() const {
   const auto bytes = [](const auto& v) { return v.size() * sizeof(v[0]); };
   return m.solver.memory_bytes() + bytes(m.start) + bytes(m.nbr) + bytes(m.w) + bytes(m.we) + bytes(m.c) +
          m.padded.memory_bytes() + bytes(m.row) + bytes(m.free_vertices) + bytes(m.held_start) + bytes(m.held_nbr) +
-         bytes(m.held_w) + bytes(m.H) + bytes(m.R) + bytes(m.Rd) + bytes(m.y) + bytes(m.energy.ring) +
+         bytes(m.held_w) + bytes(m.H) + bytes(m.R) + bytes(m.Rd) + bytes(m.bsum) + bytes(m.y) + bytes(m.energy.ring) +
          bytes(m.energy.q) + bytes(m.energy.chunks) + (m.anderson ? m.anderson->memory_bytes() : 0) +
          std::size_t(m.P.size() + m.X.size()) * sizeof(double);
 }

@@ -93,4 +93,23 @@ void ring_correlation(const kernels::RingFrame<T>& fr, std::size_t block_begin, 
 template void ring_correlation<float>(const kernels::RingFrame<float>&, std::size_t, std::size_t);
 template void ring_correlation<double>(const kernels::RingFrame<double>&, std::size_t, std::size_t);
 
+template <class T>
+void ring_rhs(const kernels::RingFrame<T>& fr, std::size_t block_begin, std::size_t block_end) {
+  const std::size_t i0 = block_begin * kernels::kLanes, i1 = std::min(fr.n, block_end * kernels::kLanes);
+  const auto rotate_add = [](const T* Rt, const double* a, double(&b)[3]) {  // Rt: R^T, row-major
+    for (int r = 0; r < 3; ++r)
+      b[r] += 0.5 * (double(Rt[r]) * a[0] + double(Rt[3 + r]) * a[1] + double(Rt[6 + r]) * a[2]);
+  };
+  for (std::size_t i = i0; i < i1; ++i) {
+    double b[3] = {0, 0, 0};
+    rotate_add(fr.R + 9 * i, fr.c + 3 * i, b);
+    for (std::ptrdiff_t e = fr.start[i]; e < fr.start[i + 1]; ++e)
+      rotate_add(fr.R + 9 * std::size_t(fr.nbr[e]), fr.we + 3 * e, b);
+    std::copy(b, b + 3, fr.b + 3 * i);
+  }
+}
+
+template void ring_rhs<float>(const kernels::RingFrame<float>&, std::size_t, std::size_t);
+template void ring_rhs<double>(const kernels::RingFrame<double>&, std::size_t, std::size_t);
+
 }  // namespace mlsdeform::detail

@@ -41,11 +41,13 @@ PaddedRings pad_one_rings(std::span<const Eigen::Index> start, std::span<const E
                           std::span<const double> w, std::span<const double> we);
 
 /// The frame over a session's one-rings: both layouts, the positions x (row-major n x 3), the output H
-/// (3 x 3 x n SoA) and, where not null, the energy's per-vertex record `ring` (10 values per vertex).
+/// (3 x 3 x n SoA) and, where not null, the energy's per-vertex record `ring` (10 values per vertex); for
+/// ring_rhs, the rotations R, c and the output b (RingFrame).
 template <class T>
 kernels::RingFrame<T> ring_frame(std::size_t n, const double* x, std::span<const Eigen::Index> start,
                                  std::span<const Eigen::Index> nbr, std::span<const double> w,
-                                 std::span<const double> we, const PaddedRings& padded, T* H, double* ring) {
+                                 std::span<const double> we, const PaddedRings& padded, T* H, double* ring,
+                                 const T* R = nullptr, const double* c = nullptr, double* b = nullptr) {
   return {n,
           x,
           start.data(),
@@ -58,7 +60,10 @@ kernels::RingFrame<T> ring_frame(std::size_t n, const double* x, std::span<const
           padded.slot_a.data(),
           padded.slot_w.data(),
           H,
-          ring};
+          ring,
+          R,
+          c,
+          b};
 }
 
 /// The scalar reference over the CSR one-rings: the vertices of blocks [block_begin, block_end) below fr.n,
@@ -68,5 +73,20 @@ void ring_correlation(const kernels::RingFrame<T>& fr, std::size_t block_begin, 
 
 extern template void ring_correlation<float>(const kernels::RingFrame<float>&, std::size_t, std::size_t);
 extern template void ring_correlation<double>(const kernels::RingFrame<double>&, std::size_t, std::size_t);
+
+/// The global step's rotated one-ring sums (Sorkine & Alexa 2007, eq. (9)'s right-hand side, before the held
+/// neighbours' terms), the scalar reference of the stage whose SIMD twin is kernels/arap/ring_rhs.hpp:
+///   b_i = sum_j (w_ij / 2)(R_i + R_j)(p_i - p_j) = (R_i c_i + sum_j R_j w_ij (p_i - p_j)) / 2,
+/// for the vertices of blocks [block_begin, block_end) below fr.n, one at a time: the term of R_i c_i first,
+/// then one term per neighbour in the CSR order, each term (R a)_r = (R_r0 a_0 + R_r1 a_1) + R_r2 a_2 halved
+/// (R widened to double exactly) and added to b_r. Reads fr.R, fr.c, fr.start, fr.nbr, fr.we; writes fr.b.
+/// Error bound (the stage test's): each halved term is a 3-term dot product (gamma_3 of sum_k |R_rk a_k| / 2,
+/// the halving exact above double's subnormals) and K + 1 terms add K roundings, so
+/// |b_ir - exact| <= gamma_{K+3} (sum over the K + 1 terms of sum_k |R_rk a_k|) / 2.
+template <class T>
+void ring_rhs(const kernels::RingFrame<T>& fr, std::size_t block_begin, std::size_t block_end);
+
+extern template void ring_rhs<float>(const kernels::RingFrame<float>&, std::size_t, std::size_t);
+extern template void ring_rhs<double>(const kernels::RingFrame<double>&, std::size_t, std::size_t);
 
 }  // namespace mlsdeform::detail

@@ -36,15 +36,15 @@ struct RingEnergy {
   }
   bool empty() const { return q.empty(); }
 
-  /// Chunks [c0, c1) of `grain` vertices (of n): per chunk sum_i E_i with the rotations Rd (row-major, 9 per
-  /// vertex, float or double), the rest terms scaled to the positions' units by rest_to_x.
+  /// Chunks [c0, c1) of `grain` vertices (of n): per chunk sum_i E_i with the rotations Rd (R_i^T row-major, 9
+  /// per vertex, float or double), the rest terms scaled to the positions' units by rest_to_x.
   template <class T>
   void finish(std::size_t c0, std::size_t c1, std::size_t grain, std::size_t n, const T* Rd, double rest_to_x) {
     for (std::size_t c = c0; c < c1; ++c) {
       double E = 0;
       for (std::size_t i = c * grain; i < std::min(n, (c + 1) * grain); ++i) {
         double tr = 0;
-        for (std::size_t k = 0; k < 9; ++k) tr += double(Rd[9 * i + k]) * ring[10 * i + k];
+        for (std::size_t k = 0; k < 9; ++k) tr += double(Rd[9 * i + 3 * (k % 3) + k / 3]) * ring[10 * i + k];
         E += ring[10 * i + 9] - 2 * rest_to_x * tr + rest_to_x * rest_to_x * q[i];
       }
       chunks[c] = E;
