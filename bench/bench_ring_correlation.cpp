@@ -5,7 +5,9 @@
 // the local step drives them (chunks of 256 vertices on the TBB driver). Each table's H is first checked to
 // be bitwise the scalar reference's (SkipWithError otherwise). With step:1, the whole local step (the sums,
 // then the active ISA's fit): the scalar sums there are the local step before the sums had a SIMD twin.
-// Counter ns_per_vertex; items are vertices.
+// Counter ns_per_vertex; items are vertices. BM_ring_rhs times the global step's rotated sums (the stage
+// ring_rhs) likewise, on random R_i^T and c_i (the stage's cost does not depend on their values), each table's b
+// checked bitwise against the scalar reference's.
 //
 // Usage: bench_ring_correlation [--energy=1] [Google Benchmark options]
 #include "bench/common.hpp"
@@ -66,7 +68,7 @@ void subdivide(PointsD& v, Triangles& f) {
 struct Rings {
   std::size_t n = 0;
   detail::OneRings csr;
-  std::vector<double> we, x, ring;
+  std::vector<double> we, x, ring, c;
   detail::PaddedRings padded;
   double padding = 0;  ///< padded slots per directed edge
 };
@@ -91,6 +93,8 @@ std::unique_ptr<Rings> make_rings(PointsD v, const Triangles& f) {
   for (std::size_t i = 0; i < r->n; ++i)
     for (int k = 0; k < 3; ++k) r->x[3 * i + std::size_t(k)] = v(Eigen::Index(i), k) + u(g);
   r->ring.assign(10 * r->n, 0.0);
+  r->c.resize(3 * r->n);
+  for (double& value : r->c) value = u(g);
   return r;
 }
 
@@ -143,6 +147,14 @@ kernels::RingCorrelationFn<T> entry(const kernels::KernelTable& t) {
     return t.ring_correlation_f;
   else
     return t.ring_correlation_d;
+}
+
+template <class T>
+kernels::RingCorrelationFn<T> rhs_entry(const kernels::KernelTable& t) {
+  if constexpr (std::is_same_v<T, float>)
+    return t.ring_rhs_f;
+  else
+    return t.ring_rhs_d;
 }
 
 template <class T>
@@ -204,6 +216,48 @@ void BM_ring_correlation(benchmark::State& state) {
   state.SetLabel(std::string(t->name) + (step ? " sums, local step" : " sums") + (with_energy ? ", with energy" : ""));
 }
 
+/// Args: mesh (0 human, 1 spot), ISA (mlsdeform::Isa's value), threads: ring_rhs over the mesh in the global
+/// step's chunks of 256 vertices.
+template <class T>
+void BM_ring_rhs(benchmark::State& state) {
+  const Rings* r = mesh(int(state.range(0)));
+  const kernels::KernelTable* t = table(int(state.range(1)));
+  const int threads = int(state.range(2));
+  if (!r || !t) {
+    state.SkipWithError(!r ? "spot_loop3 not found" : "ISA not on this CPU");
+    return;
+  }
+  const std::size_t n = r->n, blocks = (n + kernels::kLanes - 1) / kernels::kLanes;
+  std::vector<T> Rt(9 * n + 1);  // + 1: RingFrame::R's padding
+  std::mt19937_64 g(29);
+  std::uniform_real_distribution<double> u(-1, 1);
+  for (T& v : Rt) v = T(u(g));
+  std::vector<double> b(3 * n), ref(3 * n);
+  auto frame = [&](std::vector<double>& out) {
+    return detail::ring_frame<T>(n, r->x.data(), r->csr.start, r->csr.nbr, r->csr.w, r->we, r->padded, nullptr, nullptr,
+                                 Rt.data(), r->c.data(), out.data());
+  };
+  const kernels::RingCorrelationFn<T> fn = rhs_entry<T>(*t);
+  rhs_entry<T>(kernels::kernel_table_scalar())(frame(ref), 0, blocks);
+  const kernels::RingFrame<T> fr = frame(b);
+  fn(fr, 0, blocks);
+  if (std::memcmp(b.data(), ref.data(), b.size() * sizeof(double)) != 0) {
+    state.SkipWithError("b differs from the scalar reference's");
+    return;
+  }
+  const std::unique_ptr<tbb::task_arena> arena = detail::make_arena(threads);
+  constexpr std::size_t grain = 256 / kernels::kLanes;  // the global step's chunk of 256 vertices
+  for (auto _ : state) {
+    detail::parallel_ranges((blocks + grain - 1) / grain, threads, arena.get(),
+                            [&](std::size_t c0, std::size_t c1) { fn(fr, c0 * grain, std::min(blocks, c1 * grain)); });
+    benchmark::DoNotOptimize(b.data());
+    benchmark::ClobberMemory();
+  }
+  state.SetItemsProcessed(std::int64_t(state.iterations()) * std::int64_t(n));
+  state.counters["ns_per_vertex"] = bench::ns_per(double(n));
+  state.SetLabel(std::string(t->name) + " rotated sums");
+}
+
 void args(benchmark::internal::Benchmark* b) {
   for (int m : {0, 1})
     for (const mlsdeform::Isa isa :
@@ -215,6 +269,15 @@ void args(benchmark::internal::Benchmark* b) {
 
 BENCHMARK_TEMPLATE(BM_ring_correlation, double)->Apply(args)->UseRealTime()->Unit(benchmark::kMillisecond);
 BENCHMARK_TEMPLATE(BM_ring_correlation, float)->Apply(args)->UseRealTime()->Unit(benchmark::kMillisecond);
+
+void rhs_args(benchmark::internal::Benchmark* b) {
+  for (int m : {0, 1})
+    for (const mlsdeform::Isa isa :
+         {mlsdeform::Isa::scalar, mlsdeform::Isa::sse4_2, mlsdeform::Isa::avx2, mlsdeform::Isa::avx512})
+      for (int threads : {1, 2}) b->Args({m, int(isa), threads});
+  b->ArgNames({"mesh", "isa", "threads"});
+}
+BENCHMARK_TEMPLATE(BM_ring_rhs, float)->Apply(rhs_args)->UseRealTime()->Unit(benchmark::kMillisecond);
 
 }  // namespace
 
