@@ -239,25 +239,16 @@ MLSDEFORM_KERNEL_INLINE Pair<B> pow2_inverse_exponent(const Pair<B>& m) {
   return {pow2_inverse_exponent(m.lo), pow2_inverse_exponent(m.hi)};
 }
 
-/// base[index[l]] in lane l, as double (a float widened exactly): the ISA's gather instruction. xsimd 8.1's
-/// batch::gather names its kernel with an explicit element type, which rules out the AVX2 and AVX-512
-/// overloads, and falls back to one load and insert per lane in a call that GCC 12 does not inline (7% of an
-/// ARAP iteration on the 6,890-vertex body, `perf`). The values are the same loads: bitwise xsimd's.
+/// base[index[l]] in lane l: the ISA's gather instruction. xsimd 8.1's batch::gather names its kernel with an
+/// explicit element type, which rules out the AVX2 and AVX-512 overloads, and falls back to one load and insert
+/// per lane in a call that GCC 12 does not inline (7% of an ARAP iteration on the 6,890-vertex body, `perf`). The
+/// values are the same loads: bitwise xsimd's.
 template <class A>
 MLSDEFORM_KERNEL_INLINE xsimd::batch<double, A> gather(const double* base, const xsimd::batch<std::int64_t, A>& index) {
   if constexpr (std::is_same_v<A, xsimd::avx512f>)
     return _mm512_i64gather_pd(index, base, 8);
   else if constexpr (std::is_base_of_v<xsimd::avx2, A>)  // avx2, fma3<avx2>
     return _mm256_i64gather_pd(base, index, 8);
-  else
-    return xsimd::batch<double, A>::gather(base, index);
-}
-template <class A>
-MLSDEFORM_KERNEL_INLINE xsimd::batch<double, A> gather(const float* base, const xsimd::batch<std::int64_t, A>& index) {
-  if constexpr (std::is_same_v<A, xsimd::avx512f>)
-    return _mm512_cvtps_pd(_mm512_i64gather_ps(index, base, 4));
-  else if constexpr (std::is_base_of_v<xsimd::avx2, A>)
-    return _mm256_cvtps_pd(_mm256_i64gather_ps(base, index, 4));
   else
     return xsimd::batch<double, A>::gather(base, index);
 }
