@@ -1,10 +1,10 @@
-// The stage tests of docs/design.md for the ARAP steps' one-ring sums (ring_correlation, and the global step's
-// ring_rhs, likewise): the SIMD twin (kernels/arap/ring_correlation.hpp) against its scalar reference
-// (core/src/arap/ring_correlation.cpp), on every
-// ISA the CPU runs, at sizes around the lane width and the block, through the stage entries of tests/stages/. The
-// two are two bodies (the scalar one over the CSR one-rings, the SIMD one over padded blocks) with the same plain
-// operations in the same order: bitwise. The raw sums are also held against long double (tests/stages/table.hpp's
-// gamma_k). The paper's stages: tests/test_stages.cpp.
+// The stage tests of docs/design.md for the ARAP steps' one-ring sums: the local step's ring_correlation and the
+// global step's ring_rhs, each SIMD twin (kernels/arap/) against its scalar reference
+// (core/src/arap/ring_correlation.cpp), on every ISA the CPU runs, at sizes around the lane width and the block,
+// through the stage entries of tests/stages/. Each pair is two bodies (the scalar one over the CSR one-rings, the
+// SIMD one over padded blocks or a row of b_i per lane) with the same plain operations in the same order:
+// bitwise. The sums are also held against long double (tests/stages/table.hpp's gamma_k). The paper's stages:
+// tests/test_stages.cpp.
 #include "tests/stages/table.hpp"
 
 #include "core/src/arap/ring_correlation.hpp"
@@ -27,9 +27,46 @@ using namespace mlsdeform::testing::stages;
 
 namespace {
 
-/// The ARAP local step's one-ring sums (ring_correlation) on a random graph of n vertices: valences 0 to 9
-/// (a vertex may repeat in a ring, or be its own neighbour: the stage does not care), random w_ij > 0,
-/// w_ij (p_i - p_j) and x in [-1, 1]. The SIMD twin's H and energy record must be the scalar reference's bit for
+/// A random graph of n vertices as CSR one-rings (the stages' input): valences 0 to 9 (a vertex may repeat in a
+/// ring, or be its own neighbour: the stages do not care), w_ij in (0, 1] and w_ij (p_i - p_j) in [-1, 1], from g.
+struct RandomRings {
+  std::vector<Eigen::Index> start{0}, nbr;
+  std::vector<double> w, we;
+  mlsdeform::detail::PaddedRings padded;
+  RandomRings(std::size_t n, std::mt19937_64& g) {
+    std::uniform_real_distribution<double> u(-1, 1);
+    std::uniform_int_distribution<int> valence(0, 9);
+    std::uniform_int_distribution<std::size_t> vertex(0, n - 1);
+    for (std::size_t i = 0; i < n; ++i) {
+      for (int k = valence(g); k > 0; --k) {
+        nbr.push_back(Eigen::Index(vertex(g)));
+        w.push_back((u(g) + 1) / 2);
+        for (int c = 0; c < 3; ++c) we.push_back(u(g));
+      }
+      start.push_back(Eigen::Index(nbr.size()));
+    }
+    padded = mlsdeform::detail::pad_one_rings(start, nbr, w, we);
+  }
+};
+
+/// Runs check(simd, scalar) for the stage table of every SIMD ISA the CPU runs.
+template <class T, class Check>
+void for_each_simd_table(Check check) {
+  const StageEntries<T>& scalar = scalar_entries<T>();
+  int isas = 0;
+  for (Isa isa : supported_isas()) {
+    if (isa == Isa::scalar) continue;
+    const StageEntries<T>& simd = entries<T>(isa);
+    REQUIRE(std::string(simd.isa) == std::string(to_string(isa)));
+    INFO("ISA " << to_string(isa));
+    check(simd, scalar);
+    ++isas;
+  }
+  if (isas == 0) WARN("no SIMD instruction set on this CPU: only the scalar table exists");
+}
+
+/// The ARAP local step's one-ring sums (ring_correlation) on a random graph of n vertices (RandomRings) and x
+/// in [-1, 1]. The SIMD twin's H and energy record must be the scalar reference's bit for
 /// bit (the same plain products and sums in the same order, the padding adding exact zeros; the exact power-of-
 /// two scaling), with and without the energy, at x's scale and at 2^-1040 (S_i below 2^-1000: the scaling's
 /// two factors; underflow then spoils the sums, but both sides alike), whole and cut into two block ranges.
@@ -39,21 +76,12 @@ namespace {
 template <class T>
 void check_ring_correlation(const StageEntries<T>& simd, const StageEntries<T>& scalar, std::size_t n) {
   std::mt19937_64 g(28 + n);
+  const RandomRings rings(n, g);
+  const auto &start = rings.start, &nbr = rings.nbr;
+  const auto &w = rings.w, &we = rings.we;
   std::uniform_real_distribution<double> u(-1, 1);
-  std::uniform_int_distribution<int> valence(0, 9);
-  std::uniform_int_distribution<std::size_t> vertex(0, n - 1);
-  std::vector<Eigen::Index> start{0}, nbr;
-  std::vector<double> w, we, x(3 * n);
-  for (std::size_t i = 0; i < n; ++i) {
-    for (int k = valence(g); k > 0; --k) {
-      nbr.push_back(Eigen::Index(vertex(g)));
-      w.push_back((u(g) + 1) / 2);
-      for (int c = 0; c < 3; ++c) we.push_back(u(g));
-    }
-    start.push_back(Eigen::Index(nbr.size()));
-  }
+  std::vector<double> x(3 * n);
   for (double& v : x) v = u(g);
-  const mlsdeform::detail::PaddedRings padded = mlsdeform::detail::pad_one_rings(start, nbr, w, we);
   const std::size_t blocks = (n + kernels::kLanes - 1) / kernels::kLanes;
   const T nan = std::numeric_limits<T>::quiet_NaN();
   for (const double scale : {1.0, 0x1p-1040})
@@ -66,7 +94,7 @@ void check_ring_correlation(const StageEntries<T>& simd, const StageEntries<T>& 
       };
       auto run_entry = [&](const StageEntries<T>& t, std::size_t cut) {
         Out o{std::vector<T>(9 * n, nan), std::vector<double>(energy ? 10 * n : 0, double(nan))};
-        const kernels::RingFrame<T> fr = mlsdeform::detail::ring_frame<T>(n, xs.data(), start, nbr, w, we, padded,
+        const kernels::RingFrame<T> fr = mlsdeform::detail::ring_frame<T>(n, xs.data(), start, nbr, w, we, rings.padded,
                                                                           o.H.data(), energy ? o.ring.data() : nullptr);
         t.ring_correlation(fr, 0, cut);
         t.ring_correlation(fr, cut, blocks);
@@ -113,7 +141,7 @@ void check_ring_correlation(const StageEntries<T>& simd, const StageEntries<T>& 
     }
 }
 
-/// The global step's rotated one-ring sums (ring_rhs) on a random graph of n vertices as above, with random R_i^T
+/// The global step's rotated one-ring sums (ring_rhs) on a random graph of n vertices (RandomRings), with random R_i^T
 /// in T (entries in [-1, 1]: the stage does not need rotations) and c_i, w_ij (p_i - p_j) in [-1, 1]. The SIMD
 /// twin's b must be the scalar reference's bit for bit (the same plain products and sums in the same order),
 /// whole and cut into two block ranges, with a NaN in the padding value after the last R_j (the twin's spare
@@ -122,29 +150,20 @@ void check_ring_correlation(const StageEntries<T>& simd, const StageEntries<T>& 
 template <class T>
 void check_ring_rhs(const StageEntries<T>& simd, const StageEntries<T>& scalar, std::size_t n) {
   std::mt19937_64 g(29 + n);
+  const RandomRings rings(n, g);
+  const auto &start = rings.start, &nbr = rings.nbr;
+  const auto& we = rings.we;
   std::uniform_real_distribution<double> u(-1, 1);
-  std::uniform_int_distribution<int> valence(0, 9);
-  std::uniform_int_distribution<std::size_t> vertex(0, n - 1);
-  std::vector<Eigen::Index> start{0}, nbr;
-  std::vector<double> w, we, c(3 * n);
-  for (std::size_t i = 0; i < n; ++i) {
-    for (int k = valence(g); k > 0; --k) {
-      nbr.push_back(Eigen::Index(vertex(g)));
-      w.push_back((u(g) + 1) / 2);
-      for (int d = 0; d < 3; ++d) we.push_back(u(g));
-    }
-    start.push_back(Eigen::Index(nbr.size()));
-  }
+  std::vector<double> c(3 * n);
   for (double& v : c) v = u(g);
   std::vector<T> Rt(9 * n + 1);
   for (T& v : Rt) v = T(u(g));
   Rt.back() = std::numeric_limits<T>::quiet_NaN();
-  const mlsdeform::detail::PaddedRings padded = mlsdeform::detail::pad_one_rings(start, nbr, w, we);
   const std::size_t blocks = (n + kernels::kLanes - 1) / kernels::kLanes;
   auto run_entry = [&](const StageEntries<T>& t, std::size_t cut) {
     std::vector<double> b(3 * n, std::numeric_limits<double>::quiet_NaN());
-    const kernels::RingFrame<T> fr = mlsdeform::detail::ring_frame<T>(n, nullptr, start, nbr, w, we, padded, nullptr,
-                                                                      nullptr, Rt.data(), c.data(), b.data());
+    const kernels::RingFrame<T> fr = mlsdeform::detail::ring_frame<T>(n, nullptr, start, nbr, rings.w, we, rings.padded,
+                                                                      nullptr, nullptr, Rt.data(), c.data(), b.data());
     t.ring_rhs(fr, 0, cut);
     t.ring_rhs(fr, cut, blocks);
     return b;
@@ -177,40 +196,26 @@ void check_ring_rhs(const StageEntries<T>& simd, const StageEntries<T>& scalar, 
 
 TEMPLATE_TEST_CASE("the rotated one-ring sums' SIMD stage agrees with its scalar twin on every ISA", "[stages][isa]",
                    float, double) {
-  const StageEntries<TestType>& scalar = scalar_entries<TestType>();
-  int isas = 0;
-  for (Isa isa : supported_isas()) {
-    if (isa == Isa::scalar) continue;
-    const StageEntries<TestType>& simd = entries<TestType>(isa);
-    REQUIRE(std::string(simd.isa) == std::string(to_string(isa)));
+  for_each_simd_table<TestType>([](const StageEntries<TestType>& simd, const StageEntries<TestType>& scalar) {
     constexpr std::size_t B = kernels::kLanes;  // sizes around the block the stage's ranges are in
     for (std::size_t n : {std::size_t(1), std::size_t(2), B - 1, B, B + 1, 2 * B + 3, 5 * B}) {
-      INFO("ISA " << to_string(isa) << ", " << n << " vertices");
+      INFO(n << " vertices");
       check_ring_rhs<TestType>(simd, scalar, n);
     }
-    ++isas;
-  }
-  if (isas == 0) WARN("no SIMD instruction set on this CPU: only the scalar table exists");
+  });
 }
 
 TEMPLATE_TEST_CASE("the one-ring sums' SIMD stage agrees with its scalar twin on every ISA", "[stages][isa]", float,
                    double) {
-  const StageEntries<TestType>& scalar = scalar_entries<TestType>();
-  int isas = 0;
-  for (Isa isa : supported_isas()) {
-    if (isa == Isa::scalar) continue;
-    const StageEntries<TestType>& simd = entries<TestType>(isa);
-    REQUIRE(std::string(simd.isa) == std::string(to_string(isa)));
+  for_each_simd_table<TestType>([](const StageEntries<TestType>& simd, const StageEntries<TestType>& scalar) {
     // Sizes around the lane width and around the block of kLanes vertices the sums work in.
     const std::size_t W = simd.width;
     constexpr std::size_t B = kernels::kLanes;
     std::set<std::size_t> sizes = {1, W - 1, W, W + 1, 2 * W + 3, 3 * W, B - 1, B, B + 1, 2 * B + 3, 5 * B};
     sizes.erase(0);
     for (std::size_t n : sizes) {
-      INFO("ISA " << to_string(isa) << ", " << n << " vertices");
+      INFO(n << " vertices");
       check_ring_correlation<TestType>(simd, scalar, n);
     }
-    ++isas;
-  }
-  if (isas == 0) WARN("no SIMD instruction set on this CPU: only the scalar table exists");
+  });
 }
