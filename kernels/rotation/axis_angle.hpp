@@ -78,6 +78,23 @@ template <class V>
   careful += count_lanes<V>(slow);
 }
 
+/// The fast path of Algorithm 1 steps 5-6: Davenport's K and the unnormalised axis q (14) from the root y of
+/// maximum_root; returns the lanes it cannot settle (`slow`: a root not converged, or the adjugate's largest
+/// diagonal entry below kCarefulTau ||H||^3), where q means nothing and the careful path must replace it.
+template <class V>
+MLSDEFORM_KERNEL_INLINE mask_of<V> fast_rotation_axis(const V (&h)[9], const Invariants<V>& inv, V y,
+                                                      mask_of<V> converged, Mat4<V>& K, Vec4<V>& q) {
+  using T = scalar_of<V>;
+  using M = mask_of<V>;
+  const M zero = inv.norm2 == V(T(0));  // normalised: ||H||^2 >= 1 unless H = 0
+  K = davenport(h, inv);
+  V dk;
+  q = rotation_axis(K, y, dk);
+  const V n3 = inv.norm2 * inv.norm2 * inv.norm2;
+  constexpr T tau2 = kCarefulTau<T> * kCarefulTau<T>;
+  return ~zero & (~converged | ~(dk * dk > V(tau2) * n3));
+}
+
 /// Algorithm 1 steps 5-7 of fit_rotation_axis_angle, from the root y of maximum_root (and its lanes
 /// `converged`) on: the axis (14) and the rotation (15), the careful path where the fast one cannot settle a
 /// lane.
@@ -85,18 +102,64 @@ template <class V>
 template <class V>
 MLSDEFORM_KERNEL_INLINE void rotation_from_root(const V (&h)[9], const Invariants<V>& inv, V y, mask_of<V> converged,
                                                 V (&r)[9], std::size_t& careful) {
-  using T = scalar_of<V>;
-  using M = mask_of<V>;
-  const M zero = inv.norm2 == V(T(0));  // normalised: ||H||^2 >= 1 unless H = 0
-  const Mat4<V> K = davenport(h, inv);
-  V dk;
-  Vec4<V> q = rotation_axis(K, y, dk);
-  const V n3 = inv.norm2 * inv.norm2 * inv.norm2;
-  constexpr T tau2 = kCarefulTau<T> * kCarefulTau<T>;
-  const M slow = ~zero & (~converged | ~(dk * dk > V(tau2) * n3));
+  Mat4<V> K;
+  Vec4<V> q;
+  const mask_of<V> slow = fast_rotation_axis(h, inv, y, converged, K, q);
   if (any(slow)) careful_path(K, inv.norm2, slow, q, careful);
   sin_cos(q, r);
 }
+
+/// Lanes whose fast path could not settle them (fast_rotation_axis's `slow`), queued by fit_range_axis_angle
+/// with their normalised H and their place in the output, and fitted W at a time by the careful path
+/// (flush). A lane's careful result does not depend on its batch companions: top_eigenvector's Jacobi sweeps
+/// leave a lane whose off-diagonal entries are all below its threshold unchanged (each rotation is skipped,
+/// c = 1 and s = 0 exactly), so a lane swept longer for its companions' sake keeps its bits; and K and ||H||^2
+/// are recomputed from the same h by the same operations. On point-set H 0.12% of float lanes take this path
+/// (bench_rotation_fit's lanes_careful): alone in its batch, each cost a whole batch's Jacobi sweeps, a tenth
+/// of the batched fit's time.
+template <class V>
+struct CarefulQueue {
+  using T = scalar_of<V>;
+  static constexpr std::size_t W = V::size;
+  alignas(64) T h[9][W];
+  std::size_t at[W];  // the matrix's index in the output
+  std::size_t count = 0;
+
+  /// Queues the lanes `slow` of the batch h (normalised) whose lane i is output matrix first + i; flushes to
+  /// R (row stride `stride`) whenever W are queued.
+  MLSDEFORM_KERNEL_INLINE void push(const V (&hb)[9], const mask_of<V>& slow, std::size_t first, T* R,
+                                    std::size_t stride, std::size_t& careful) {
+    alignas(64) T lane_h[9][W], flag[W];
+    select(slow, V(T(1)), V(T(0))).store_aligned(flag);
+    for (std::size_t e = 0; e < 9; ++e) hb[e].store_aligned(lane_h[e]);
+    for (std::size_t i = 0; i < W; ++i) {
+      if (flag[i] == T(0)) continue;
+      for (std::size_t e = 0; e < 9; ++e) h[e][count] = lane_h[e][i];
+      at[count++] = first + i;
+      if (count == W) flush(R, stride, careful);
+    }
+  }
+
+  /// The careful path (careful_path's top eigenvector, then sin_cos) of the queued lanes, written to R; the
+  /// unused lanes hold H = 0, for which the sweeps skip every rotation.
+  [[gnu::noinline]] void flush(T* R, std::size_t stride, std::size_t& careful) {
+    if (count == 0) return;
+    V hv[9], r[9];
+    for (std::size_t e = 0; e < 9; ++e) {
+      for (std::size_t i = count; i < W; ++i) h[e][i] = T(0);
+      hv[e] = V::load_aligned(h[e]);
+    }
+    const Invariants<V> inv = invariants(hv);
+    const Vec4<V> q = top_eigenvector(davenport(hv, inv), sqrt(V(T(4)) * inv.norm2));
+    sin_cos(q, r);
+    alignas(64) T out[9][W];
+    for (std::size_t e = 0; e < 9; ++e) r[e].store_aligned(out[e]);
+    for (std::size_t i = 0; i < count; ++i)
+      for (std::size_t e = 0; e < 9; ++e) R[e * stride + at[i]] = out[e][i];
+    careful += count;
+    count = 0;
+  }
+};
 
 /// The whole fit (Algorithm 1, steps 3-7) on a normalised H (h: 9 lanes of its row-major entries, each lane
 /// max |h_ij| in [1, 2) or H = 0), as the scalar twin; r: the rotations. Every lane takes the fast path
@@ -165,8 +228,11 @@ inline constexpr std::size_t kFitTileBatches = 4;
 ///   Lanes:       float, double (an xsimd batch)
 ///   Error:       as fit_rotation_axis_angle
 ///   Valid range: every finite H
+/// With `deferred` given, the lanes the fast path cannot settle are not fitted here: deferred[b] returns
+/// them (their r means nothing; the caller queues them in a CarefulQueue, which counts them).
 template <std::size_t B, class V>
-MLSDEFORM_KERNEL_INLINE void fit_rotation_tile(V (&h)[B][9], V (&r)[B][9], std::size_t nb, std::size_t& careful) {
+MLSDEFORM_KERNEL_INLINE void fit_rotation_tile(V (&h)[B][9], V (&r)[B][9], std::size_t nb, std::size_t& careful,
+                                               mask_of<V> (*deferred)[B] = nullptr) {
   Invariants<V> inv[B];
   mask_of<V> zero[B], converged[B];
   V y[B];
@@ -176,28 +242,42 @@ MLSDEFORM_KERNEL_INLINE void fit_rotation_tile(V (&h)[B][9], V (&r)[B][9], std::
   }
   maximum_root_tile(inv, nb, y, converged);
   for (std::size_t b = 0; b < nb; ++b) {
-    rotation_from_root(h[b], inv[b], y[b], converged[b], r[b], careful);
+    if (deferred) {
+      Mat4<V> K;
+      Vec4<V> q;
+      (*deferred)[b] = fast_rotation_axis(h[b], inv[b], y[b], converged[b], K, q);
+      sin_cos(q, r[b]);
+    } else {
+      rotation_from_root(h[b], inv[b], y[b], converged[b], r[b], careful);
+    }
     identity_where(zero[b], r[b]);
   }
 }
 
 /// fit_rotation_tile on nb <= B batches of W = V::size matrices each, from offset off of a 3 x 3 x n layout
-/// (row stride st).
+/// (row stride st). With a queue, the lanes for the careful path are queued (CarefulQueue: their rotations
+/// are written when it flushes) rather than fitted in their batch.
 template <std::size_t B, class V>
 MLSDEFORM_KERNEL_INLINE void fit_tile_axis_angle(const scalar_of<V>* src, scalar_of<V>* dst, std::size_t st,
-                                                 std::size_t off, std::size_t nb, std::size_t& careful) {
+                                                 std::size_t off, std::size_t nb, std::size_t& careful,
+                                                 CarefulQueue<V>* queue = nullptr) {
   constexpr std::size_t W = V::size;
   V h[B][9], r[B][9];
+  mask_of<V> slow[B];
   for (std::size_t b = 0; b < nb; ++b)
     for (std::size_t i = 0; i < 9; ++i) h[b][i] = V::load_unaligned(src + i * st + off + b * W);
-  fit_rotation_tile<B>(h, r, nb, careful);
+  fit_rotation_tile<B>(h, r, nb, careful, queue ? &slow : nullptr);
   for (std::size_t b = 0; b < nb; ++b)
     for (std::size_t i = 0; i < 9; ++i) r[b][i].store_unaligned(dst + i * st + off + b * W);
+  if (queue)
+    for (std::size_t b = 0; b < nb; ++b)
+      if (any(slow[b])) queue->push(h[b], slow[b], off + b * W, dst, st, careful);
 }
 
 /// The kernel-table entry (FitRotationsFn) of the axis/angle fit on vectors V: matrices [begin, end) of a
 /// 3 x 3 x n layout, kFitTileBatches batches at a time (fit_tile_axis_angle), the batches left over as one
-/// shorter tile, and a partial last batch through a zero-padded copy.
+/// shorter tile, and a partial last batch through a zero-padded copy; the lanes for the careful path of the
+/// whole range queued and fitted W at a time (CarefulQueue).
 ///   Lanes:       float, double (an xsimd batch)
 ///   Error:       each matrix as fit_rotation<AxisAngleFit>, bitwise (the padding lanes hold H = 0 and are
 ///                not written)
@@ -208,6 +288,7 @@ void fit_range_axis_angle(const scalar_of<V>* H, scalar_of<V>* R, std::size_t st
   using T = scalar_of<V>;
   constexpr std::size_t W = V::size, B = kFitTileBatches<V>;
   std::size_t careful = 0, i = begin;
+  CarefulQueue<V> queue;
   // Streamed from memory, the 9 rows of H and R of the tile two tiles ahead are prefetched (B W values each):
   // the hardware prefetcher alone left the core waiting on them. Same process, AVX-512 (Zen 5), ns per fit,
   // streamed / in cache: float 8.77 -> 8.23 / 6.81, double 16.6 -> 15.5 / 12.1; AVX2 float 15.7 -> 11.1 / 10.4.
@@ -220,12 +301,13 @@ void fit_range_axis_angle(const scalar_of<V>* H, scalar_of<V>* R, std::size_t st
           __builtin_prefetch(H + e * stride + ahead + k);
           __builtin_prefetch(R + e * stride + ahead + k, 1);
         }
-    fit_tile_axis_angle<B, V>(H, R, stride, i, B, careful);
+    fit_tile_axis_angle<B, V>(H, R, stride, i, B, careful, &queue);
   }
   if (const std::size_t nb = (end - i) / W; nb > 0) {
-    fit_tile_axis_angle<B, V>(H, R, stride, i, nb, careful);
+    fit_tile_axis_angle<B, V>(H, R, stride, i, nb, careful, &queue);
     i += nb * W;
   }
+  queue.flush(R, stride, careful);
   if (i < end) {
     alignas(64) T hb[9 * W] = {}, rb[9 * W];
     const std::size_t rem = end - i;
