@@ -141,6 +141,10 @@ struct DeformFrame {
   const T* seg_b;
   std::size_t s;
   T centre[3];  ///< c, local frame: H = sum_j (q_j local_scale - c) A_j^T
+  /// When not null, the J = k + 2 s pseudo-handles' targets as the kernels read them, computed once per frame
+  /// (fill_targets): q_j local_scale at [c J + j], q_j local_scale - c at [(3 + c) J + j]. Else each batch
+  /// computes them again from points, seg_a and seg_b (the same operations: the same bits).
+  const T* targets;
 
   // Output: vertex v, coordinate c at out[c * out_coord_stride + v * out_vertex_stride].
   T* out;
@@ -155,20 +159,66 @@ struct DeformFrame {
   T* linear;
 };
 
-/// Calls f(j, x, y, z) for the target q_j of every pseudo-handle j = 0, 1, ..., J-1 in order (the point
-/// targets, then each segment's two ends), in the local frame: the one order in which every deformation
-/// kernel, the scalar reference included, visits the pseudo-handles, so that a vertex's sums see the same
-/// terms in the same order whatever the width, thread or block schedule.
-template <class T, class F>
-static void for_each_target(const DeformFrame<T>& fr, F&& f) {
+/// A pseudo-handle's target in the local frame, q = q_j local_scale, and qc = q - c (the centred target of
+/// correlation_matrix).
+template <class T>
+struct Target {
+  T q[3], qc[3];
+};
+
+/// The target of pseudo-handle j at (x, y, z) times local_scale, or of the J pseudo-handles' `targets`.
+template <class T>
+static inline __attribute__((always_inline)) Target<T> make_target(const DeformFrame<T>& fr, T x, T y, T z) {
   const T ls = fr.local_scale;
-  std::size_t j = 0;
-  for (std::size_t i = 0; i < fr.k; ++i, ++j)
-    f(j, fr.points[i] * ls, fr.points[fr.k + i] * ls, fr.points[2 * fr.k + i] * ls);
-  for (std::size_t i = 0; i < fr.s; ++i) {
-    f(j++, fr.seg_a[i] * ls, fr.seg_a[fr.s + i] * ls, fr.seg_a[2 * fr.s + i] * ls);
-    f(j++, fr.seg_b[i] * ls, fr.seg_b[fr.s + i] * ls, fr.seg_b[2 * fr.s + i] * ls);
+  Target<T> t{{x * ls, y * ls, z * ls}, {}};
+  for (int c = 0; c < 3; ++c) t.qc[c] = t.q[c] - fr.centre[c];
+  return t;
+}
+template <class T>
+static inline __attribute__((always_inline)) Target<T> cached_target(const T* targets, std::size_t J, std::size_t j) {
+  return {{targets[j], targets[J + j], targets[2 * J + j]},
+          {targets[3 * J + j], targets[4 * J + j], targets[5 * J + j]}};
+}
+
+/// The target of point handle j.
+template <class T>
+static inline __attribute__((always_inline)) Target<T> point_target(const DeformFrame<T>& fr, std::size_t j) {
+  if (fr.targets) return cached_target(fr.targets, fr.k + 2 * fr.s, j);
+  return make_target(fr, fr.points[j], fr.points[fr.k + j], fr.points[2 * fr.k + j]);
+}
+
+/// Calls f(j, t) for the target t of every pseudo-handle j = 0, 1, ..., J-1 in order (the point targets,
+/// then each segment's two ends), in the local frame: the one order in which every deformation kernel, the
+/// scalar reference included, visits the pseudo-handles, so that a vertex's sums see the same terms in the
+/// same order whatever the width, thread or block schedule.
+template <class T, class F>
+static inline __attribute__((always_inline)) void for_each_target(const DeformFrame<T>& fr, F&& f) {
+  const std::size_t J = fr.k + 2 * fr.s;
+  if (fr.targets) {
+    for (std::size_t j = 0; j < J; ++j) f(j, cached_target(fr.targets, J, j));
+    return;
   }
+  std::size_t j = 0;
+  for (std::size_t i = 0; i < fr.k; ++i, ++j) f(j, point_target(fr, i));
+  for (std::size_t i = 0; i < fr.s; ++i) {
+    f(j++, make_target(fr, fr.seg_a[i], fr.seg_a[fr.s + i], fr.seg_a[2 * fr.s + i]));
+    f(j++, make_target(fr, fr.seg_b[i], fr.seg_b[fr.s + i], fr.seg_b[2 * fr.s + i]));
+  }
+}
+
+/// Pseudo-handles whose targets a frame computes once (DeformFrame::targets) on its caller's stack:
+/// 6 kCachedTargets values, 12 KiB in float. Frames with more compute them in every batch.
+inline constexpr std::size_t kCachedTargets = 512;
+
+/// The frame's DeformFrame::targets (6 J values) into out.
+template <class T>
+static void fill_targets(const DeformFrame<T>& fr, T* out) {
+  const std::size_t J = fr.k + 2 * fr.s;
+  DeformFrame<T> f = fr;
+  f.targets = nullptr;
+  for_each_target(f, [&](std::size_t j, const Target<T>& t) {
+    for (std::size_t c = 0; c < 3; ++c) out[c * J + j] = t.q[c], out[(3 + c) * J + j] = t.qc[c];
+  });
 }
 
 }  // namespace mlsdeform::kernels

@@ -59,11 +59,11 @@ struct DeformKernel {
     // pseudo-handle (the compiler cannot tell them from the table it reads).
     V qs[3] = {V(T(0)), V(T(0)), V(T(0))}, h[9];
     for (V& e : h) e = V(T(0));
-    for_each_target(fr, [&](std::size_t j, T qx, T qy, T qz) {
+    for_each_target(fr, [&](std::size_t j, const Target<T>& t) {
       const T* co = fr.table + table_offset(b, j, J, fr.transform) + g;
       const V a[3] = {L::load(co + kLanes), L::load(co + 2 * kLanes), L::load(co + 3 * kLanes)};
-      weighted_centroid(qs, L::load(co), {V(qx), V(qy), V(qz)});
-      correlation_matrix(h, {V(qx - fr.centre[0]), V(qy - fr.centre[1]), V(qz - fr.centre[2])}, a);
+      weighted_centroid(qs, L::load(co), {V(t.q[0]), V(t.q[1]), V(t.q[2])});
+      correlation_matrix(h, {V(t.qc[0]), V(t.qc[1]), V(t.qc[2])}, a);
     });
     for (int i = 0; i < 3; ++i) p.qs[i] = qs[i];
     for (int i = 0; i < 9; ++i) p.h[i] = h[i];
@@ -103,14 +103,15 @@ struct DeformKernel {
   MLSDEFORM_KERNEL_INLINE static void affine(const DeformFrame<T>& fr, std::size_t b, std::size_t g, Result& res) {
     const std::size_t J = fr.k + 2 * fr.s;
     for (V& x : res.out) x = V(T(0));
-    for_each_target(fr, [&](std::size_t j, T qx, T qy, T qz) {
-      weighted_centroid(res.out, L::load(fr.table + table_offset(b, j, J, fr.transform) + g), {V(qx), V(qy), V(qz)});
+    for_each_target(fr, [&](std::size_t j, const Target<T>& t) {
+      weighted_centroid(res.out, L::load(fr.table + table_offset(b, j, J, fr.transform) + g),
+                        {V(t.q[0]), V(t.q[1]), V(t.q[2])});
     });
     if (!fr.linear) return;
     for (V& e : res.r) e = V(T(0));
-    for_each_target(fr, [&](std::size_t j, T qx, T qy, T qz) {
+    for_each_target(fr, [&](std::size_t j, const Target<T>& t) {
       const T* bj = fr.linear_table + linear_table_offset(b, j, J) + g;
-      correlation_matrix(res.r, {V(qx - fr.centre[0]), V(qy - fr.centre[1]), V(qz - fr.centre[2])},
+      correlation_matrix(res.r, {V(t.qc[0]), V(t.qc[1]), V(t.qc[2])},
                          {L::load(bj), L::load(bj + kLanes), L::load(bj + 2 * kLanes)});
     });
     res.mu = V(T(1));
@@ -151,14 +152,14 @@ struct DeformKernel {
     const V vx = L::load(fr.v_local + v0), vy = L::load(fr.v_local + fr.padded + v0),
             vz = L::load(fr.v_local + 2 * fr.padded + v0), dref2 = L::load(fr.dref2 + v0);
     const T *px = fr.p_local, *py = px + fr.k, *pz = px + 2 * fr.k;
-    const T ls = fr.local_scale;
     V S(T(0)), ps[3] = {V(T(0)), V(T(0)), V(T(0))}, qs[3] = {V(T(0)), V(T(0)), V(T(0))};  // locals: see `table`
     for (std::size_t j = 0; j < fr.k; ++j) {
       const V dx = V(px[j]) - vx, dy = V(py[j]) - vy, dz = V(pz[j]) - vz;
       const V w = L::relative_weight(dref2 / (dx * dx + dy * dy + dz * dz), fr.half_u);
       S = S + w;
       ps[0] = ps[0] + w * dx, ps[1] = ps[1] + w * dy, ps[2] = ps[2] + w * dz;
-      weighted_centroid(qs, w, {V(fr.points[j] * ls), V(fr.points[fr.k + j] * ls), V(fr.points[2 * fr.k + j] * ls)});
+      const Target<T> t = point_target(fr, j);
+      weighted_centroid(qs, w, {V(t.q[0]), V(t.q[1]), V(t.q[2])});
     }
     const V inv_S = V(T(1)) / S;
     for (V& x : ps) x = x * inv_S;  // p* - v
@@ -170,9 +171,8 @@ struct DeformKernel {
       const V w = L::relative_weight(dref2 / (dx * dx + dy * dy + dz * dz), fr.half_u) * inv_S;
       const V ph[3] = {dx - ps[0], dy - ps[1], dz - ps[2]};
       const V a[3] = {w * ph[0], w * ph[1], w * ph[2]};
-      const V d[3] = {V(fr.points[j] * ls - fr.centre[0]), V(fr.points[fr.k + j] * ls - fr.centre[1]),
-                      V(fr.points[2 * fr.k + j] * ls - fr.centre[2])};
-      correlation_matrix(h, d, a);
+      const Target<T> t = point_target(fr, j);
+      correlation_matrix(h, {V(t.qc[0]), V(t.qc[1]), V(t.qc[2])}, a);
       for (int r = 0; r < 3; ++r) sum_a[r] = sum_a[r] + a[r];
       D = D + (a[0] * ph[0] + a[1] * ph[1] + a[2] * ph[2]);
     }
@@ -203,17 +203,16 @@ struct DeformKernel {
     const V ps[3] = {L::load(fr.p_star_local + v0), L::load(fr.p_star_local + fr.padded + v0),
                      L::load(fr.p_star_local + 2 * fr.padded + v0)};
     const T *px = fr.p_local, *py = px + fr.k, *pz = px + 2 * fr.k;
-    const T ls = fr.local_scale;
     const T* wb = fr.wn + b * fr.k * kLanes + g;
     V qs[3] = {V(T(0)), V(T(0)), V(T(0))}, h[9], sum_a[3] = {V(T(0)), V(T(0)), V(T(0))}, D(T(0));  // see `table`
     for (V& e : h) e = V(T(0));
     for (std::size_t j = 0; j < fr.k; ++j) {
       const V w = L::load(wb + j * kLanes);
-      const T qx = fr.points[j] * ls, qy = fr.points[fr.k + j] * ls, qz = fr.points[2 * fr.k + j] * ls;
-      weighted_centroid(qs, w, {V(qx), V(qy), V(qz)});
+      const Target<T> t = point_target(fr, j);
+      weighted_centroid(qs, w, {V(t.q[0]), V(t.q[1]), V(t.q[2])});
       const V ph[3] = {(V(px[j]) - vx) - ps[0], (V(py[j]) - vy) - ps[1], (V(pz[j]) - vz) - ps[2]};
       const V a[3] = {w * ph[0], w * ph[1], w * ph[2]};
-      correlation_matrix(h, {V(qx - fr.centre[0]), V(qy - fr.centre[1]), V(qz - fr.centre[2])}, a);
+      correlation_matrix(h, {V(t.qc[0]), V(t.qc[1]), V(t.qc[2])}, a);
       for (int r = 0; r < 3; ++r) sum_a[r] = sum_a[r] + a[r];
       D = D + (a[0] * ph[0] + a[1] * ph[1] + a[2] * ph[2]);
     }
