@@ -194,7 +194,7 @@ struct Deformer<T>::Impl {
     const Vector3<T> c = detail::local_target_centre(moved, fr.local_scale, data.target_limit);
     for (int i = 0; i < 3; ++i) fr.centre[i] = c[i];
     // The targets in the local frame, once per frame rather than in every batch (kernels/contract.hpp):
-    // 12 scalar operations and broadcasts per handle and batch otherwise, beside the 24 vector ones of the sums.
+    // 6 scalar operations and 6 broadcasts per handle and batch otherwise, beside the 24 vector ones of the sums.
     alignas(64) T frame_targets[6 * kernels::kCachedTargets];
     if (fr.k + 2 * fr.s <= kernels::kCachedTargets) {
       kernels::fill_targets(fr, frame_targets);
