@@ -49,22 +49,6 @@ struct RandomRings {
   }
 };
 
-/// Runs check(simd, scalar) for the stage table of every SIMD ISA the CPU runs.
-template <class T, class Check>
-void for_each_simd_table(Check check) {
-  const StageEntries<T>& scalar = scalar_entries<T>();
-  int isas = 0;
-  for (Isa isa : supported_isas()) {
-    if (isa == Isa::scalar) continue;
-    const StageEntries<T>& simd = entries<T>(isa);
-    REQUIRE(std::string(simd.isa) == std::string(to_string(isa)));
-    INFO("ISA " << to_string(isa));
-    check(simd, scalar);
-    ++isas;
-  }
-  if (isas == 0) WARN("no SIMD instruction set on this CPU: only the scalar table exists");
-}
-
 /// The ARAP local step's one-ring sums (ring_correlation) on a random graph of n vertices (RandomRings) and x
 /// in [-1, 1]. The SIMD twin's H and energy record must be the scalar reference's bit for
 /// bit (the same plain products and sums in the same order, the padding adding exact zeros; the exact power-of-

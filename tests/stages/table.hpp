@@ -1,12 +1,16 @@
 // What the stage tests (tests/test_stages.cpp, tests/test_stages_ring.cpp) share: the table of an ISA's stage
-// entries, and Higham's gamma_k = k eps / (1 - k eps), the bound on k rounded operations, in long double.
+// entries, a loop over the SIMD ones, and Higham's gamma_k = k eps / (1 - k eps), the bound on k rounded operations, in
+// long double.
 #pragma once
 
 #include "tests/stages/layouts.hpp"
 
 #include <mlsdeform/dispatch.hpp>
 
+#include <catch2/catch.hpp>
+
 #include <limits>
+#include <string>
 
 namespace mlsdeform::testing::stages {
 
@@ -37,6 +41,22 @@ const StageEntries<T>& entries(Isa isa) {
       break;
   }
   return scalar_entries<T>();
+}
+
+/// Runs check(simd, scalar) for the stage table of every SIMD ISA the CPU runs.
+template <class T, class Check>
+void for_each_simd_table(Check check) {
+  const StageEntries<T>& scalar = scalar_entries<T>();
+  int isas = 0;
+  for (Isa isa : supported_isas()) {
+    if (isa == Isa::scalar) continue;
+    const StageEntries<T>& simd = entries<T>(isa);
+    REQUIRE(std::string(simd.isa) == std::string(to_string(isa)));
+    INFO("ISA " << to_string(isa));
+    check(simd, scalar);
+    ++isas;
+  }
+  if (isas == 0) WARN("no SIMD instruction set on this CPU: only the scalar table exists");
 }
 
 }  // namespace mlsdeform::testing::stages
