@@ -142,7 +142,8 @@ struct DeformFrame {
   std::size_t s;
   T centre[3];  ///< c, local frame: H = sum_j (q_j local_scale - c) A_j^T
   /// When not null, the J = k + 2 s pseudo-handles' targets as the kernels read them, computed once per frame
-  /// (fill_targets): q_j local_scale at [c J + j], q_j local_scale - c at [(3 + c) J + j]. Else each batch
+  /// (fill_targets): six values per pseudo-handle, q_j local_scale at [6 j + c], q_j local_scale - c at
+  /// [6 j + 3 + c] (one base address per handle: the loops broadcast each straight from memory). Else each batch
   /// computes them again from points, seg_a and seg_b (the same operations: the same bits).
   const T* targets;
 
@@ -175,15 +176,15 @@ static inline __attribute__((always_inline)) Target<T> make_target(const DeformF
   return t;
 }
 template <class T>
-static inline __attribute__((always_inline)) Target<T> cached_target(const T* targets, std::size_t J, std::size_t j) {
-  return {{targets[j], targets[J + j], targets[2 * J + j]},
-          {targets[3 * J + j], targets[4 * J + j], targets[5 * J + j]}};
+static inline __attribute__((always_inline)) Target<T> cached_target(const T* targets, std::size_t j) {
+  const T* t = targets + 6 * j;
+  return {{t[0], t[1], t[2]}, {t[3], t[4], t[5]}};
 }
 
 /// The target of point handle j.
 template <class T>
 static inline __attribute__((always_inline)) Target<T> point_target(const DeformFrame<T>& fr, std::size_t j) {
-  if (fr.targets) return cached_target(fr.targets, fr.k + 2 * fr.s, j);
+  if (fr.targets) return cached_target(fr.targets, j);
   return make_target(fr, fr.points[j], fr.points[fr.k + j], fr.points[2 * fr.k + j]);
 }
 
@@ -195,7 +196,7 @@ template <class T, class F>
 static inline __attribute__((always_inline)) void for_each_target(const DeformFrame<T>& fr, F&& f) {
   const std::size_t J = fr.k + 2 * fr.s;
   if (fr.targets) {
-    for (std::size_t j = 0; j < J; ++j) f(j, cached_target(fr.targets, J, j));
+    for (std::size_t j = 0; j < J; ++j) f(j, cached_target(fr.targets, j));
     return;
   }
   std::size_t j = 0;
@@ -206,6 +207,18 @@ static inline __attribute__((always_inline)) void for_each_target(const DeformFr
   }
 }
 
+/// Calls f(j, t) for the target t of every point handle j = 0, 1, ..., k-1 in order: for_each_target where a
+/// session has no segments. Two loops, so that the cached targets' is compiled alone: there each target is
+/// broadcast straight from memory (with one loop over point_target, the compiler loaded the six values and
+/// broadcast them from registers, six more operations per handle on the arithmetic ports).
+template <class T, class F>
+static inline __attribute__((always_inline)) void for_each_point_target(const DeformFrame<T>& fr, F&& f) {
+  if (fr.targets)
+    for (std::size_t j = 0; j < fr.k; ++j) f(j, cached_target(fr.targets, j));
+  else
+    for (std::size_t j = 0; j < fr.k; ++j) f(j, point_target(fr, j));
+}
+
 /// Pseudo-handles whose targets a frame computes once (DeformFrame::targets) on its caller's stack:
 /// 6 kCachedTargets values, 12 KiB in float. Frames with more compute them in every batch.
 inline constexpr std::size_t kCachedTargets = 512;
@@ -213,11 +226,10 @@ inline constexpr std::size_t kCachedTargets = 512;
 /// The frame's DeformFrame::targets (6 J values) into out.
 template <class T>
 static void fill_targets(const DeformFrame<T>& fr, T* out) {
-  const std::size_t J = fr.k + 2 * fr.s;
   DeformFrame<T> f = fr;
   f.targets = nullptr;
   for_each_target(f, [&](std::size_t j, const Target<T>& t) {
-    for (std::size_t c = 0; c < 3; ++c) out[c * J + j] = t.q[c], out[(3 + c) * J + j] = t.qc[c];
+    for (std::size_t c = 0; c < 3; ++c) out[6 * j + c] = t.q[c], out[6 * j + 3 + c] = t.qc[c];
   });
 }
 

@@ -139,9 +139,10 @@ struct DeformKernel {
   /// (H -= (q* - c) (sum_j A_j)^T). Two passes over the handles:
   ///   pass 1  S = sum w_j, p* - v = sum w_j (p_j - v) / S, q* = sum w_j q_j / S                      (eq. 2)
   ///   pass 2  phat_j = (p_j - v) - (p* - v), A_j = w_j phat_j / S, H = sum (q_j - c) A_j^T,
-  ///           D = sum A_j . phat_j                                                         (eq. 6, Sec. 6.1)
+  ///           D = sum A_j . phat_j (similarity only: the rigid fit never reads it)         (eq. 6, Sec. 6.1)
   /// into p, for the fit and `finish` (vhat = v - p*), as `table` does. Lanes on a handle, whose weights are
   /// infinite, take its target in `finish`; where every lane does, nothing else is computed.
+  template <bool kSimilarity>
   static void on_the_fly(const DeformFrame<T>& fr, std::size_t v0, Pending& p) {
     p.snap = L::load(fr.snap + v0);  // padding lanes have snap = -1
     p.all_snapped = all(p.snap >= V(T(0)));
@@ -153,29 +154,29 @@ struct DeformKernel {
             vz = L::load(fr.v_local + 2 * fr.padded + v0), dref2 = L::load(fr.dref2 + v0);
     const T *px = fr.p_local, *py = px + fr.k, *pz = px + 2 * fr.k;
     V S(T(0)), ps[3] = {V(T(0)), V(T(0)), V(T(0))}, qs[3] = {V(T(0)), V(T(0)), V(T(0))};  // locals: see `table`
-    for (std::size_t j = 0; j < fr.k; ++j) {
+    const auto first = [&](std::size_t j, const Target<T>& t) __attribute__((always_inline)) {
       const V dx = V(px[j]) - vx, dy = V(py[j]) - vy, dz = V(pz[j]) - vz;
       const V w = L::relative_weight(dref2 / (dx * dx + dy * dy + dz * dz), fr.half_u);
       S = S + w;
       ps[0] = ps[0] + w * dx, ps[1] = ps[1] + w * dy, ps[2] = ps[2] + w * dz;
-      const Target<T> t = point_target(fr, j);
       weighted_centroid(qs, w, {V(t.q[0]), V(t.q[1]), V(t.q[2])});
-    }
+    };
+    for_each_point_target(fr, first);
     const V inv_S = V(T(1)) / S;
     for (V& x : ps) x = x * inv_S;  // p* - v
     for (V& x : qs) x = x * inv_S;  // q*
     V h[9], sum_a[3] = {V(T(0)), V(T(0)), V(T(0))}, D(T(0));
     for (V& e : h) e = V(T(0));
-    for (std::size_t j = 0; j < fr.k; ++j) {
+    const auto second = [&](std::size_t j, const Target<T>& t) __attribute__((always_inline)) {
       const V dx = V(px[j]) - vx, dy = V(py[j]) - vy, dz = V(pz[j]) - vz;
       const V w = L::relative_weight(dref2 / (dx * dx + dy * dy + dz * dz), fr.half_u) * inv_S;
       const V ph[3] = {dx - ps[0], dy - ps[1], dz - ps[2]};
       const V a[3] = {w * ph[0], w * ph[1], w * ph[2]};
-      const Target<T> t = point_target(fr, j);
       correlation_matrix(h, {V(t.qc[0]), V(t.qc[1]), V(t.qc[2])}, a);
       for (int r = 0; r < 3; ++r) sum_a[r] = sum_a[r] + a[r];
-      D = D + (a[0] * ph[0] + a[1] * ph[1] + a[2] * ph[2]);
-    }
+      if constexpr (kSimilarity) D = D + (a[0] * ph[0] + a[1] * ph[1] + a[2] * ph[2]);
+    };
+    for_each_point_target(fr, second);
     for (int r = 0; r < 3; ++r)
       for (int c = 0; c < 3; ++c) h[3 * r + c] = h[3 * r + c] - (qs[r] - V(fr.centre[r])) * sum_a[c];
     for (int i = 0; i < 9; ++i) p.h[i] = h[i];
@@ -189,7 +190,9 @@ struct DeformKernel {
   /// the A_j):
   ///   q* = sum_j (w_j / S) q_j, phat_j = (p_j - v) - (p* - v), A_j = (w_j / S) phat_j,
   ///   H = sum_j (q_j - c) A_j^T - (q* - c) (sum_j A_j)^T, D = sum_j A_j . phat_j          (eqs. 2, 6, Sec. 6.1)
-  /// into p, as `table` does. Lanes on a handle (stored w = 0) take its target in `finish`.
+  /// into p, as `table` does (D for similarity only, as there). Lanes on a handle (stored w = 0) take its target
+  /// in `finish`.
+  template <bool kSimilarity>
   MLSDEFORM_KERNEL_INLINE static void weights_only(const DeformFrame<T>& fr, std::size_t b, std::size_t g, Pending& p) {
     const std::size_t v0 = b * kLanes + g;
     p.snap = L::load(fr.snap + v0);  // padding lanes have snap = -1 (and w = 0)
@@ -206,16 +209,16 @@ struct DeformKernel {
     const T* wb = fr.wn + b * fr.k * kLanes + g;
     V qs[3] = {V(T(0)), V(T(0)), V(T(0))}, h[9], sum_a[3] = {V(T(0)), V(T(0)), V(T(0))}, D(T(0));  // see `table`
     for (V& e : h) e = V(T(0));
-    for (std::size_t j = 0; j < fr.k; ++j) {
+    const auto term = [&](std::size_t j, const Target<T>& t) __attribute__((always_inline)) {
       const V w = L::load(wb + j * kLanes);
-      const Target<T> t = point_target(fr, j);
       weighted_centroid(qs, w, {V(t.q[0]), V(t.q[1]), V(t.q[2])});
       const V ph[3] = {(V(px[j]) - vx) - ps[0], (V(py[j]) - vy) - ps[1], (V(pz[j]) - vz) - ps[2]};
       const V a[3] = {w * ph[0], w * ph[1], w * ph[2]};
       correlation_matrix(h, {V(t.qc[0]), V(t.qc[1]), V(t.qc[2])}, a);
       for (int r = 0; r < 3; ++r) sum_a[r] = sum_a[r] + a[r];
-      D = D + (a[0] * ph[0] + a[1] * ph[1] + a[2] * ph[2]);
-    }
+      if constexpr (kSimilarity) D = D + (a[0] * ph[0] + a[1] * ph[1] + a[2] * ph[2]);
+    };
+    for_each_point_target(fr, term);
     for (int r = 0; r < 3; ++r)
       for (int c = 0; c < 3; ++c) h[3 * r + c] = h[3 * r + c] - (qs[r] - V(fr.centre[r])) * sum_a[c];
     for (int i = 0; i < 9; ++i) p.h[i] = h[i];
@@ -306,13 +309,16 @@ struct DeformKernel {
       }
       nb = 0;
     };
+    // Only similarity's scale reads D = sum_j A_j . phat_j: the rigid loops over the handles skip its 6
+    // operations in 42 (the stored weights' path; `table` reads a stored D).
+    const bool similarity = fr.transform == Transform::similarity;
     for (std::size_t b = block_begin; b < block_end; ++b)
       for (std::size_t g = 0; g < kLanes && b * kLanes + g < fr.n; g += W) {
         v0[nb] = b * kLanes + g;
         if (fr.weights == WeightSource::on_the_fly)
-          on_the_fly(fr, v0[nb], p[nb]);
+          similarity ? on_the_fly<true>(fr, v0[nb], p[nb]) : on_the_fly<false>(fr, v0[nb], p[nb]);
         else if (fr.weights == WeightSource::weights)
-          weights_only(fr, b, g, p[nb]);
+          similarity ? weights_only<true>(fr, b, g, p[nb]) : weights_only<false>(fr, b, g, p[nb]);
         else
           table(fr, b, g, p[nb]);
         if (++nb == B) flush();

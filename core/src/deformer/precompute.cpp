@@ -24,13 +24,16 @@ enum class Storage { table, on_the_fly, weights };
 /// cache, kTableCacheBytes; beyond it, where they are supported (rigid and similarity with point handles and MLS
 /// centroids), the precomputed weights alone (4 bytes per vertex and handle in float, 8 in double) while they fit
 /// precompute_budget_bytes, and beyond that the weights on the fly. Measured on Zen 5 (AVX-512, float, random
-/// scenes, medians of back-to-back frames, us per frame on 1 thread / both cores; bench_scaling times the
-/// storages side by side):
-///   1,058 x 322 (table 5.3 MiB):  table 78.8 / 43.5,  weights 98.2 / 55.2
-///   6,146 x 256 (table 24 MiB):   table 633 / 243,    weights 472 / 233,   on the fly 1024 / 575
-///   10,000 x 256 (table 41 MiB):  table 1387 / 584,   weights 800 / 416,   on the fly 1709 / 861
-///   10^6 x 10 (table 160 MiB, weights 40 MiB), both cores: table 6.07 ms, weights 5.15, on the fly 6.21
-/// In the cache the table's 16 bytes cost less than forming A_j from the weights; from memory, the 4 bytes win.
+/// scenes, the best of 200 back-to-back frames, us per frame on 1 thread / both cores, 2026-11-28, after the rigid
+/// loops stopped computing similarity's D; a scratch program over the public API, bench_scaling times the storages
+/// side by side at its own sizes):
+///   1,058 x 322 (table 5.3 MiB):  table 64.7 / 36.2,  weights 62.2 / 33.7,  on the fly 134 / 71
+///   6,146 x 256 (table 24 MiB):   table 476 / 216,    weights 283 / 146,    on the fly 605 / 311
+///   10,000 x 256 (table 41 MiB):  table 1040 / 541,   weights 455 / 233,    on the fly 980 / 499
+///   10^6 x 10 (table 160 MiB, weights 40 MiB), both cores: table 5.2 ms, weights 4.05, on the fly 4.55
+/// In the cache the table's 16 bytes and forming A_j from the weights now cost about the same (within 4% either
+/// way on 1,089 x 132, 2,811 x 4, 14,050 x 5 and 10^5 x 10 too), so the rule keeps the table there, and no
+/// scene changes path (each path has its own rounding); from memory, the 4 bytes win.
 /// A region whose ring's fixed handles are folded into four (fold.hpp, `folded`) keeps the table while it fits
 /// the budget, as settings without on-the-fly weights do: the weights and on the fly pay for every ring handle.
 /// Those are on the fly beyond the budget; settings without on-the-fly weights are refused beyond it
