@@ -1,6 +1,7 @@
 // WeightStorage::on_the_fly and WeightStorage::precomputed_weights against the precomputed table, scalar and
 // SIMD, and their limits.
-#include "tests/support/deform_cases.hpp"
+#include "kernels/contract.hpp"
+#include "tests/test_deformer_common.hpp"
 
 #include <mlsdeform/mlsdeform.hpp>
 
@@ -158,6 +159,36 @@ TEMPLATE_TEST_CASE("precomputed weights agree with the precomputed table", "[def
         o.threads = 1;
         Deformer<T>(s.vertices, s.rest, o).deform(s.moved, c);
         CHECK(c == b);
+      }
+}
+
+TEMPLATE_TEST_CASE("stored and on-the-fly weights, with and without cached targets, agree with the direct evaluation",
+                   "[deformer][on_the_fly][precomputed_weights]", float, double) {
+  using T = TestType;
+  std::mt19937_64 g(deformer_test::seed());
+  INFO("seed " << deformer_test::seed());
+  // 520 point handles: more than a frame computes once (kCachedTargets), so each batch forms its targets itself
+  // (for_each_point_target's second loop); 8: the cached targets. Rigid sessions skip D, similarity's own sum.
+  static_assert(520 > kernels::kCachedTargets);
+  for (Transform tr : {Transform::rigid, Transform::similarity})
+    for (WeightStorage ws : {WeightStorage::on_the_fly, WeightStorage::precomputed_weights})
+      for (Eigen::Index k : {8, 520}) {
+        INFO(deformer_test::name(tr) << ", storage " << int(ws) << ", " << k << " point handles");
+        const DeformCase<T> sc = deformer_test::random_case<T>(g, 300, k);
+        Options o;
+        o.transform = tr;
+        o.weight_storage = ws;
+        const deformer_test::Mat3d M = deformer_test::random_rotation(g) *
+                                       (deformer_test::Mat3d::Identity() +
+                                        0.3 * deformer_test::Mat3d(deformer_test::random_vector(g).asDiagonal()));
+        const Handles<T> moved = deformer_test::transformed(sc.rest, M, deformer_test::random_vector(g));
+        Points<T> out;
+        Deformer<T>(sc.vertices, sc.rest, o).deform(moved, out);
+        const deformer_test::Comparison c = deformer_test::compare_with_direct(out, sc.vertices, sc.rest, moved, o);
+        INFO("max deviation " << c.max_dev << ", max deviation / bound " << c.max_ratio << ", ill-posed "
+                              << c.ill_posed);
+        CHECK(c.failures == 0);
+        CHECK(c.ill_posed == 0);
       }
 }
 
