@@ -35,6 +35,10 @@ struct KernelTable {
   std::size_t lanes_double;
   FitRotationsFn<float> fit_axis_angle_f;
   FitRotationsFn<double> fit_axis_angle_d;
+  /// The same fits, bitwise, writing R past the caches where the ISA can (fit_range_axis_angle's kStream): for a
+  /// batch whose rotations would leave the caches before anyone reads them (fit_rotations' rule).
+  FitRotationsFn<float> fit_axis_angle_stream_f;
+  FitRotationsFn<double> fit_axis_angle_stream_d;
   FitRotationsFn<float> fit_horn_f;  ///< Horn 1987 quaternion (SIMD: by cyclic Jacobi on the 4x4 matrix)
   FitRotationsFn<double> fit_horn_d;
   DeformBlocksFn<float> deform_f;  ///< SIMD: the methods axis_angle and horn_quaternion; scalar: all

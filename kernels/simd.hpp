@@ -253,4 +253,33 @@ MLSDEFORM_KERNEL_INLINE xsimd::batch<double, A> gather(const double* base, const
     return xsimd::batch<double, A>::gather(base, index);
 }
 
+/// Whether store_streaming writes past the caches on arch A: AVX2 and AVX-512 (vmovntps / vmovntpd). Elsewhere
+/// (SSE4.2, and WebAssembly through it) it is a plain aligned store.
+template <class A>
+inline constexpr bool kStreamingStores = std::is_same_v<A, xsimd::avx512f> || std::is_base_of_v<xsimd::avx2, A>;
+
+/// v to p (aligned to the vector's width) by a non-temporal store where kStreamingStores<A>: the line goes to
+/// memory through a write-combining buffer, without first being read into the cache (a plain store's read for
+/// ownership: a third of a streamed fit's memory traffic). Weakly ordered: the writer issues store_fence() before
+/// the values are read by another thread. The same bits as store_aligned.
+template <class T, class A>
+MLSDEFORM_KERNEL_INLINE void store_streaming(T* p, const xsimd::batch<T, A>& v) {
+  if constexpr (std::is_same_v<A, xsimd::avx512f> && std::is_same_v<T, float>)
+    _mm512_stream_ps(p, v);
+  else if constexpr (std::is_same_v<A, xsimd::avx512f>)
+    _mm512_stream_pd(p, v);
+  else if constexpr (std::is_base_of_v<xsimd::avx2, A> && std::is_same_v<T, float>)
+    _mm256_stream_ps(p, v);
+  else if constexpr (std::is_base_of_v<xsimd::avx2, A>)
+    _mm256_stream_pd(p, v);
+  else
+    v.store_aligned(p);
+}
+
+/// Orders the non-temporal stores before it ahead of every store after it (sfence), where arch A has them.
+template <class A>
+MLSDEFORM_KERNEL_INLINE void store_fence() {
+  if constexpr (kStreamingStores<A>) _mm_sfence();
+}
+
 }  // namespace mlsdeform::kernels

@@ -10,6 +10,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <cstring>
 #include <iostream>
 #include <limits>
@@ -69,6 +70,21 @@ std::vector<T> make_cases(std::size_t n, std::uint64_t seed) {
     for (std::size_t e = 0; e < 9; ++e) H[e * n + i] = T(M(e / 3, e % 3));
   }
   return H;
+}
+
+// The n matrices of H (3 x 3 x n) fitted by axis_angle in calls of `piece` matrices each (the last shorter).
+template <class T>
+std::vector<T> fit_in_pieces(const std::vector<T>& H, std::size_t n, std::size_t piece) {
+  std::vector<T> out(9 * n), h(9 * piece), r(9 * piece);
+  for (std::size_t i0 = 0; i0 < n; i0 += piece) {
+    const std::size_t m = std::min(piece, n - i0);
+    for (std::size_t e = 0; e < 9; ++e)
+      for (std::size_t i = 0; i < m; ++i) h[e * m + i] = H[e * n + i0 + i];
+    fit_rotations(h.data(), r.data(), m, RotationMethod::axis_angle, 1);
+    for (std::size_t e = 0; e < 9; ++e)
+      for (std::size_t i = 0; i < m; ++i) out[e * n + i0 + i] = r[e * m + i];
+  }
+  return out;
 }
 
 template <class T>
@@ -142,20 +158,9 @@ TEMPLATE_TEST_CASE("fit_rotations: batches fitted side by side are fitted bitwis
     for (std::size_t n : {4 * W - 1, 4 * W, 4 * W + 1, 9 * W + 3, std::size_t(5000)}) {
       INFO("isa " << to_string(isa) << ", n = " << n);
       const std::vector<TestType> H = make_cases<TestType>(n, 20261127 + n);
-      std::vector<TestType> R(9 * n), R1(9 * n), R2(9 * n), h(9 * W), r(9 * W);
+      std::vector<TestType> R(9 * n);
       fit_rotations(H.data(), R.data(), n, RotationMethod::axis_angle, 1);
-      const auto fit_pieces = [&](std::size_t piece, std::vector<TestType>& out) {
-        for (std::size_t i0 = 0; i0 < n; i0 += piece) {
-          const std::size_t m = std::min(piece, n - i0);
-          for (std::size_t e = 0; e < 9; ++e)
-            for (std::size_t i = 0; i < m; ++i) h[e * m + i] = H[e * n + i0 + i];
-          fit_rotations(h.data(), r.data(), m, RotationMethod::axis_angle, 1);
-          for (std::size_t e = 0; e < 9; ++e)
-            for (std::size_t i = 0; i < m; ++i) out[e * n + i0 + i] = r[e * m + i];
-        }
-      };
-      fit_pieces(W, R1);
-      fit_pieces(1, R2);
+      const std::vector<TestType> R1 = fit_in_pieces(H, n, W), R2 = fit_in_pieces(H, n, 1);
       std::size_t differ_batch = 0, differ_alone = 0;
       for (std::size_t k = 0; k < 9 * n; ++k) {
         differ_batch += std::memcmp(&R[k], &R1[k], sizeof(TestType)) != 0;
@@ -163,6 +168,40 @@ TEMPLATE_TEST_CASE("fit_rotations: batches fitted side by side are fitted bitwis
       }
       CHECK(differ_batch == 0);
       CHECK(differ_alone == 0);
+    }
+  }
+}
+
+TEMPLATE_TEST_CASE("fit_rotations: a batch written past the caches is fitted bitwise as in pieces", "[batch]", float,
+                   double) {
+  // From 8 MiB of rotations on, fit_rotations writes R by non-temporal stores where the ISA has them
+  // (fit_rotations.cpp, kStreamBytes; kernels/rotation/axis_angle.hpp, fit_range_axis_angle's kStream), only
+  // where the stride (n) is a multiple of the lanes and from the first matrix whose rows start on a vector
+  // boundary: the matrices before it as below the threshold. The same n matrices fitted in pieces of 4,096
+  // (below it) must give the same bits for every alignment of R (a misaligned streaming store faults), with n a
+  // multiple of every lane width and not, on one thread and two (each chunk of 2,048 aligned apart).
+  using T = TestType;
+  const IsaGuard guard;
+  const std::size_t big = (std::size_t(8) << 20) / (9 * sizeof(T)) + 64, piece = 4096;
+  for (std::size_t n : {big, big + 3}) {
+    const std::vector<T> H = make_cases<T>(n, 20261128 + n);
+    for (Isa isa : supported_isas()) {
+      set_isa(isa);
+      const std::vector<T> expected = fit_in_pieces(H, n, piece);
+      // R at every offset from a 64-byte boundary that a vector's alignment can tell apart (0 .. 15 values).
+      std::vector<T> storage(9 * n + 64 / sizeof(T) + 16);
+      const auto base = reinterpret_cast<std::uintptr_t>(storage.data());
+      T* aligned = storage.data() + (64 - base % 64) % 64 / sizeof(T);
+      for (std::size_t offset : {0, 1, 5, 8, 15})
+        for (int threads : {1, 2}) {
+          INFO("isa " << to_string(isa) << ", n = " << n << ", R offset " << offset << ", threads " << threads);
+          T* R = aligned + offset;
+          std::fill(R, R + 9 * n, T(-3));
+          fit_rotations(H.data(), R, n, RotationMethod::axis_angle, threads);
+          std::size_t differ = 0;
+          for (std::size_t k = 0; k < 9 * n; ++k) differ += std::memcmp(&R[k], &expected[k], sizeof(T)) != 0;
+          CHECK(differ == 0);
+        }
     }
   }
 }

@@ -51,6 +51,8 @@ const KernelTable& kernel_table_scalar() {
       1,
       &detail::fit_entry<float, RotationMethod::axis_angle>,
       &detail::fit_entry<double, RotationMethod::axis_angle>,
+      &detail::fit_entry<float, RotationMethod::axis_angle>,  // the scalar reference writes as it goes
+      &detail::fit_entry<double, RotationMethod::axis_angle>,
       &detail::fit_entry<float, RotationMethod::horn_quaternion>,
       &detail::fit_entry<double, RotationMethod::horn_quaternion>,
       &detail::deform_blocks_reference<float>,

@@ -12,6 +12,10 @@
 #include "kernels/rotation/rotation_axis.hpp"
 #include "kernels/rotation/sin_cos.hpp"
 
+#include <algorithm>
+#include <cstddef>
+#include <cstdint>
+
 namespace mlsdeform::kernels {
 
 /// h <- 2^-e h with max |h_ij| in [1, 2) per lane (the scalar fit_rotation's exact normalisation); returns
@@ -256,8 +260,9 @@ MLSDEFORM_KERNEL_INLINE void fit_rotation_tile(V (&h)[B][9], V (&r)[B][9], std::
 
 /// fit_rotation_tile on nb <= B batches of W = V::size matrices each, from offset off of a 3 x 3 x n layout
 /// (row stride st). With a queue, the lanes for the careful path are queued (CarefulQueue: their rotations
-/// are written when it flushes) rather than fitted in their batch.
-template <std::size_t B, class V>
+/// are written when it flushes) rather than fitted in their batch. kStream: the rotations by store_streaming
+/// (dst + off and st aligned to the vector's width).
+template <std::size_t B, class V, bool kStream = false>
 MLSDEFORM_KERNEL_INLINE void fit_tile_axis_angle(const scalar_of<V>* src, scalar_of<V>* dst, std::size_t st,
                                                  std::size_t off, std::size_t nb, std::size_t& careful,
                                                  CarefulQueue<V>* queue = nullptr) {
@@ -268,7 +273,11 @@ MLSDEFORM_KERNEL_INLINE void fit_tile_axis_angle(const scalar_of<V>* src, scalar
     for (std::size_t i = 0; i < 9; ++i) h[b][i] = V::load_unaligned(src + i * st + off + b * W);
   fit_rotation_tile<B>(h, r, nb, careful, queue ? &slow : nullptr);
   for (std::size_t b = 0; b < nb; ++b)
-    for (std::size_t i = 0; i < 9; ++i) r[b][i].store_unaligned(dst + i * st + off + b * W);
+    for (std::size_t i = 0; i < 9; ++i)
+      if constexpr (kStream)
+        store_streaming(dst + i * st + off + b * W, r[b][i]);
+      else
+        r[b][i].store_unaligned(dst + i * st + off + b * W);
   if (queue)
     for (std::size_t b = 0; b < nb; ++b)
       if (any(slow[b])) queue->push(h[b], slow[b], off + b * W, dst, st, careful);
@@ -282,31 +291,48 @@ MLSDEFORM_KERNEL_INLINE void fit_tile_axis_angle(const scalar_of<V>* src, scalar
 ///   Error:       each matrix as fit_rotation<AxisAngleFit>, bitwise (the padding lanes hold H = 0 and are
 ///                not written)
 ///   Valid range: finite H (fit_rotations checks); adds the careful lanes to stats->careful_lanes
-template <class V>
+/// kStream (the entry fit_axis_angle_stream, for a batch larger than the caches): the rotations written by
+/// non-temporal stores (store_streaming) where the ISA has them and the layout allows (the row stride a multiple of
+/// W, R aligned to a value): the matrices up to the first whose rows start on a vector boundary as kStream =
+/// false, the rest streamed, and a store_fence before the queue's and the last batch's plain stores and the
+/// return. The same bits either way.
+template <class V, bool kStream = false>
 void fit_range_axis_angle(const scalar_of<V>* H, scalar_of<V>* R, std::size_t stride, std::size_t begin,
                           std::size_t end, BatchStats* stats) {
   using T = scalar_of<V>;
+  using A = typename V::arch_type;
   constexpr std::size_t W = V::size, B = kFitTileBatches<V>;
+  if constexpr (kStream) {
+    constexpr std::size_t bytes = W * sizeof(T);
+    const auto at = reinterpret_cast<std::uintptr_t>(R + begin);
+    if (!kStreamingStores<A> || stride % W != 0 || at % sizeof(T) != 0)
+      return fit_range_axis_angle<V, false>(H, R, stride, begin, end, stats);
+    const std::size_t head = std::min(end - begin, (bytes - at % bytes) % bytes / sizeof(T));
+    if (head > 0) fit_range_axis_angle<V, false>(H, R, stride, begin, begin + head, stats);
+    begin += head;
+  }
   std::size_t careful = 0, i = begin;
   CarefulQueue<V> queue;
   // Streamed from memory, the 9 rows of H and R of the tile two tiles ahead are prefetched (B W values each):
   // the hardware prefetcher alone left the core waiting on them. Same process, AVX-512 (Zen 5), ns per fit,
   // streamed / in cache: float 8.77 -> 8.23 / 6.81, double 16.6 -> 15.5 / 12.1; AVX2 float 15.7 -> 11.1 / 10.4.
-  // (Four tiles ahead measured no better.) On data in cache they cost an issue slot each.
+  // (Four tiles ahead measured no better.) On data in cache they cost an issue slot each. R is not prefetched
+  // where it is streamed: its lines are written whole, never read (with the prefetch, 5.7 -> 6.9 ns, float).
   constexpr std::size_t kPrefetchTiles = 2, line = 64 / sizeof(T), tile = B * W;
   for (; i + tile <= end; i += tile) {
     if (const std::size_t ahead = i + kPrefetchTiles * tile; ahead + tile <= end)
       for (std::size_t e = 0; e < 9; ++e)
         for (std::size_t k = 0; k < tile; k += line) {
           __builtin_prefetch(H + e * stride + ahead + k);
-          __builtin_prefetch(R + e * stride + ahead + k, 1);
+          if constexpr (!kStream) __builtin_prefetch(R + e * stride + ahead + k, 1);
         }
-    fit_tile_axis_angle<B, V>(H, R, stride, i, B, careful, &queue);
+    fit_tile_axis_angle<B, V, kStream>(H, R, stride, i, B, careful, &queue);
   }
   if (const std::size_t nb = (end - i) / W; nb > 0) {
-    fit_tile_axis_angle<B, V>(H, R, stride, i, nb, careful, &queue);
+    fit_tile_axis_angle<B, V, kStream>(H, R, stride, i, nb, careful, &queue);
     i += nb * W;
   }
+  if constexpr (kStream) store_fence<A>();
   queue.flush(R, stride, careful);
   if (i < end) {
     alignas(64) T hb[9 * W] = {}, rb[9 * W];
