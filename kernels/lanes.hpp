@@ -42,4 +42,13 @@ static MLSDEFORM_KERNEL_INLINE T select(bool m, T a, T b) {
 static MLSDEFORM_KERNEL_INLINE bool any(bool m) { return m; }
 static MLSDEFORM_KERNEL_INLINE bool all(bool m) { return m; }
 
+/// x * y + z in the lanes of V: LaneArith<V>::mul_add. One lane: a product and a sum, rounded twice (core/'s
+/// baseline flags have no FMA). A vector: kernels/simd.hpp specialises it as its mul_add, fused (rounded once) on
+/// the ISAs with FMA, a product and a sum on SSE4.2. A class, not an overload, so that a stage body finds the
+/// vector's version whatever the order in which a translation unit includes the two headers.
+template <class V, class = void>
+struct LaneArith {
+  static MLSDEFORM_KERNEL_INLINE V mul_add(V x, V y, V z) { return x * y + z; }
+};
+
 }  // namespace mlsdeform::kernels

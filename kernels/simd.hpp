@@ -156,6 +156,18 @@ template <class B>
 MLSDEFORM_KERNEL_INLINE Pair<B> mul_sub(const Pair<B>& x, const Pair<B>& y, const Pair<B>& z) {
   return {mul_sub(x.lo, y.lo, z.lo), mul_sub(x.hi, y.hi, z.hi)};
 }
+/// The stage bodies' x * y + z (kernels/lanes.hpp) on a vector: mul_add.
+template <class T, class A>
+struct LaneArith<xsimd::batch<T, A>> {
+  using V = xsimd::batch<T, A>;
+  static MLSDEFORM_KERNEL_INLINE V mul_add(const V& x, const V& y, const V& z) { return kernels::mul_add(x, y, z); }
+};
+template <class B>
+struct LaneArith<Pair<B>> {
+  static MLSDEFORM_KERNEL_INLINE Pair<B> mul_add(const Pair<B>& x, const Pair<B>& y, const Pair<B>& z) {
+    return kernels::mul_add(x, y, z);
+  }
+};
 template <class BM, class B>
 MLSDEFORM_KERNEL_INLINE Pair<B> select(const PairMask<BM>& m, const Pair<B>& a, const Pair<B>& b) {
   return {xsimd::select(m.lo, a.lo, b.lo), xsimd::select(m.hi, a.hi, b.hi)};

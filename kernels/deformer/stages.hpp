@@ -1,8 +1,12 @@
 // The deformer's per-vertex stages, read beside the paper: one body each, a template on the lane type V
 // (kernels/lanes.hpp), which the scalar reference instantiates with V = T (one vertex) and the SIMD kernels
-// with a batch (one vertex per lane). Plain products and sums, no fusion (the kernels are compiled with
-// -ffp-contract=off, core/ with baseline flags that have no FMA), so each stage's result is bitwise the same
-// at every width; the stage test (tests/test_stages.cpp) checks it on every ISA.
+// with a batch (one vertex per lane). Plain products and sums (the kernels are compiled with -ffp-contract=off,
+// core/ with baseline flags that have no FMA), so each stage's result is bitwise the same at every width, except
+// the two sums over the pseudo-handles, whose terms are fused where the ISA has FMA (LaneArith's mul_add: AVX2,
+// AVX-512; one rounding per term instead of two, within the same bound): there they are the deformer's inner
+// loop, and a fused term is one vector operation where a product and a sum are two (Table 2's Cylinder,
+// 322 handles, precomputed_weights: 63.5 -> 48 us per frame on one core, AVX-512). The stage test
+// (tests/test_stages.cpp) checks each stage on every ISA: bitwise, or against long double where fused.
 //   weighted_centroid   q* = sum_j omega_j q_j                         (eq. 2), one term per call
 //   correlation_matrix  H  = sum_j (q_j - c) A_j^T                     (eq. 6, Sec. 6.2), one term per call
 //   similarity_scale    mu = trace(R^T H) / D                          (Sec. 6.1)
@@ -19,22 +23,23 @@ namespace mlsdeform::kernels {
 /// Eq. (2), the term of one pseudo-handle: qs += omega q_j (q_j the same in every lane).
 ///   Lanes:       float, double (one vertex, or an xsimd batch)
 ///   Error:       over J calls from 0, a 2J-step sum of products: within gamma_2J = 2J eps / (1 - 2J eps) of
-///                the exact q* times sum_j |omega_j q_j| (tests/test_stages.cpp); bitwise the same at every width
+///                the exact q* times sum_j |omega_j q_j| (tests/test_stages.cpp); fused on the FMA ISAs (J
+///                roundings), else bitwise the scalar reference's
 ///   Valid range: finite omega, q whose sums do not overflow
 template <class V>
 MLSDEFORM_KERNEL_INLINE void weighted_centroid(V (&qs)[3], V omega, const V (&q)[3]) {
-  for (int r = 0; r < 3; ++r) qs[r] = qs[r] + omega * q[r];
+  for (int r = 0; r < 3; ++r) qs[r] = LaneArith<V>::mul_add(omega, q[r], qs[r]);
 }
 
 /// Eq. (6), the term of one pseudo-handle: h += d a^T with d = q_j - c, a = A_j; h[3 r + c] = H(r, c).
 ///   Lanes:       float, double (one vertex, or an xsimd batch)
 ///   Error:       over J calls from 0, each entry within gamma_2J of the exact sum times sum_j |d_j| |a_j|
-///                (tests/test_stages.cpp); bitwise the same at every width
+///                (tests/test_stages.cpp); fused on the FMA ISAs, else bitwise the scalar reference's
 ///   Valid range: finite d, a whose sums do not overflow
 template <class V>
 MLSDEFORM_KERNEL_INLINE void correlation_matrix(V (&h)[9], const V (&d)[3], const V (&a)[3]) {
   for (int r = 0; r < 3; ++r)
-    for (int c = 0; c < 3; ++c) h[3 * r + c] = h[3 * r + c] + d[r] * a[c];
+    for (int c = 0; c < 3; ++c) h[3 * r + c] = LaneArith<V>::mul_add(d[r], a[c], h[3 * r + c]);
 }
 
 /// Sec. 6.1: mu_s = trace(R^T H) / D where D > 0 (D = sum_i w_i |phat_i|^2 in the session's units; 0 only
