@@ -94,36 +94,42 @@ TEST_CASE("on-the-fly weights: unsupported settings are refused, automatic follo
   CHECK(Deformer<float>(s.vertices, seg, o).uses_precomputed_weights());
 }
 
-// WeightStorage::automatic's rule (precompute.cpp, choose_storage): where the weights alone are supported, the
-// table while it stays within 16 MiB (and the budget), then the weights while they fit the budget, then on the
-// fly. Each choice must be the explicit storage's session: the same memory and the same bits.
-TEST_CASE("automatic weight storage: the table in the cache, then the weights alone, then on the fly",
+// WeightStorage::automatic's rule (precompute.cpp, choose_storage): where the weights alone are supported, on
+// AVX-512 the weights while they fit the budget, elsewhere the table while it stays within 16 MiB (and the
+// budget), then the weights while they fit the budget; then on the fly. Each choice must be the explicit
+// storage's session: the same memory and the same bits. Every ISA the CPU runs, as Options::isa.
+TEST_CASE("automatic weight storage: the table in the cache (not on AVX-512), then the weights alone, then on the fly",
           "[deformer][on_the_fly][precomputed_weights]") {
-  const auto session = [](const DeformCase<float>& s, WeightStorage w, std::size_t budget) {
-    Options o;
-    o.weight_storage = w;
-    o.precompute_budget_bytes = budget;
-    return Deformer<float>(s.vertices, s.rest, o);
-  };
-  const auto same = [](const Deformer<float>& a, const Deformer<float>& b, const Handles<float>& moved) {
-    Points<float> x, y;
-    a.deform(moved, x);
-    b.deform(moved, y);
-    return a.memory_bytes() == b.memory_bytes() && (x.array() == y.array()).all();
-  };
-  constexpr std::size_t MiB = std::size_t(1) << 20;
-  // 2,000 x 8: a 0.25 MiB table. 20,000 x 64: a 19.5 MiB table (over 16 MiB), 4.9 MiB of weights.
-  const DeformCase<float> small = scene<float>(2000, 8, 1.0, 3), large = scene<float>(20000, 64, 1.0, 5);
-  CHECK(same(session(small, WeightStorage::automatic, 32 * MiB), session(small, WeightStorage::precomputed, 0),
-             small.moved));
-  for (const std::size_t budget : {32 * MiB, 64 * MiB}) {
-    INFO("budget " << budget / MiB << " MiB");
-    CHECK(same(session(large, WeightStorage::automatic, budget), session(large, WeightStorage::precomputed_weights, 0),
-               large.moved));
+  for (const Isa isa : supported_isas()) {
+    INFO("isa " << to_string(isa));
+    const auto session = [isa](const DeformCase<float>& s, WeightStorage w, std::size_t budget) {
+      Options o;
+      o.weight_storage = w;
+      o.precompute_budget_bytes = budget;
+      o.isa = isa;
+      return Deformer<float>(s.vertices, s.rest, o);
+    };
+    const auto same = [](const Deformer<float>& a, const Deformer<float>& b, const Handles<float>& moved) {
+      Points<float> x, y;
+      a.deform(moved, x);
+      b.deform(moved, y);
+      return a.memory_bytes() == b.memory_bytes() && (x.array() == y.array()).all();
+    };
+    constexpr std::size_t MiB = std::size_t(1) << 20;
+    // 2,000 x 8: a 0.25 MiB table. 20,000 x 64: a 19.5 MiB table (over 16 MiB), 4.9 MiB of weights.
+    const DeformCase<float> small = scene<float>(2000, 8, 1.0, 3), large = scene<float>(20000, 64, 1.0, 5);
+    const WeightStorage in_cache = isa == Isa::avx512 ? WeightStorage::precomputed_weights : WeightStorage::precomputed;
+    const Deformer<float> chosen = session(small, WeightStorage::automatic, 32 * MiB);
+    CHECK(same(chosen, session(small, in_cache, 0), small.moved));
+    for (const std::size_t budget : {32 * MiB, 64 * MiB}) {
+      INFO("budget " << budget / MiB << " MiB");
+      CHECK(same(session(large, WeightStorage::automatic, budget),
+                 session(large, WeightStorage::precomputed_weights, 0), large.moved));
+    }
+    const Deformer<float> tight = session(large, WeightStorage::automatic, 4 * MiB);
+    CHECK(!tight.uses_precomputed_weights());
+    CHECK(same(tight, session(large, WeightStorage::on_the_fly, 0), large.moved));
   }
-  const Deformer<float> tight = session(large, WeightStorage::automatic, 4 * MiB);
-  CHECK(!tight.uses_precomputed_weights());
-  CHECK(same(tight, session(large, WeightStorage::on_the_fly, 0), large.moved));
 }
 
 TEMPLATE_TEST_CASE("precomputed weights agree with the precomputed table", "[deformer][precomputed_weights]", float,

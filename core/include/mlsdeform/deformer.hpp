@@ -32,9 +32,10 @@ enum class SegmentWeight {
 enum class WeightStorage {
   /// chosen by measurement (core/src/deformer/precompute.cpp, choose_storage): where precomputed_weights is
   /// supported (rigid and similarity with point handles and MLS centroids), `precomputed` while its table stays
-  /// in the cache (16 MiB, and within `precompute_budget_bytes`), then `precomputed_weights` while its weights
-  /// fit the budget, then `on_the_fly`; otherwise `precomputed` while the table fits the budget, and beyond it
-  /// a refusal (std::invalid_argument naming the size and the budget). Never more than the budget.
+  /// in the cache (16 MiB, and within `precompute_budget_bytes`; not when the frames run on AVX-512, where the
+  /// weights alone are as fast in the cache too), then `precomputed_weights` while its weights fit the budget,
+  /// then `on_the_fly`; otherwise `precomputed` while the table fits the budget, and beyond it a refusal
+  /// (std::invalid_argument naming the size and the budget). Never more than the budget.
   automatic,
   /// stream the precomputed omega_i and A_i = w_i phat_i (16 bytes per vertex and handle in float, 32 in
   /// double; affine: 4 / 8 bytes, 16 / 32 with Options::affine_frames)

@@ -5,6 +5,8 @@
 #include "core/src/deformer/validation.hpp"
 #include "core/src/deformer/weights.hpp"
 
+#include <mlsdeform/dispatch.hpp>
+
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -19,21 +21,30 @@ namespace {
 /// What a session streams each frame (WeightStorage, deformer.hpp).
 enum class Storage { table, on_the_fly, weights };
 
-/// WeightStorage::automatic takes the precomputed table (16 bytes per vertex and handle in float, 32 in double;
-/// affine 4 and 8 for alpha, as much as rigid with Options::affine_frames' B_j: data.hpp) while it stays in the
-/// cache, kTableCacheBytes; beyond it, where they are supported (rigid and similarity with point handles and MLS
-/// centroids), the precomputed weights alone (4 bytes per vertex and handle in float, 8 in double) while they fit
-/// precompute_budget_bytes, and beyond that the weights on the fly. Measured on Zen 5 (AVX-512, float, random
-/// scenes, the best of 200 back-to-back frames, us per frame on 1 thread / both cores, 2026-11-28, after the rigid
-/// loops stopped computing similarity's D; a scratch program over the public API, bench_scaling times the storages
-/// side by side at its own sizes):
-///   1,058 x 322 (table 5.3 MiB):  table 64.7 / 36.2,  weights 62.2 / 33.7,  on the fly 134 / 71
-///   6,146 x 256 (table 24 MiB):   table 476 / 216,    weights 283 / 146,    on the fly 605 / 311
-///   10,000 x 256 (table 41 MiB):  table 1040 / 541,   weights 455 / 233,    on the fly 980 / 499
-///   10^6 x 10 (table 160 MiB, weights 40 MiB), both cores: table 5.2 ms, weights 4.05, on the fly 4.55
-/// In the cache the table's 16 bytes and forming A_j from the weights now cost about the same (within 4% either
-/// way on 1,089 x 132, 2,811 x 4, 14,050 x 5 and 10^5 x 10 too), so the rule keeps the table there, and no
-/// scene changes path (each path has its own rounding); from memory, the 4 bytes win.
+/// WeightStorage::automatic, where the weights alone are supported (rigid and similarity with point handles and MLS
+/// centroids) and the frames run on AVX-512: the precomputed weights (4 bytes per vertex and handle in float, 8
+/// in double) while they fit precompute_budget_bytes, then the weights on the fly. Elsewhere where they are
+/// supported: the precomputed table (16 bytes per vertex and handle in float, 32 in double) while it stays in the
+/// cache, kTableCacheBytes, then the weights alone while they fit the budget, then on the fly. Otherwise (affine:
+/// 4 and 8 bytes for alpha, as much as rigid with Options::affine_frames' B_j, data.hpp; segments; RBF centroids)
+/// the table while it fits the budget.
+/// Measured on Zen 5 (random scenes, the best of back-to-back frames, us per frame on 1 thread / both cores,
+/// 2026-11-28, after the sums over the handles fused on AVX2 and AVX-512; a scratch program over the public API,
+/// bench_scaling times the storages side by side at its own sizes), table -> weights:
+///   AVX-512, float:  1,058 x 322 (table 5.2 MiB) 62.3 / 66.3 -> 34.3 / 25.5;  1,089 x 132 29.0 / 16.0 -> 20.3 / 12.3;
+///     2,811 x 4 13.3 / 7.2 -> 12.9 / 7.0;  5,103 x 6 25.4 / 13.7 -> 24.6 / 13.2;  14,050 x 5 70.4 / 35.9 -> 65.8 /
+///     34.1;  4,096 x 64 60.4 / 31.9 -> 46.6 / 24.7;  6,146 x 256 (24 MiB) 461 / 220 -> 202 / 108;  10^5 x 10 607 /
+///     301 -> 544 / 282
+///   AVX-512, double: the same scenes, the weights as fast or faster (2,811 x 4: 26.7 / 13.9 -> 25.8 / 13.9;
+///     1,058 x 322: 139 / 84 -> 69 / 50)
+///   AVX2, float: the table faster in the cache (1,058 x 322: 96 / 52 -> 110 / 79; 2,811 x 4: 30.1 / 16.1 -> 32.6 /
+///     17.5), about even at 24 MiB (718 / 332 -> 675 / 359); SSE4.2 likewise (no FMA: 1,058 x 322 197 / 102 ->
+///     219 / 155)
+/// With 32 registers of 16 lanes and a fused product and sum, forming A_j = (w_j / S) phat_j from the weights costs
+/// less than reading it from the table, even from L2; with 16 registers of 8 lanes (AVX2) it does not. The two
+/// paths round differently (each path has its own bits). From memory the 4 bytes win on every ISA (AVX-512 before
+/// the fused sums: 6,146 x 256 table 476 / 216, weights 283 / 146, on the fly 605 / 311; 10,000 x 256 (41 MiB)
+/// 1040 / 541, 455 / 233, 980 / 499; 10^6 x 10 (table 160 MiB, weights 40 MiB), both cores: 5.2, 4.05, 4.55 ms).
 /// A region whose ring's fixed handles are folded into four (fold.hpp, `folded`) keeps the table while it fits
 /// the budget, as settings without on-the-fly weights do: the weights and on the fly pay for every ring handle.
 /// Those are on the fly beyond the budget; settings without on-the-fly weights are refused beyond it
@@ -69,8 +80,12 @@ Storage choose_storage(const Options& o, const RestHandles& rh, std::size_t padd
   const double components = o.transform != Transform::affine || o.affine_frames ? 4 : 1;  // affine: alpha (+ B_j)
   const double table = double(padded) * double(columns) * components * sizeof(T);
   if (supported && !folded) {
-    if (table <= std::min(budget, kTableCacheBytes)) return Storage::table;
     const double weights = double(padded) * double(rh.k) * sizeof(T);
+    // The frames' ISA: Options::isa, else the active one; a rotation method without lanes runs the scalar
+    // reference (deformer.cpp, Impl::table).
+    const bool in_lanes = o.method == RotationMethod::axis_angle || o.method == RotationMethod::horn_quaternion;
+    const bool avx512 = in_lanes && o.isa.value_or(active_isa()) == Isa::avx512;
+    if (!avx512 && table <= std::min(budget, kTableCacheBytes)) return Storage::table;
     return weights <= budget ? Storage::weights : Storage::on_the_fly;
   }
   if (table <= budget) return Storage::table;

@@ -64,6 +64,12 @@ void check_options(const Options& o) {
 
 template <class T>
 void check_points(const Points<T>& p, const char* what, const char* part, T limit) {
+  // Every frame checks its targets: first one branch-free pass over the values (|x| <= limit is false for NaN
+  // and infinities; vectorised), then, only if it fails, the row-by-row search for the message. 322 handles
+  // (Table 2's Cylinder): 0.36 us of a 27 us frame on two threads, all of it serial, before the pass.
+  bool fine = true;
+  for (Eigen::Index i = 0; i < p.size(); ++i) fine &= std::abs(p.data()[i]) <= limit;
+  if (fine) return;
   for (Eigen::Index i = 0; i < p.rows(); ++i)
     for (Eigen::Index c = 0; c < 3; ++c) {
       const T x = p(i, c);
