@@ -131,6 +131,7 @@ struct DeformFrame {
   // WeightSource::weights: v_local, snap and p_local as above, and
   const T* wn;            ///< w_j / S, lane l of block b, handle j at (b k + j) kLanes + l
   const T* p_star_local;  ///< p* - v, local frame, SoA [c * padded + v]
+  const T* sum_a;         ///< sum_j A_j, SoA [c * padded + v] (similarity's D in D)
   T local_scale;          ///< 2^-e: the caller's units to the local frame's
   T world_scale;          ///< 2^e: the local frame's units to the caller's
 

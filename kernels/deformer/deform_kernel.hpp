@@ -188,10 +188,10 @@ struct DeformKernel {
   /// vertices from lane g of block b, in one pass over the handles with the stored w_j / S and p* - v, as
   /// on_the_fly's second pass (coordinates relative to the vertex; the common rounding of p* projected out of
   /// the A_j):
-  ///   q* = sum_j (w_j / S) q_j, phat_j = (p_j - v) - (p* - v), A_j = (w_j / S) phat_j,
-  ///   H = sum_j (q_j - c) A_j^T - (q* - c) (sum_j A_j)^T, D = sum_j A_j . phat_j          (eqs. 2, 6, Sec. 6.1)
-  /// into p, as `table` does (D for similarity only, as there). Lanes on a handle (stored w = 0) take its target
-  /// in `finish`.
+  ///   phat_j = (p_j - v) - (p* - v), A_j = (w_j / S) phat_j, q* = c + sum_j (w_j / S)(q_j - c),
+  ///   H = sum_j ((w_j / S)(q_j - c)) phat_j^T - (q* - c)(sum_j A_j)^T, D = sum_j A_j . phat_j  (eqs. 2, 6, Sec. 6.1)
+  /// into p, as `table` does (D for similarity only, as there; sum_j A_j and D, which depend on the rest pose
+  /// alone, stored per vertex). Lanes on a handle (stored w = 0) take its target in `finish`.
   template <bool kSimilarity>
   MLSDEFORM_KERNEL_INLINE static void weights_only(const DeformFrame<T>& fr, std::size_t b, std::size_t g, Pending& p) {
     const std::size_t v0 = b * kLanes + g;
@@ -207,23 +207,29 @@ struct DeformKernel {
                      L::load(fr.p_star_local + 2 * fr.padded + v0)};
     const T *px = fr.p_local, *py = px + fr.k, *pz = px + 2 * fr.k;
     const T* wb = fr.wn + b * fr.k * kLanes + g;
-    V qs[3] = {V(T(0)), V(T(0)), V(T(0))}, h[9], sum_a[3] = {V(T(0)), V(T(0)), V(T(0))}, D(T(0));  // see `table`
+    V qs[3] = {V(T(0)), V(T(0)), V(T(0))}, h[9];  // see `table`
     for (V& e : h) e = V(T(0));
+    // Per handle b_j = (w_j / S)(q_j - c) (the targets centred: a scene far from the origin keeps its detail):
+    // q* - c = sum_j b_j, and sum_j b_j phat_j^T by correlation_matrix; then H = that - (q* - c)(sum_j A_j)^T
+    // (eq. 6, centred: sum_j (w_j / S)(q_j - q*) phat_j^T, an identity for any weights), with sum_j A_j stored
+    // per vertex (DeformFrame::sum_a), summed at set-up from the same A_j. Three products and twelve fused
+    // terms per handle and batch, where forming A_j and summing it with q* and H took fifteen: the fused pipes
+    // bound this loop (Zen 5, AVX-512: two pipes for the products, two adders for the 9 sums and differences).
     const auto term = [&](std::size_t j, const Target<T>& t) __attribute__((always_inline)) {
       const V w = L::load(wb + j * kLanes);
-      weighted_centroid(qs, w, {V(t.q[0]), V(t.q[1]), V(t.q[2])});
+      const V bj[3] = {w * V(t.qc[0]), w * V(t.qc[1]), w * V(t.qc[2])};
+      for (int r = 0; r < 3; ++r) qs[r] = qs[r] + bj[r];
       const V ph[3] = {(V(px[j]) - vx) - ps[0], (V(py[j]) - vy) - ps[1], (V(pz[j]) - vz) - ps[2]};
-      const V a[3] = {w * ph[0], w * ph[1], w * ph[2]};
-      correlation_matrix(h, {V(t.qc[0]), V(t.qc[1]), V(t.qc[2])}, a);
-      for (int r = 0; r < 3; ++r) sum_a[r] = sum_a[r] + a[r];
-      if constexpr (kSimilarity) D = D + (a[0] * ph[0] + a[1] * ph[1] + a[2] * ph[2]);
+      correlation_matrix(h, bj, ph);
     };
     for_each_point_target(fr, term);
+    const V sum_a[3] = {L::load(fr.sum_a + v0), L::load(fr.sum_a + fr.padded + v0),
+                        L::load(fr.sum_a + 2 * fr.padded + v0)};
     for (int r = 0; r < 3; ++r)
-      for (int c = 0; c < 3; ++c) h[3 * r + c] = h[3 * r + c] - (qs[r] - V(fr.centre[r])) * sum_a[c];
+      for (int c = 0; c < 3; ++c) h[3 * r + c] = h[3 * r + c] - qs[r] * sum_a[c];
     for (int i = 0; i < 9; ++i) p.h[i] = h[i];
-    for (int c = 0; c < 3; ++c) p.qs[c] = qs[c], p.vh[c] = -ps[c];
-    p.D = D;
+    for (int c = 0; c < 3; ++c) p.qs[c] = qs[c] + V(fr.centre[c]), p.vh[c] = -ps[c];
+    p.D = kSimilarity ? L::load(fr.D + v0) : V(T(0));
   }
 
   /// R = I, mu = 1.

@@ -46,12 +46,12 @@ enum class WeightStorage {
   /// precomputed path (which works in double) to a few eps(T) kappa in the rotation.
   on_the_fly,
   /// stream only the precomputed normalised weights w_i / S (4 bytes per vertex and handle in float, 8 in
-  /// double) and, per vertex, its rest position and p* (24 bytes in float: 28 with the snap flag); each frame
-  /// forms A_i = (w_i / S) phat_i from the handles' rest positions, as on_the_fly does after its weights (and
-  /// with its frames: the identity at a vertex on a handle). A quarter of `precomputed`'s bytes per handle, for
-  /// a few more flops. Rigid and similarity with point handles and MLS centroids only (std::invalid_argument
-  /// otherwise). Weights and p* in double, rounded once: agrees with the precomputed path to a few eps(T)
-  /// kappa in the rotation.
+  /// double) and, per vertex, its rest position, p*, sum_i A_i and the snap flag (40 bytes in float; 44 with
+  /// similarity's D); each frame forms phat_i and the sums from the handles' rest positions, as on_the_fly does
+  /// after its weights (and with its frames: the identity at a vertex on a handle). A quarter of `precomputed`'s
+  /// bytes per handle, for a few more flops. Rigid and similarity with point handles and MLS centroids only
+  /// (std::invalid_argument otherwise). Weights and p* in double, rounded once: agrees with the precomputed path
+  /// to a few eps(T) kappa in the rotation.
   precomputed_weights,
 };
 

@@ -135,6 +135,9 @@ struct DeformerData {
   bool weights_only = false;
   AlignedVector<T> weights;       ///< w_j / S, the 16 lanes of block b, handle j at (b k + j) 16 (snapped: 0)
   AlignedVector<T> p_star_local;  ///< p* - v, local frame, SoA, padded (snapped: 0)
+  /// sum_j A_j as the per-frame pass forms the A_j, in T (precompute_on_the_fly.cpp), SoA, padded (snapped: 0);
+  /// similarity's D = sum_j A_j . phat_j likewise, in D above.
+  AlignedVector<T> sum_a;
 
   std::size_t pseudo_handles() const { return points + 2 * segments; }
   std::size_t padded() const { return blocks * kLanes; }
@@ -152,7 +155,7 @@ struct DeformerData {
   std::size_t bytes() const {
     return (table.capacity() + linear_table.capacity() + p_star.capacity() + vhat.capacity() + D.capacity() +
             v_local.capacity() + dref2.capacity() + snap.capacity() + p_local.capacity() + weights.capacity() +
-            p_star_local.capacity()) *
+            p_star_local.capacity() + sum_a.capacity()) *
            sizeof(T);
   }
 };

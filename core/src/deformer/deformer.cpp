@@ -146,6 +146,7 @@ struct Deformer<T>::Impl {
       fr.half_u = data.half_u;
       fr.wn = data.weights.empty() ? nullptr : data.weights.data();
       fr.p_star_local = data.p_star_local.empty() ? nullptr : data.p_star_local.data();
+      fr.sum_a = data.sum_a.empty() ? nullptr : data.sum_a.data();
     }
     fr.local_scale = T(1 / data.scale);  // 2^-e and 2^e: both numbers of T (local_frame.hpp)
     fr.world_scale = local ? T(1) : T(data.scale);

@@ -41,6 +41,23 @@ void weights_of_vertex(DeformerData<T>& data, std::size_t i, const Vec3d& vt, do
   }
   ps /= S;
   for (int c = 0; c < 3; ++c) data.p_star_local[std::size_t(c) * np + i] = T(ps[c]);
+  // sum_j A_j and D = sum_j A_j . phat_j, in T from the values the per-frame pass reads, by its operations in its
+  // order (phat_j = (p_j - v) - (p* - v), A_j = (w_j / S) phat_j): they depend on the rest pose alone, and the pass
+  // subtracts q* sum_A^T from its sum of (w_j q_j) phat_j^T, so that H is the centred sum of the very phat_j it
+  // formed (deform_kernel.hpp, weights_only).
+  const T vx = data.v_local[i], vy = data.v_local[np + i], vz = data.v_local[2 * np + i];
+  const T psx = data.p_star_local[i], psy = data.p_star_local[np + i], psz = data.p_star_local[2 * np + i];
+  T sa[3] = {0, 0, 0}, D = 0;
+  for (std::size_t j = 0; j < k; ++j) {
+    const T wj = w[j * kLanes];
+    const T ph[3] = {(data.p_local[j] - vx) - psx, (data.p_local[k + j] - vy) - psy,
+                     (data.p_local[2 * k + j] - vz) - psz};
+    const T a[3] = {wj * ph[0], wj * ph[1], wj * ph[2]};
+    for (int c = 0; c < 3; ++c) sa[c] = sa[c] + a[c];
+    D = D + (a[0] * ph[0] + a[1] * ph[1] + a[2] * ph[2]);
+  }
+  for (int c = 0; c < 3; ++c) data.sum_a[std::size_t(c) * np + i] = sa[c];
+  if (!data.D.empty()) data.D[i] = D;
 }
 
 }  // namespace
@@ -60,6 +77,8 @@ void precompute_on_the_fly(DeformerData<T>& data, const Points<T>& vertices, con
   if (data.weights_only) {
     data.weights.assign(np * k, T(0));
     data.p_star_local.assign(3 * np, T(0));
+    data.sum_a.assign(3 * np, T(0));
+    if (o.transform == Transform::similarity) data.D.assign(np, T(0));
   }
   for (std::size_t j = 0; j < k; ++j)
     for (int c = 0; c < 3; ++c) data.p_local[std::size_t(c) * k + j] = T(rh.P[j][c]);
