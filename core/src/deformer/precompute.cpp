@@ -29,21 +29,20 @@ enum class Storage { table, on_the_fly, weights };
 /// 4 and 8 bytes for alpha, as much as rigid with Options::affine_frames' B_j, data.hpp; segments; RBF centroids)
 /// the table while it fits the budget.
 /// Measured on Zen 5 (random scenes, the best of back-to-back frames, us per frame on 1 thread / both cores,
-/// 2026-11-28, after the sums over the handles fused on AVX2 and AVX-512; a scratch program over the public API,
-/// bench_scaling times the storages side by side at its own sizes), table -> weights:
-///   AVX-512, float:  1,058 x 322 (table 5.2 MiB) 62.3 / 66.3 -> 34.3 / 25.5;  1,089 x 132 29.0 / 16.0 -> 20.3 / 12.3;
-///     2,811 x 4 13.3 / 7.2 -> 12.9 / 7.0;  5,103 x 6 25.4 / 13.7 -> 24.6 / 13.2;  14,050 x 5 70.4 / 35.9 -> 65.8 /
-///     34.1;  4,096 x 64 60.4 / 31.9 -> 46.6 / 24.7;  6,146 x 256 (24 MiB) 461 / 220 -> 202 / 108;  10^5 x 10 607 /
-///     301 -> 544 / 282
-///   AVX-512, double: the same scenes, the weights as fast or faster (2,811 x 4: 26.7 / 13.9 -> 25.8 / 13.9;
-///     1,058 x 322: 139 / 84 -> 69 / 50)
-///   AVX2, float: the table faster in the cache (1,058 x 322: 96 / 52 -> 110 / 79; 2,811 x 4: 30.1 / 16.1 -> 32.6 /
-///     17.5), about even at 24 MiB (718 / 332 -> 675 / 359); SSE4.2 likewise (no FMA: 1,058 x 322 197 / 102 ->
-///     219 / 155)
+/// 2026-11-28, with the fused sums and the b_j form of weights_only (deform_kernel.hpp); a scratch program over the
+/// public API, bench_scaling times the storages side by side at its own sizes), table -> weights:
+///   AVX-512, float:  1,058 x 322 (table 5.2 MiB) 60.5 / 35.9 -> 27.6 / 23.6;  1,089 x 132 28.0 / 16.8 -> 16.3 /
+///     12.1;  2,811 x 4 12.5 / 8.2 -> 11.9 / 8.1;  5,103 x 6 24.4 / 14.9 -> 23.4 / 13.9;  14,050 x 5 66.5 / 35.1
+///     -> 61.5 / 33.1;  6,146 x 256 (24 MiB) 489 / 152 -> 162 / 89;  10^5 x 10 582 / 284 -> 498 / 254
+///   AVX-512, double (before the b_j form): the same scenes, the weights as fast or faster (2,811 x 4: 26.7 / 13.9
+///     -> 25.8 / 13.9; 1,058 x 322: 139 / 84 -> 69 / 50)
+///   AVX2, float: the table faster in the cache (1,058 x 322: 91.5 / 50.9 -> 101 / 70.5; 2,811 x 4: 29.0 / 14.9 ->
+///     30.1 / 17.5), about even from memory (6,146 x 256, 24 MiB: 640 / 235 -> 622 / 323, and in an earlier run
+///     718 / 332 -> 675 / 359); SSE4.2 likewise (no FMA: 1,058 x 322 197 / 102 -> 219 / 155, before the b_j form)
 /// With 32 registers of 16 lanes and a fused product and sum, forming A_j = (w_j / S) phat_j from the weights costs
 /// less than reading it from the table, even from L2; with 16 registers of 8 lanes (AVX2) it does not. The two
-/// paths round differently (each path has its own bits). From memory the 4 bytes win on every ISA (AVX-512 before
-/// the fused sums: 6,146 x 256 table 476 / 216, weights 283 / 146, on the fly 605 / 311; 10,000 x 256 (41 MiB)
+/// paths round differently (each path has its own bits). From memory the 4 bytes win on AVX-512 (before the fused
+/// sums too: 6,146 x 256 table 476 / 216, weights 283 / 146, on the fly 605 / 311; 10,000 x 256 (41 MiB)
 /// 1040 / 541, 455 / 233, 980 / 499; 10^6 x 10 (table 160 MiB, weights 40 MiB), both cores: 5.2, 4.05, 4.55 ms).
 /// A region whose ring's fixed handles are folded into four (fold.hpp, `folded`) keeps the table while it fits
 /// the budget, as settings without on-the-fly weights do: the weights and on the fly pay for every ring handle.
