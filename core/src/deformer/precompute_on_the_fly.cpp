@@ -43,8 +43,8 @@ void weights_of_vertex(DeformerData<T>& data, std::size_t i, const Vec3d& vt, do
   for (int c = 0; c < 3; ++c) data.p_star_local[std::size_t(c) * np + i] = T(ps[c]);
   // sum_j A_j and D = sum_j A_j . phat_j, in T from the values the per-frame pass reads, by its operations in its
   // order (phat_j = (p_j - v) - (p* - v), A_j = (w_j / S) phat_j): they depend on the rest pose alone, and the pass
-  // subtracts q* sum_A^T from its sum of (w_j q_j) phat_j^T, so that H is the centred sum of the very phat_j it
-  // formed (deform_kernel.hpp, weights_only).
+  // subtracts (q* - c)(sum_j A_j)^T from its sum of ((w_j / S)(q_j - c)) phat_j^T, so that H is the centred sum of
+  // the very phat_j it formed (deform_kernel.hpp, weights_only).
   const T vx = data.v_local[i], vy = data.v_local[np + i], vz = data.v_local[2 * np + i];
   const T psx = data.p_star_local[i], psy = data.p_star_local[np + i], psz = data.p_star_local[2 * np + i];
   T sa[3] = {0, 0, 0}, D = 0;
