@@ -185,9 +185,9 @@ struct DeformKernel {
   }
 
   /// Precomputed weights only (WeightStorage::precomputed_weights; rigid and similarity, point handles): the W
-  /// vertices from lane g of block b, in one pass over the handles with the stored w_j / S and p* - v, as
-  /// on_the_fly's second pass (coordinates relative to the vertex; the common rounding of p* projected out of
-  /// the A_j):
+  /// vertices from lane g of block b, in one pass over the handles with the stored w_j / S and p* - v: the
+  /// quantities of on_the_fly's second pass (coordinates relative to the vertex; the common rounding of p*
+  /// projected out of the A_j), H summed in another form (the b_j below), so the two round differently:
   ///   phat_j = (p_j - v) - (p* - v), A_j = (w_j / S) phat_j, q* = c + sum_j (w_j / S)(q_j - c),
   ///   H = sum_j ((w_j / S)(q_j - c)) phat_j^T - (q* - c)(sum_j A_j)^T, D = sum_j A_j . phat_j  (eqs. 2, 6, Sec. 6.1)
   /// into p, as `table` does (D for similarity only, as there; sum_j A_j and D, which depend on the rest pose
