@@ -87,6 +87,23 @@ std::vector<T> fit_in_pieces(const std::vector<T>& H, std::size_t n, std::size_t
   return out;
 }
 
+// The n matrices of a planar batch (3 x 3 x n) in numpy's layout (n x 3 x 3).
+template <class T>
+std::vector<T> interleaved(const std::vector<T>& planar, std::size_t n) {
+  std::vector<T> out(9 * n);
+  for (std::size_t i = 0; i < n; ++i)
+    for (std::size_t e = 0; e < 9; ++e) out[9 * i + e] = planar[e * n + i];
+  return out;
+}
+
+// How many of expected's values R[k] differs from bitwise.
+template <class T>
+std::size_t differing(const T* R, const std::vector<T>& expected) {
+  std::size_t differ = 0;
+  for (std::size_t k = 0; k < expected.size(); ++k) differ += std::memcmp(&R[k], &expected[k], sizeof(T)) != 0;
+  return differ;
+}
+
 template <class T>
 void check_against_scalar(Isa isa, RotationMethod method, std::size_t n) {
   INFO("isa " << to_string(isa) << ", method " << to_string(method) << ", n = " << n);
@@ -180,14 +197,17 @@ TEMPLATE_TEST_CASE("fit_rotations: a batch written past the caches is fitted bit
   // boundary: the matrices before it as below the threshold. The same n matrices fitted in pieces of 4,096
   // (below it) must give the same bits for every alignment of R (a misaligned streaming store faults), with n a
   // multiple of every lane width and not, on one thread and two (each chunk of 2,048 aligned apart).
+  // fit_rotations_interleaved streams each tile's rotations from its whole 64-byte lines on (copy_streaming): the
+  // same bits as the planar fit, transposed, at every offset, and in place.
   using T = TestType;
   const IsaGuard guard;
   const std::size_t big = (std::size_t(8) << 20) / (9 * sizeof(T)) + 64, piece = 4096;
   for (std::size_t n : {big, big + 3}) {
     const std::vector<T> H = make_cases<T>(n, 20261128 + n);
+    const std::vector<T> Hi = interleaved(H, n);
     for (Isa isa : supported_isas()) {
       set_isa(isa);
-      const std::vector<T> expected = fit_in_pieces(H, n, piece);
+      const std::vector<T> expected = fit_in_pieces(H, n, piece), expected_i = interleaved(expected, n);
       // R at every offset from a 64-byte boundary that a vector's alignment can tell apart (0 .. 15 values).
       std::vector<T> storage(9 * n + 64 / sizeof(T) + 16);
       const auto base = reinterpret_cast<std::uintptr_t>(storage.data());
@@ -198,9 +218,13 @@ TEMPLATE_TEST_CASE("fit_rotations: a batch written past the caches is fitted bit
           T* R = aligned + offset;
           std::fill(R, R + 9 * n, T(-3));
           fit_rotations(H.data(), R, n, RotationMethod::axis_angle, threads);
-          std::size_t differ = 0;
-          for (std::size_t k = 0; k < 9 * n; ++k) differ += std::memcmp(&R[k], &expected[k], sizeof(T)) != 0;
-          CHECK(differ == 0);
+          CHECK(differing(R, expected) == 0);
+          std::fill(R, R + 9 * n, T(-3));
+          fit_rotations_interleaved(Hi.data(), R, n, RotationMethod::axis_angle, threads);
+          CHECK(differing(R, expected_i) == 0);
+          std::copy(Hi.begin(), Hi.end(), R);
+          fit_rotations_interleaved(R, R, n, RotationMethod::axis_angle, threads);  // in place
+          CHECK(differing(R, expected_i) == 0);
         }
     }
   }
@@ -242,9 +266,7 @@ TEMPLATE_TEST_CASE("fit_rotations_interleaved: the planar fits bitwise, in place
   // Sizes around the tile (128 matrices) and the chunk (2,048): tails of every length within both.
   for (std::size_t n : {std::size_t(1), std::size_t(127), std::size_t(129), std::size_t(2047), std::size_t(4100)}) {
     const std::vector<T> H = make_cases<T>(n, 11 + n);  // planar, 3 x 3 x n
-    std::vector<T> Hi(9 * n);                           // the same matrices interleaved, n x 3 x 3
-    for (std::size_t i = 0; i < n; ++i)
-      for (std::size_t e = 0; e < 9; ++e) Hi[9 * i + e] = H[e * n + i];
+    const std::vector<T> Hi = interleaved(H, n);        // the same matrices interleaved, n x 3 x 3
     for (Isa isa : supported_isas()) {
       set_isa(isa);
       for (RotationMethod method : all_rotation_methods) {

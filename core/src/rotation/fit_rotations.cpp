@@ -12,6 +12,10 @@
 #include <string>
 #include <type_traits>
 
+#if defined(__SSE2__)
+#include <emmintrin.h>
+#endif
+
 namespace mlsdeform {
 
 namespace {
@@ -67,12 +71,12 @@ void validate_interleaved(const T* H, const T* R, std::size_t n, int threads, tb
                                   std::to_string(i % 9 / 3) + ", " + std::to_string(i % 3) + "] is NaN or infinite");
 }
 
-// A planar batch whose rotations take at least this many bytes has them written past the caches (the kernel
-// table's fit_axis_angle_stream: non-temporal stores, where the ISA has them): larger than the caches a core can
-// keep them in, they would be evicted before the caller reads them anyway, and a plain store first reads each
-// line from memory (a third of the traffic). 10^6 fits streamed from memory, one core, AVX-512 (AMD EPYC Zen 5),
-// plain -> non-temporal stores, alternated in one run: bench_rotation_fit's `fit` (this call, whose finite check
-// reads H once more) float 7.5-8.1 -> 6.2-6.3 ns, double 15.4-16.6 -> 12.1-13.0 ns (hot, in L2: 4.6-4.9 and
+// A batch whose rotations take at least this many bytes has them written past the caches (planar: the kernel
+// table's fit_axis_angle_stream, non-temporal stores where the ISA has them; interleaved: copy_streaming): larger than
+// the caches a core can keep them in, they would be evicted before the caller reads them anyway, and a plain store
+// first reads each line from memory (a third of the traffic). 10^6 fits streamed from memory, one core, AVX-512 (AMD
+// EPYC Zen 5), plain -> non-temporal stores, alternated in one run: bench_rotation_fit's `fit` (this call, whose finite
+// check reads H once more) float 7.5-8.1 -> 6.2-6.3 ns, double 15.4-16.6 -> 12.1-13.0 ns (hot, in L2: 4.6-4.9 and
 // 9.0-9.3 either way); the kernel alone float 7.2-8.1 -> 5.3-5.8 ns, double 14.4-17.1 -> 10.9-12.3. Prefetching R
 // as well undid a third of the gain. Fitting, then reading R back in order, float: the same time either way at
 // 0.6 and 2.2 MB of R, 11.5-11.7 -> 9.9-10.9 ns at 9 MB, 12.1 -> 9.9-10.2 ns at 36 MB.
@@ -93,11 +97,44 @@ kernels::FitRotationsFn<T> lane_kernel(RotationMethod method, bool stream = fals
   return nullptr;
 }
 
+/// dst[0, count) = src[0, count), the 64-byte lines of dst that it covers whole written by non-temporal stores
+/// (SSE2: write-combined, not read first, not kept in the caches), the rest by plain ones; with a plain copy
+/// where SSE2 is missing (WebAssembly). The caller fences (fence_streaming) before its results are published.
+template <class T>
+void copy_streaming(const T* src, T* dst, std::size_t count) {
+#if defined(__SSE2__)
+  const std::size_t misaligned = reinterpret_cast<std::uintptr_t>(dst) % 64;
+  if (misaligned % sizeof(T) == 0) {
+    const std::size_t head = std::min(count, misaligned ? (64 - misaligned) / sizeof(T) : 0);
+    const std::size_t lines = (count - head) * sizeof(T) / 64;
+    std::copy(src, src + head, dst);
+    const char* s = reinterpret_cast<const char*>(src + head);
+    char* d = reinterpret_cast<char*>(dst + head);
+    for (std::size_t l = 0; l < lines; ++l, s += 64, d += 64)
+      for (int k = 0; k < 4; ++k)
+        _mm_stream_si128(reinterpret_cast<__m128i*>(d) + k, _mm_loadu_si128(reinterpret_cast<const __m128i*>(s) + k));
+    const std::size_t done = head + lines * 64 / sizeof(T);
+    std::copy(src + done, src + count, dst + done);
+    return;
+  }
+#endif
+  std::copy(src, src + count, dst);
+}
+
+/// Orders copy_streaming's stores before the stores that follow (sfence), where it streamed.
+inline void fence_streaming() {
+#if defined(__SSE2__)
+  _mm_sfence();
+#endif
+}
+
 /// Matrices [begin, end) of an interleaved batch, tile by tile through `fit` (which fits matrices [j0, j1) of a
 /// 3 x 3 x kTile tile). Each tile of H is copied out before its rotations are written, so R may be H. The
-/// matrices up to `ahead` (>= end) are this thread's next ones: their lines are prefetched.
+/// matrices up to `ahead` (>= end) are this thread's next ones: their lines are prefetched. `stream`: the
+/// rotations go to R by copy_streaming (the caller fences).
 template <class T, class Fit>
-void fit_interleaved_range(const T* H, T* R, std::size_t begin, std::size_t end, std::size_t ahead, const Fit& fit) {
+void fit_interleaved_range(const T* H, T* R, std::size_t begin, std::size_t end, std::size_t ahead, bool stream,
+                           const Fit& fit) {
   // A tile's fits run on L1 alone: left to the hardware prefetcher, the next tile's H and R then came from
   // memory while the core waited (streamed double fits 40-50% slower than the planar layout's, whose kernel
   // reads its 9 streams while it computes). So the tile is fitted kStep matrices at a time, and between steps
@@ -119,14 +156,21 @@ void fit_interleaved_range(const T* H, T* R, std::size_t begin, std::size_t end,
         const std::size_t at = 9 * (first + kTile) + lines_per_step * line * (j / kStep);
         for (std::size_t k = 0; k < lines_per_step; ++k) {
           __builtin_prefetch(H + at + k * line);
-          __builtin_prefetch(R + at + k * line, 1);
+          if (!stream) __builtin_prefetch(R + at + k * line, 1);  // streamed: never read R's lines
         }
       }
       fit(static_cast<const T*>(h), static_cast<T*>(r), j, std::min(count, j + kStep));
     }
     T* out = R + 9 * first;
+    if (!stream) {
+      for (std::size_t i = 0; i < count; ++i)
+        for (std::size_t e = 0; e < 9; ++e) out[9 * i + e] = r[e * kTile + i];
+      continue;
+    }
+    alignas(64) T o[9 * kTile];  // the tile's rotations in R's layout, then copied past the caches
     for (std::size_t i = 0; i < count; ++i)
-      for (std::size_t e = 0; e < 9; ++e) out[9 * i + e] = r[e * kTile + i];
+      for (std::size_t e = 0; e < 9; ++e) o[9 * i + e] = r[e * kTile + i];
+    copy_streaming(o, out, 9 * count);
   }
 }
 
@@ -157,6 +201,7 @@ void fit_rotations_interleaved(const T* H, T* R, std::size_t n, RotationMethod m
   if (n == 0) return;
   const auto arena = detail::make_arena(threads);
   validate_interleaved(H, R, n, threads, arena.get());
+  const bool stream = 9 * n * sizeof(T) >= kStreamBytes;
   const kernels::FitRotationsFn<T> kernel = lane_kernel<T>(method);
   auto tile = [&](const T* h, T* r, std::size_t j0, std::size_t j1, BatchStats* st) {
     if (kernel) return kernel(h, r, kTile, j0, j1, st);
@@ -167,8 +212,9 @@ void fit_rotations_interleaved(const T* H, T* R, std::size_t n, RotationMethod m
     BatchStats st;
     for (std::size_t c = c0; c < c1; ++c) {  // the caller's check before each chunk
       detail::throw_if_cancelled(cancel);
-      fit_interleaved_range(H, R, c * kChunk, std::min(n, (c + 1) * kChunk), std::min(n, c1 * kChunk),
+      fit_interleaved_range(H, R, c * kChunk, std::min(n, (c + 1) * kChunk), std::min(n, c1 * kChunk), stream,
                             [&](const T* h, T* r, std::size_t j0, std::size_t j1) { tile(h, r, j0, j1, &st); });
+      if (stream) fence_streaming();  // each chunk's rotations ordered before a cancel's throw or the join
     }
     careful_lanes += st.careful_lanes;
   });
