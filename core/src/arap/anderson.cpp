@@ -86,11 +86,11 @@ Anderson::Anderson(std::size_t size, int window, int threads, tbb::task_arena* a
   if (window < 1 || window > kMaxWindow)
     throw std::invalid_argument("ArapRefiner: anderson_window must be in [1, " + std::to_string(kMaxWindow) +
                                 "] (got " + std::to_string(window) + ")");
-  assign_huge(x_prev_, size, 0.0);
-  assign_huge(g_last_, size, 0.0);
-  assign_huge(f_last_, size, 0.0);
-  assign_huge(dF_, size * std::size_t(window), 0.0);
-  assign_huge(dG_, size * std::size_t(window), 0.0);
+  assign_huge(x_prev_, size, 0.0, threads, arena);
+  assign_huge(g_last_, size, 0.0, threads, arena);
+  assign_huge(f_last_, size, 0.0, threads, arena);
+  assign_huge(dF_, size * std::size_t(window), 0.0, threads, arena);
+  assign_huge(dG_, size * std::size_t(window), 0.0, threads, arena);
   partial_.assign(chunks_ * 2 * std::size_t(window), 0.0);
   gram_.resize(window, window);
   gram_.setZero();

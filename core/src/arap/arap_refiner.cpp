@@ -180,11 +180,14 @@ ArapRefiner<T>::ArapRefiner(const Points<T>& rest, const Triangles& triangles,
   for (Eigen::Index i = 0; i < m.P.size(); ++i) m.P.data()[i] = std::ldexp(m.P.data()[i], -m.rest_e);
   const std::size_t nn = std::size_t(m.n);
 
-  detail::OneRings rings = detail::cotangent_one_rings(m.P, triangles);
+  // The set-up's large arrays are first touched on the session's threads (huge_pages.hpp, touch_pages).
+  const int threads = options.threads;
+  tbb::task_arena* const arena = m.arena.get();
+  detail::OneRings rings = detail::cotangent_one_rings(m.P, triangles, threads, arena);
   m.start = std::move(rings.start), m.nbr = std::move(rings.nbr), m.w = std::move(rings.w);
   m.clamped = rings.clamped;
-  detail::assign_huge(m.we, 3 * m.nbr.size(), 0.0);
-  detail::assign_huge(m.c, 3 * nn, 0.0);
+  detail::assign_huge(m.we, 3 * m.nbr.size(), 0.0, threads, arena);
+  detail::assign_huge(m.c, 3 * nn, 0.0, threads, arena);
   for (std::size_t i = 0; i < nn; ++i)
     for (Eigen::Index e = m.start[i]; e < m.start[i + 1]; ++e)
       for (int k = 0; k < 3; ++k) {
@@ -192,7 +195,7 @@ ArapRefiner<T>::ArapRefiner(const Points<T>& rest, const Triangles& triangles,
         m.we[3 * std::size_t(e) + std::size_t(k)] = v;
         m.c[3 * i + std::size_t(k)] += v;
       }
-  m.padded = detail::pad_one_rings(m.start, m.nbr, m.w, m.we);
+  m.padded = detail::pad_one_rings(m.start, m.nbr, m.w, m.we, threads, arena);
 
   // Constrained vertices; components without one are held at the start position.
   std::vector<char> is_constrained(nn, 0);
@@ -225,7 +228,8 @@ ArapRefiner<T>::ArapRefiner(const Points<T>& rest, const Triangles& triangles,
         m.held_nbr.push_back(m.nbr[std::size_t(e)]), m.held_w.push_back(m.w[std::size_t(e)]);
     m.held_start.push_back(m.held_nbr.size());
   }
-  const Eigen::SparseMatrix<double> L = detail::reduced_laplacian({m.start, m.nbr, m.w}, m.row, m.free_vertices);
+  const Eigen::SparseMatrix<double> L =
+      detail::reduced_laplacian({m.start, m.nbr, m.w}, m.row, m.free_vertices, threads, arena);
   // One part of the substitution per thread the local step may use (detail::make_arena's rule).
   const int cores = tbb::info::default_concurrency();
   const std::size_t bins =
@@ -247,14 +251,14 @@ ArapRefiner<T>::ArapRefiner(const Points<T>& rest, const Triangles& triangles,
     throw std::invalid_argument("ArapRefiner: the cotangent Laplacian could not be factorised");
 
   m.X.resize(m.n, 3);
-  detail::assign_huge(m.H, 9 * nn, T(0));
-  detail::assign_huge(m.R, 9 * nn, T(0));
-  detail::assign_huge(m.Rd, 9 * nn + 1, T(0));  // + 1: ring_rhs's padding (RingFrame)
-  detail::assign_huge(m.bsum, 3 * nn, 0.0);
-  detail::assign_huge(m.y, 3 * std::size_t(nf), 0.0);
+  detail::assign_huge(m.H, 9 * nn, T(0), threads, arena);
+  detail::assign_huge(m.R, 9 * nn, T(0), threads, arena);
+  detail::assign_huge(m.Rd, 9 * nn + 1, T(0), threads, arena);  // + 1: ring_rhs's padding (RingFrame)
+  detail::assign_huge(m.bsum, 3 * nn, 0.0, threads, arena);
+  detail::assign_huge(m.y, 3 * std::size_t(nf), 0.0, threads, arena);
   if (options.acceleration == ArapAcceleration::anderson) {
     m.anderson = std::make_unique<detail::Anderson>(3 * nn, options.anderson_window, options.threads, m.arena.get());
-    m.energy.init(m.start, m.nbr, m.w, m.P, kGrain);
+    m.energy.init(m.start, m.nbr, m.w, m.P, kGrain, threads, arena);
   }
 }
 

@@ -29,7 +29,8 @@ double cotangent(const Vec3d& a, const Vec3d& b, const Vec3d& c) {
 
 }  // namespace
 
-OneRings cotangent_one_rings(const Eigen::Matrix<double, Eigen::Dynamic, 3>& P, const Triangles& triangles) {
+OneRings cotangent_one_rings(const Eigen::Matrix<double, Eigen::Dynamic, 3>& P, const Triangles& triangles, int threads,
+                             tbb::task_arena* arena) {
   const auto n = std::size_t(P.rows());
   OneRings r;
   // Half the cotangent opposite each triangle edge, as (larger vertex, weight), bucketed by the smaller one.
@@ -46,7 +47,7 @@ OneRings cotangent_one_rings(const Eigen::Matrix<double, Eigen::Dynamic, 3>& P, 
   }
   for (std::size_t i = 0; i < n; ++i) first[i + 1] += first[i];
   std::vector<Half> halves;
-  assign_huge(halves, first[n]);
+  assign_huge(halves, first[n], {}, threads, arena);
   {
     std::vector<std::size_t> fill(first.begin(), first.end() - 1);
     for (Eigen::Index f = 0; f < triangles.rows(); ++f)
@@ -88,7 +89,7 @@ OneRings cotangent_one_rings(const Eigen::Matrix<double, Eigen::Dynamic, 3>& P, 
     }
   for (std::size_t i = 0; i < n; ++i) r.start[i + 1] += r.start[i];
   std::vector<Half> ring;
-  assign_huge(ring, std::size_t(r.start[n]));
+  assign_huge(ring, std::size_t(r.start[n]), {}, threads, arena);
   std::vector<std::size_t> fill(r.start.begin(), r.start.end() - 1);
   for (std::size_t i = 0; i < n; ++i)
     for (std::size_t h = first[i]; h < merged_end[i]; ++h) {
@@ -96,8 +97,8 @@ OneRings cotangent_one_rings(const Eigen::Matrix<double, Eigen::Dynamic, 3>& P, 
       ring[fill[i]++] = {halves[h].first, w};
       ring[fill[std::size_t(halves[h].first)]++] = {Eigen::Index(i), w};
     }
-  assign_huge(r.nbr, ring.size());
-  assign_huge(r.w, ring.size());
+  assign_huge(r.nbr, ring.size(), {}, threads, arena);
+  assign_huge(r.w, ring.size(), {}, threads, arena);
   for (std::size_t i = 0; i < n; ++i) {
     const auto b = ring.begin() + std::ptrdiff_t(r.start[i]), e = ring.begin() + std::ptrdiff_t(r.start[i + 1]);
     std::sort(b, e);  // neighbours are distinct: by neighbour
@@ -108,7 +109,8 @@ OneRings cotangent_one_rings(const Eigen::Matrix<double, Eigen::Dynamic, 3>& P, 
 }
 
 Eigen::SparseMatrix<double> reduced_laplacian(const OneRingsView& rings, const std::vector<Eigen::Index>& row,
-                                              const std::vector<Eigen::Index>& free_vertices) {
+                                              const std::vector<Eigen::Index>& free_vertices, int threads,
+                                              tbb::task_arena* arena) {
   // Written by columns directly (L is symmetric: column row[i] holds row i's entries), in place of triplets and
   // their two sorting passes (spot_loop3: 1.0 -> 0.2 s of the set-up). Rows ascend within each column: a
   // ring's neighbours ascend, and so do their rows (row[] numbers the free vertices in ascending order); the
@@ -121,7 +123,7 @@ Eigen::SparseMatrix<double> reduced_laplacian(const OneRingsView& rings, const s
     for (Eigen::Index e = rings.start[std::size_t(i)]; e < rings.start[std::size_t(i) + 1]; ++e)
       entries += row[std::size_t(rings.nbr[std::size_t(e)])] >= 0;
   }
-  resize_nonzeros_huge(L, entries);  // allocated, not written: advised before the loop writes them
+  resize_nonzeros_huge(L, entries, threads, arena);  // allocated, not written: advised before the loop writes them
   int* outer = L.outerIndexPtr();
   int* inner = L.innerIndexPtr();
   double* value = L.valuePtr();

@@ -4,6 +4,8 @@
 
 #include <mlsdeform/arap.hpp>
 
+#include "core/src/threading.hpp"
+
 #include <Eigen/Core>
 #include <Eigen/SparseCore>
 
@@ -29,13 +31,17 @@ struct OneRingsView {
 
 /// w_ij = (cot alpha + cot beta) / 2 over the triangles sharing the edge (degenerate triangles and repeated
 /// corners contribute nothing), clamped below at zero, plus 1e-6 of the mean weight on every edge. Throws
-/// std::invalid_argument for a triangle index outside [0, P.rows()).
-OneRings cotangent_one_rings(const Eigen::Matrix<double, Eigen::Dynamic, 3>& P, const Triangles& triangles);
+/// std::invalid_argument for a triangle index outside [0, P.rows()). Its large arrays are first touched on
+/// `threads` of `arena` (touch_pages, huge_pages.hpp).
+OneRings cotangent_one_rings(const Eigen::Matrix<double, Eigen::Dynamic, 3>& P, const Triangles& triangles,
+                             int threads = 1, tbb::task_arena* arena = nullptr);
 
 /// The cotangent Laplacian reduced to the free vertices (row[i] >= 0 their row, -1 for a held vertex, in
-/// the order of free_vertices, which ascends): L_ii = sum_j w_ij, L_ij = -w_ij between free vertices.
+/// the order of free_vertices, which ascends): L_ii = sum_j w_ij, L_ij = -w_ij between free vertices. `threads`,
+/// `arena`: as cotangent_one_rings'.
 Eigen::SparseMatrix<double> reduced_laplacian(const OneRingsView& rings, const std::vector<Eigen::Index>& row,
-                                              const std::vector<Eigen::Index>& free_vertices);
+                                              const std::vector<Eigen::Index>& free_vertices, int threads = 1,
+                                              tbb::task_arena* arena = nullptr);
 
 /// Union-find with path halving.
 struct Disjoint {

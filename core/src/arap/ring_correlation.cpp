@@ -15,7 +15,7 @@ std::size_t PaddedRings::memory_bytes() const {
 }
 
 PaddedRings pad_one_rings(std::span<const Eigen::Index> start, std::span<const Eigen::Index> nbr,
-                          std::span<const double> w, std::span<const double> we) {
+                          std::span<const double> w, std::span<const double> we, int threads, tbb::task_arena* arena) {
   constexpr std::size_t L = kernels::kLanes;
   const std::size_t n = start.empty() ? 0 : start.size() - 1, blocks = (n + L - 1) / L;
   PaddedRings r;
@@ -26,10 +26,10 @@ PaddedRings pad_one_rings(std::span<const Eigen::Index> start, std::span<const E
     r.slot_begin[b + 1] = r.slot_begin[b] + std::size_t(valence);
   }
   const std::size_t slots = r.slot_begin[blocks];
-  assign_huge(r.self, blocks * L, std::int64_t(0));
-  assign_huge(r.slot_x, slots * L, std::int64_t(0));
-  assign_huge(r.slot_a, 3 * slots * L, 0.0);  // padding: weight 0
-  assign_huge(r.slot_w, slots * L, 0.0);
+  assign_huge(r.self, blocks * L, std::int64_t(0), threads, arena);
+  assign_huge(r.slot_x, slots * L, std::int64_t(0), threads, arena);
+  assign_huge(r.slot_a, 3 * slots * L, 0.0, threads, arena);  // padding: weight 0
+  assign_huge(r.slot_w, slots * L, 0.0, threads, arena);
   for (std::size_t b = 0; b < blocks; ++b)
     for (std::size_t l = 0; l < L; ++l) {
       // A lane past n stands for the block's first vertex; its results are not stored.

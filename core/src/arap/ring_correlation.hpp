@@ -14,6 +14,7 @@
 // u_T |H|.
 #pragma once
 
+#include "core/src/threading.hpp"
 #include "kernels/contract.hpp"
 
 #include <Eigen/Core>
@@ -36,9 +37,11 @@ struct PaddedRings {
   std::size_t memory_bytes() const;
 };
 
-/// n vertices' CSR one-rings (start: n + 1 offsets; nbr, w, and we = w_ij (p_i - p_j), 3 per edge), padded.
+/// n vertices' CSR one-rings (start: n + 1 offsets; nbr, w, and we = w_ij (p_i - p_j), 3 per edge), padded; the
+/// arrays first touched on `threads` of `arena` (touch_pages, huge_pages.hpp).
 PaddedRings pad_one_rings(std::span<const Eigen::Index> start, std::span<const Eigen::Index> nbr,
-                          std::span<const double> w, std::span<const double> we);
+                          std::span<const double> w, std::span<const double> we, int threads = 1,
+                          tbb::task_arena* arena = nullptr);
 
 /// The frame over a session's one-rings: both layouts, the positions x (row-major n x 3), the output H
 /// (3 x 3 x n SoA) and, where not null, the energy's per-vertex record `ring` (10 values per vertex); for

@@ -7,6 +7,8 @@
 // costs a few units of 1e-16 per vertex, far below the energy changes the safeguard compares.
 #pragma once
 
+#include "core/src/huge_pages.hpp"
+
 #include <Eigen/Core>
 
 #include <algorithm>
@@ -22,12 +24,13 @@ struct RingEnergy {
   std::vector<double> q;       ///< per vertex: sum_j w_ij |p_i - p_j|^2, in the rest pose's units
   std::vector<double> chunks;  ///< E's partial sums per chunk of vertices
 
-  /// Sized once: n vertices with CSR one-rings (start, nbr, w) over the rest positions P, chunks of `grain`.
+  /// Sized once: n vertices with CSR one-rings (start, nbr, w) over the rest positions P, chunks of `grain`;
+  /// `ring` first touched on `threads` of `arena` (touch_pages).
   template <class Index, class Points>
   void init(const std::vector<Index>& start, const std::vector<Index>& nbr, const std::vector<double>& w,
-            const Points& P, std::size_t grain) {
+            const Points& P, std::size_t grain, int threads = 1, tbb::task_arena* arena = nullptr) {
     const std::size_t n = std::size_t(P.rows());
-    ring.assign(10 * n, 0.0);
+    assign_huge(ring, 10 * n, 0.0, threads, arena);
     q.assign(n, 0.0);
     for (std::size_t i = 0; i < n; ++i)
       for (Index e = start[i]; e < start[i + 1]; ++e)

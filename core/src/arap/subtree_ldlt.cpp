@@ -165,7 +165,8 @@ bool SubtreeLdlt::compute(const Eigen::SparseMatrix<double>& A, std::size_t bins
       return true;
     }
     auto s = std::make_unique<ColumnStorage>();
-    s->c = to_columns(f, true);
+    const auto arena = make_arena(int(bins));  // the conversion's arrays touched by as many threads as the factor's
+    s->c = to_columns(f, true, int(bins), arena.get());
     f = SupernodalFactor();  // the blocks freed before the schedule's arrays are made
     D = std::move(s->c.D);
     Lp = s->c.col_start.data(), Li = s->c.rows.data(), Lx = s->c.values.data();

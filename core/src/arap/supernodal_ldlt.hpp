@@ -11,6 +11,8 @@
 // substitutes with the blocks.
 #pragma once
 
+#include "core/src/threading.hpp"
+
 #include <Eigen/Core>
 #include <Eigen/SparseCore>
 
@@ -61,12 +63,13 @@ struct SupernodalFactor {
 
 /// The factor as L D L^T by columns (L_rc = G_rc / G_cc, D_c = G_cc^2; the relaxed supernodes' zeros kept, or
 /// with `drop_zeros` every entry that is zero dropped): L's strictly lower part, rows ascending, column c's at
-/// rows[col_start[c] .. col_start[c + 1]).
+/// rows[col_start[c] .. col_start[c + 1]). Its arrays first touched on `threads` of `arena` (touch_pages).
 struct ColumnLdlt {
   std::vector<int> col_start, rows;
   std::vector<double> values, D;
 };
-ColumnLdlt to_columns(const SupernodalFactor& f, bool drop_zeros = false);
+ColumnLdlt to_columns(const SupernodalFactor& f, bool drop_zeros = false, int threads = 1,
+                      tbb::task_arena* arena = nullptr);
 
 /// Eigen's AMD (Eigen::AMDOrdering's) on A's own pattern. AMDOrdering first forms the pattern of A^T + A (two
 /// transposed copies), which for A (both triangles stored, so structurally symmetric) is A's, in the same order:

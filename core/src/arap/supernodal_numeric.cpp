@@ -128,7 +128,7 @@ void cut_tree(const std::vector<int>& super_parent, const std::vector<double>& o
   for (const int r : roots) parts.emplace_back(r - size[std::size_t(r)] + 1, r);
 }
 
-ColumnLdlt to_columns(const SupernodalFactor& f, bool drop_zeros) {
+ColumnLdlt to_columns(const SupernodalFactor& f, bool drop_zeros, int threads, tbb::task_arena* arena) {
   const std::size_t ns = f.first.size() - 1, n = f.perm.size();
   const auto kept = [&](double v) { return !drop_zeros || v != 0; };
   std::size_t entries = 0;  // sized first: no reallocation, and the peak is the final size
@@ -141,8 +141,8 @@ ColumnLdlt to_columns(const SupernodalFactor& f, bool drop_zeros) {
   ColumnLdlt out;
   out.D.resize(n);
   out.col_start.resize(n + 1);
-  assign_huge(out.rows, entries);
-  assign_huge(out.values, entries);
+  assign_huge(out.rows, entries, 0, threads, arena);
+  assign_huge(out.values, entries, 0.0, threads, arena);
   std::size_t to = 0;
   for (std::size_t t = 0; t < ns; ++t) {
     const int f0 = f.first[t], nc = f.first[t + 1] - f0, nr = f.row_start[t + 1] - f.row_start[t];
@@ -205,7 +205,7 @@ bool supernodal_cholesky(const Sparse& A, const Eigen::Matrix<double, Eigen::Dyn
   find_supernodes(A, s);
   const std::size_t ns = s.first.size() - 1;
   std::vector<double> values;
-  assign_huge(values, s.value_start[ns]);
+  assign_huge(values, s.value_start[ns], 0.0, threads, arena.get());
 
   const std::size_t bins =
       threads == 1 ? 1 : std::size_t(arena ? arena->max_concurrency() : tbb::this_task_arena::max_concurrency());
