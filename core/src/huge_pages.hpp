@@ -12,7 +12,7 @@
 // through the host as well: on the 2-core AMD EPYC Zen 5 VM, memset of 1 GiB of fresh memory took 2.4-2.7 s on
 // one thread after 15 idle seconds and 1.3-1.5 s on two (36-77 ms either way when run back to back). So the
 // large arrays of a set-up that may use several threads are first touched by them (touch_pages): spot_loop3's
-// ARAP set-up, 12 idle seconds before each run, 4.0-4.5 -> 3.1-3.2 s; back to back 2.2-2.6 -> 2.0-2.2 s.
+// ARAP set-up (two threads), 12 idle seconds before each run, 3.7-4.3 -> 3.0-3.3 s; back to back 2.2-2.6 -> 2.0-2.2 s.
 #pragma once
 
 #include "core/src/parallel.hpp"
