@@ -178,13 +178,8 @@ TEMPLATE_TEST_CASE("fit_rotations: batches fitted side by side are fitted bitwis
       std::vector<TestType> R(9 * n);
       fit_rotations(H.data(), R.data(), n, RotationMethod::axis_angle, 1);
       const std::vector<TestType> R1 = fit_in_pieces(H, n, W), R2 = fit_in_pieces(H, n, 1);
-      std::size_t differ_batch = 0, differ_alone = 0;
-      for (std::size_t k = 0; k < 9 * n; ++k) {
-        differ_batch += std::memcmp(&R[k], &R1[k], sizeof(TestType)) != 0;
-        differ_alone += std::memcmp(&R[k], &R2[k], sizeof(TestType)) != 0;
-      }
-      CHECK(differ_batch == 0);
-      CHECK(differ_alone == 0);
+      CHECK(differing(R.data(), R1) == 0);
+      CHECK(differing(R.data(), R2) == 0);
     }
   }
 }

@@ -100,6 +100,8 @@ kernels::FitRotationsFn<T> lane_kernel(RotationMethod method, bool stream = fals
 /// dst[0, count) = src[0, count), the 64-byte lines of dst that it covers whole written by non-temporal stores
 /// (SSE2: write-combined, not read first, not kept in the caches), the rest by plain ones; with a plain copy
 /// where SSE2 is missing (WebAssembly). The caller fences (fence_streaming) before its results are published.
+/// Not the kernels' store_streaming: core/ is built with baseline flags, and four 16-byte stores fill a line's
+/// write-combining buffer as one 64-byte store does.
 template <class T>
 void copy_streaming(const T* src, T* dst, std::size_t count) {
 #if defined(__SSE2__)
