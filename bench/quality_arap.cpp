@@ -1,5 +1,6 @@
 // bench_quality's ARAP section (bench_quality.cpp describes its tables): convergence against iterations and
-// time, plain and Anderson-accelerated, from MLS; warm starts on animations; the 10^5-vertex human.
+// time, plain and Anderson-accelerated, from MLS; warm starts on animations; other poses of the human; the
+// 10^5-vertex human.
 //
 // The reference is the converged ARAP of the same energy (ArapRefiner in double, Anderson, from MLS, in
 // rounds of 100 iterations until a round changes the energy by less than 1e-6 relative, at most 3,000; the
@@ -93,6 +94,21 @@ const char* kHeader =
     "| solver | iterations | ms per frame | energy / E* | rigidity median / p95 | edge ratio p1 / p99 |\n"
     "|---|---:|---:|---:|---:|---:|\n";
 
+// MLS + k ARAP iterations from MLS (a fresh Deformer, each frame timed as in the scene tables): the result, and
+// its ms per frame in `ms`.
+template <class T>
+PointsD from_mls(const QualityScene& s, const Settings& set, const Handles<T>& rest_handles, const Handles<T>& moved,
+                 ArapAcceleration a, int k, double& ms) {
+  mlsdeform::Options o;
+  o.threads = set.threads;
+  o.arap_iterations = k;
+  o.arap_acceleration = a;
+  const mlsdeform::Deformer<T> d(s.rest.cast<T>(), s.triangles, rest_handles, o);
+  Points<T> out;
+  ms = ms_per_frame([&] { d.deform(moved, out); }, std::min(set.min_time, 0.2));
+  return out.template cast<double>();
+}
+
 // One Deformer per row: MLS + k ARAP iterations from MLS, each frame timed as in the scene tables.
 template <class T>
 void convergence_table(const QualityScene& s, const Settings& set, std::vector<std::string>& json) {
@@ -104,20 +120,13 @@ void convergence_table(const QualityScene& s, const Settings& set, std::vector<s
   print_reference(s, ref);
   std::printf("%s", kHeader);
   mlsdeform::ArapRefiner<double> judge(s.rest, s.triangles, s.handles);
-  const Points<T> rest = s.rest.cast<T>();
   Handles<T> rest_handles, moved;
   rest_handles.points = rows_of(s.rest, s.handles).cast<T>();
   moved.points = s.targets.cast<T>();
   for (const ArapAcceleration a : {ArapAcceleration::none, ArapAcceleration::anderson})
     for (const int k : {1, 2, 5, 10, 20, 40, 80}) {
-      mlsdeform::Options o;
-      o.threads = set.threads;
-      o.arap_iterations = k;
-      o.arap_acceleration = a;
-      const mlsdeform::Deformer<T> d(rest, s.triangles, rest_handles, o);
-      Points<T> out;
-      const double ms = ms_per_frame([&] { d.deform(moved, out); }, std::min(set.min_time, 0.2));
-      const PointsD x = out.template cast<double>();
+      double ms = 0;
+      const PointsD x = from_mls(s, set, rest_handles, moved, a, k, ms);
       check_handles(s, name(a), x);
       const ShapeQuality q = mlsdeform::testing::shape_quality(s.rest, x, s.triangles);
       const double ratio = judge.energy(x) / ref.energy;
@@ -227,6 +236,42 @@ void warm_table(const Animation& an, const Settings& set, const std::vector<int>
       }
 }
 
+// Other poses of the human: frames of data/human_bend.json (a quarter, half, three quarters and all of the
+// bend), each from MLS as in the convergence table, against its own converged result.
+template <class T>
+void poses_table(const Animation& an, const Settings& set, std::vector<std::string>& json) {
+  const QualityScene& s = an.scene;
+  std::printf(
+      "\n### ARAP on other poses: %s\n\n%s: frames 6, 12, 18 and 24 (the bend of the tables above), each from "
+      "MLS (Deformer, %s) as in the convergence table; converged: the reference of each pose (double, "
+      "Anderson, to a change below 1e-6 per 100 iterations).\n\n"
+      "| frame | solver | iterations | ms per frame | energy / E* | rigidity median / p95 | converged median / "
+      "p95 |\n|---:|---|---:|---:|---:|---:|---:|\n",
+      s.name.c_str(), an.description.c_str(), set.use_double ? "double" : "float");
+  mlsdeform::ArapRefiner<double> judge(s.rest, s.triangles, s.handles);
+  Handles<T> rest_handles, moved;
+  rest_handles.points = rows_of(s.rest, s.handles).cast<T>();
+  for (const std::size_t frame : {6, 12, 18, 24}) {
+    const PointsD& targets = an.frames[frame - 1];
+    const Reference ref = converged(s, targets);
+    const ShapeQuality qref = mlsdeform::testing::shape_quality(s.rest, ref.x, s.triangles);
+    moved.points = targets.cast<T>();
+    const std::pair<ArapAcceleration, int> rows[] = {
+        {ArapAcceleration::none, 10}, {ArapAcceleration::anderson, 10}, {ArapAcceleration::anderson, 20}};
+    for (const auto& [a, k] : rows) {
+      double ms = 0;
+      const PointsD x = from_mls(s, set, rest_handles, moved, a, k, ms);
+      const ShapeQuality q = mlsdeform::testing::shape_quality(s.rest, x, s.triangles);
+      const double ratio = judge.energy(x) / ref.energy;
+      std::printf("| %zu | %s | %d | %.3g | %.4f | %.4f / %.4f | %.4f / %.4f |\n", frame, name(a), k, ms, ratio,
+                  quantile(q.rigidity, 0.5), quantile(q.rigidity, 0.95), quantile(qref.rigidity, 0.5),
+                  quantile(qref.rigidity, 0.95));
+      std::fflush(stdout);
+      json.push_back(json_arap(s, "pose " + std::to_string(frame), name(a), k, ms, ratio, q));
+    }
+  }
+}
+
 }  // namespace
 
 template <class T>
@@ -237,6 +282,7 @@ std::vector<std::string> arap_section(const std::vector<QualityScene>& scenes, c
     if (s.name == "human" || s.name == "bar" || s.name == "fish") convergence_table<T>(s, set, json);
   for (const QualityScene& s : scenes) {
     if (s.name == "human") warm_table<T>(human_animation(s), set, {2, 5, 10}, json);
+    if (s.name == "human") poses_table<T>(human_animation(s), set, json);
     if (s.name == "bar") warm_table<T>(bar_animation(s), set, {2, 5, 10}, json);
   }
   // The human after two Loop subdivisions, the same 8 handles (old vertices keep their indices): the fixed

@@ -2,6 +2,7 @@
 import os
 
 
+from . import arap_convergence
 from .common import table
 
 
@@ -31,7 +32,11 @@ def write(md, inputs):
     if os.path.exists(arap):
         with open(arap) as f:
             text = f.read()
-            md.append(text[text.find("## ARAP") :])  # from its heading: the machine is said above
+            text = text[text.find("## ARAP") :]  # from its heading: the machine is said above
+            heading, _, rest = text.partition("\n")
+            md.append(heading + "\n")
+            md.extend(arap_convergence.plot(res, inputs.plots))
+            md.append(rest.lstrip("\n"))
     # ----------------------------------------------------------------------------------------------------
     # Skipped
     # ----------------------------------------------------------------------------------------------------
