@@ -6,6 +6,29 @@ import os
 from .common import MODELS, load, fmt, ratio, table, status
 
 
+def _row_name(r):
+    return f"{r['tool']} {r['iterations']}"
+
+
+def _in_time(rows, badness, describe, limit_ms):
+    """Issue 28's quality-in-time rows: `badness(r)` <= 1 where r meets the quality, `describe(r)` its figures.
+    Returns (measured, met): the fastest row that meets it, and the best row within `limit_ms` (by badness)
+    where that one is not it."""
+    good = [r for r in rows if badness(r) <= 1]
+    fastest = min(good, key=lambda r: r["ms_per_frame"]) if good else None
+    within = [r for r in rows if r["ms_per_frame"] <= limit_ms]
+    best = min(within, key=badness) if within else None
+    parts = []
+    if fastest:
+        parts.append(f"fastest that meets it: {_row_name(fastest)}, {fmt(fastest['ms_per_frame'])} ms")
+    else:
+        parts.append("no row meets it")
+    if best and best is not fastest:
+        parts.append(f"best within {limit_ms} ms: {_row_name(best)} ({describe(best)})")
+    met = fastest is not None and fastest["ms_per_frame"] <= limit_ms
+    return "; ".join(parts), met
+
+
 def write(md, inputs):
     """Appends the section to md (a list of markdown lines)."""
     res, rot, t2, sc = inputs.res, inputs.rot, inputs.t2, inputs.sc
@@ -236,6 +259,43 @@ def write(md, inputs):
                 status(mit["setup_s"] <= 4 and mit["ms_per_iteration"] <= 80 and mit["peak_rss_gib"] <= 1.5),
             ]
         )
+    # Issue 28's quality in time, from bench_quality --arap: the human from MLS (the convergence table), and the
+    # subdivided human (110,210 vertices) dragged (warm) and from MLS, against its converged p95.
+    arap = load(os.path.join(res, "bench_quality_arap.json")) or []
+    human = [r for r in arap if r["scene"] == "human" and r["table"] == "convergence"]
+    if human:
+        measured, met = _in_time(
+            human,
+            lambda r: max(r["rigidity_p95"] / 0.12, r["rigidity_median"] / 0.03),
+            lambda r: f"{r['rigidity_p95']:.4f} / {r['rigidity_median']:.4f}",
+            3,
+        )
+        targets.append(
+            [
+                "human bend, MLS + ARAP from MLS: rigidity p95 / median (any solver and count of the table)",
+                "<= 0.12 / 0.03 in <= 3 ms",
+                measured,
+                status(met),
+            ]
+        )
+    big = [r for r in arap if r["scene"] == "human_loop2" and "converged_rigidity_p95" in r]
+
+    def p95_ratio(r):
+        return r["rigidity_p95"] / r["converged_rigidity_p95"]
+
+    for start, limit in [("warm", 33), ("from MLS", 100)]:
+        rows = [r for r in big if r["tool"].startswith(start)]
+        if rows:
+            measured, met = _in_time(rows, lambda r: p95_ratio(r) / 1.15, lambda r: f"{p95_ratio(r):.3f}x", limit)
+            targets.append(
+                [
+                    f"human_loop2 (110,210 vertices), {'dragged (warm start)' if start == 'warm' else 'from MLS'}: "
+                    "rigidity p95 / converged p95",
+                    f"<= 1.15x in <= {limit} ms",
+                    measured,
+                    status(met),
+                ]
+            )
     worst = None
     for n in [10000, 100000, 1000000]:
         r = ratio(
