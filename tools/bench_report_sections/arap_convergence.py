@@ -2,8 +2,8 @@
 
 Reads bench_quality --arap's JSON (the convergence tables: MLS + k iterations from MLS, energy / E* against
 the converged result of the same energy) and bench_quality's (CGAL's ARAP on the same scenes: its default
-5 iterations and its run to 500). Writes plots/arap_convergence.png; returns the markdown that shows it, or
-nothing where either file is missing.
+5 iterations and its run to 500; left out where CGAL was not built). Writes plots/arap_convergence.png;
+returns the markdown that shows it, or nothing where the ARAP JSON is missing.
 """
 import os
 
