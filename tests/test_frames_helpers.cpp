@@ -95,6 +95,27 @@ TEMPLATE_TEST_CASE("transform_normals: degenerate linear parts keep the normal, 
   CHECK((out[12] == 0 && out[13] == 0 && out[14] == 0));                         // zero stays zero
 }
 
+TEMPLATE_TEST_CASE("transform_normals and tangents: NaN in L keeps the input, the identity keeps it bit for bit",
+                   "[frames][normals]", float, double) {
+  using T = TestType;
+  const T nan = std::numeric_limits<T>::quiet_NaN();
+  // Rows: a NaN entry (the input kept, unit length, as for an infinite one); the identity (kept as it is: a
+  // normal of length 5 stays 5, not renormalised, and a tangent's w stays as stored).
+  const std::vector<T> lin = {1, 0, 0, 0, nan, 0, 0, 0, 1,  //
+                              1, 0, 0, 0, 1,   0, 0, 0, 1};
+  const std::vector<T> nrm = {0, 3, 4, 3, 0, T(4.1)};
+  std::vector<T> out(nrm.size());
+  transform_normals<T>(lin, nrm, out);
+  const T e = 4 * std::numeric_limits<T>::epsilon();
+  CHECK((std::abs(out[1] - T(0.6)) <= e && std::abs(out[2] - T(0.8)) <= e && out[0] == 0));
+  CHECK((out[3] == nrm[3] && out[4] == nrm[4] && out[5] == nrm[5]));
+  const std::vector<T> tan = {0, 0, 2, -1, 2, 0, 0, T(-0.5)};
+  std::vector<T> tout(tan.size());
+  transform_tangents<T>(lin, tan, tout);
+  CHECK((tout[2] == 1 && tout[3] == -1));
+  CHECK((tout[4] == 2 && tout[5] == 0 && tout[6] == 0 && tout[7] == T(-0.5)));
+}
+
 TEMPLATE_TEST_CASE("transform_tangents: L t renormalised, w flipped by a reflection", "[frames][normals]", float,
                    double) {
   using T = TestType;

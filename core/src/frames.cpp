@@ -17,8 +17,10 @@ namespace {
 /// neither the squares overflow nor underflow; false, v unchanged, where v is zero or not finite.
 template <class T>
 bool normalise3(T* v) {
+  for (int i = 0; i < 3; ++i)
+    if (!std::isfinite(v[i])) return false;  // NaN too (std::max would pass over it)
   const T m = std::max({std::abs(v[0]), std::abs(v[1]), std::abs(v[2])});
-  if (!(m > T(0)) || !std::isfinite(m)) return false;
+  if (!(m > T(0))) return false;
   const int e = std::ilogb(m);
   T s[3];
   for (int i = 0; i < 3; ++i) s[i] = std::ldexp(v[i], -e);
@@ -33,10 +35,22 @@ bool normalise3(T* v) {
 template <class T>
 bool scaled_linear(const T* linear, T (&L)[9]) {
   T m = 0;
-  for (int i = 0; i < 9; ++i) m = std::max(m, std::abs(linear[i]));
-  if (!(m > T(0)) || !std::isfinite(m)) return false;
+  for (int i = 0; i < 9; ++i) {
+    if (!std::isfinite(linear[i])) return false;  // NaN too (std::max would pass over it)
+    m = std::max(m, std::abs(linear[i]));
+  }
+  if (!(m > T(0))) return false;
   const int e = std::ilogb(m);
   for (int i = 0; i < 9; ++i) L[i] = std::ldexp(linear[i], -e);
+  return true;
+}
+
+/// True where L (row-major) is exactly the identity: the vertex did not move (outside a region, at rest), and its
+/// normal or tangent is kept as it is, bit for bit (not renormalised).
+template <class T>
+bool is_identity(const T* L) {
+  for (int i = 0; i < 9; ++i)
+    if (L[i] != T(i % 4 == 0 ? 1 : 0)) return false;
   return true;
 }
 
@@ -73,6 +87,10 @@ void transform_normals(std::span<const T> linear, std::span<const T> normals, st
   const std::size_t n = normals.size() / 3;
   for (std::size_t i = 0; i < n; ++i) {
     const T nin[3] = {normals[3 * i], normals[3 * i + 1], normals[3 * i + 2]};
+    if (is_identity(linear.data() + 9 * i)) {
+      for (int r = 0; r < 3; ++r) out[3 * i + std::size_t(r)] = nin[r];
+      continue;
+    }
     T v[3] = {nin[0], nin[1], nin[2]}, L[9];
     if (scaled_linear(linear.data() + 9 * i, L)) {
       // cof(L) has the rows b x c, c x a, a x b of L's rows a, b, c; det L = a . (b x c).
@@ -99,6 +117,10 @@ void transform_tangents(std::span<const T> linear, std::span<const T> tangents, 
   const std::size_t n = tangents.size() / 4;
   for (std::size_t i = 0; i < n; ++i) {
     const T tin[4] = {tangents[4 * i], tangents[4 * i + 1], tangents[4 * i + 2], tangents[4 * i + 3]};
+    if (is_identity(linear.data() + 9 * i)) {
+      for (int r = 0; r < 4; ++r) out[4 * i + std::size_t(r)] = tin[r];
+      continue;
+    }
     T v[3] = {tin[0], tin[1], tin[2]}, L[9];
     T w = tin[3];
     if (scaled_linear(linear.data() + 9 * i, L)) {

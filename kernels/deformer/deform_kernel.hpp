@@ -89,8 +89,8 @@ struct DeformKernel {
     const auto snapped = p.snap >= V(T(0));
     if (any(snapped)) {
       snap_to_handles(fr, p.snap, res.out);
-      // The frame of a vertex on a handle: the identity, not the infinite weights' NaN (the table holds the
-      // fit's limit there instead: data.hpp).
+      // The frame of a vertex on a handle: the identity, not the infinite weights' NaN (the session then writes
+      // the fit's limit there, apart from the kernels: core/src/deformer/near_handles.hpp).
       for (int i = 0; i < 9; ++i) res.r[i] = select(snapped, V(T(i % 4 == 0 ? 1 : 0)), res.r[i]);
       res.mu = select(snapped, V(T(1)), res.mu);
     }

@@ -25,8 +25,8 @@
 //   v'  = q* + mu R vhat
 // Units. Everything, the rest pose and every frame, is computed in the local frame (local_frame.hpp): the
 // caller's coordinates times 2^-e (`scale` = 2^e, an exact power of two close to the scene size; rest
-// positions are also moved to the scene's centre). The kernels read a target q as q 2^-e and write a result
-// x as x 2^e (DeformFrame's local_scale and world_scale): products with powers of two, exact in the normal
+// positions are also moved to the handles' centre, local_frame.hpp). The kernels read a target q as q 2^-e and write a
+// result x as x 2^e (DeformFrame's local_scale and world_scale): products with powers of two, exact in the normal
 // range, so that a scene scaled by 2^k runs on the same bits, and its output is the unscaled output times
 // 2^k, rounded once where it is subnormal. Targets may be at most coordinate_limit 2^e from the origin
 // (`target_limit`), so that they and their sums stay finite in the local frame. vhat is stored in the local
@@ -49,11 +49,10 @@
 // Snapped vertices (closer to a handle than 64 eps(T) times their distance to the second-nearest handle;
 // snap.hpp derives the rule) take the map's limit at that handle (precompute_table.cpp). At a point handle, or a
 // segment with exact_integral weights: omega = 1 on that point handle (or 1 - t, t on the ends of that segment, t the
-// closest point) and vhat = 0, so v' = q* exactly; at a segment A = 0 and D = 0 (H = 0, the identity), at a point
-// handle (with another handle) A the fit's limit there, for the frames' rotation or affine matrix (frames.hpp). At a
-// segment with paper_constant weights: the coefficients of that segment alone with constant weight (omega = 1/2 at each
-// end), as if every other handle's weight had vanished. Affine at a segment: with exact_integral weights B = 0
-// (L = 0: no frame), with paper_constant the fit to that segment alone, whose G has rank 1 (L = H G^+, rank 1).
+// closest point), A = 0, D = 0 and vhat = 0, so v' = q* exactly. At a segment with paper_constant weights: the
+// coefficients of that segment alone with constant weight (omega = 1/2 at each end), as if every other handle's
+// weight had vanished. Their frames are not the table's: every storage takes them apart, as the fit's limit at the
+// handle, in double (near_handles.hpp, `near` below).
 //
 // Layout. Vertices are grouped in blocks of kLanes = 16 (padded; padding lanes carry omega = 0, A = 0,
 // vhat = 0, D = 0, alpha = 0). All arrays are 64-byte aligned.
@@ -64,6 +63,7 @@
 //   D (similarity only):       [v]
 #pragma once
 
+#include "core/src/deformer/near_handles.hpp"
 #include "kernels/contract.hpp"
 
 #include <mlsdeform/deformer.hpp>
@@ -139,6 +139,10 @@ struct DeformerData {
   /// similarity's D = sum_j A_j . phat_j likewise, in D above.
   AlignedVector<T> sum_a;
 
+  /// Vertices on a handle, and (table storage) beside a dominant segment: their frames, and beside a segment their
+  /// positions, computed apart after the kernels' blocks, in every storage (near_handles.hpp).
+  NearHandles near;
+
   std::size_t pseudo_handles() const { return points + 2 * segments; }
   std::size_t padded() const { return blocks * kLanes; }
   /// Values per block and pseudo-handle: 4 (omega, Ax, Ay, Az) or 1 (alpha).
@@ -156,7 +160,8 @@ struct DeformerData {
     return (table.capacity() + linear_table.capacity() + p_star.capacity() + vhat.capacity() + D.capacity() +
             v_local.capacity() + dref2.capacity() + snap.capacity() + p_local.capacity() + weights.capacity() +
             p_star_local.capacity() + sum_a.capacity()) *
-           sizeof(T);
+               sizeof(T) +
+           near.bytes();
   }
 };
 

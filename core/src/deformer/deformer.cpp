@@ -185,7 +185,7 @@ struct Deformer<T>::Impl {
     // The same even cut on every frame (Split::fixed): each thread finds its blocks' data in its own cache.
     if (!cancel) {
       detail::parallel_ranges(data.blocks, options.threads, arena.get(), blocks, detail::Split::fixed);
-      return first_bad.load();
+      return near_handles(fr, first_bad.load());
     }
     // 64 blocks (1,024 vertices) between checks: with on-the-fly weights and thousands of handles that is a
     // few milliseconds, and each block's result does not depend on the cut (bitwise as without a check).
@@ -196,7 +196,16 @@ struct Deformer<T>::Impl {
         blocks(b, std::min(b1, b + kCancelBlocks));
       }
     });
-    return first_bad.load();
+    return near_handles(fr, first_bad.load());
+  }
+
+  /// After the blocks: the vertices on handles (their frames, when wanted) and beside a dominant segment (their
+  /// positions, and frames), apart from the kernels (near_handles.hpp). Returns the smaller of `bad` and the
+  /// first of those vertices whose result is not finite.
+  std::size_t near_handles(const kernels::DeformFrame<T>& fr, std::size_t bad) const {
+    const bool frames = fr.quaternions || fr.rotations || fr.scales || fr.linear;
+    if (frames ? data.near.records.empty() : data.near.positions.empty()) return bad;
+    return std::min(bad, detail::apply_near_handles(data.near, fr, options.method, options.threads, arena.get()));
   }
 };
 

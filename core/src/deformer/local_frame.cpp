@@ -13,23 +13,28 @@ using Vec3d = Eigen::Vector3d;
 
 template <class T>
 LocalFrame make_local_frame(const Points<T>& vertices, const Handles<T>& handles) {
-  Vec3d lo = Vec3d::Constant(std::numeric_limits<double>::infinity()), hi = -lo;
-  auto add = [&](const Points<T>& p) {
+  // The box of the handles (the origin: local_frame.hpp) and of the whole scene (the size).
+  Vec3d lo = Vec3d::Constant(std::numeric_limits<double>::infinity()), hi = -lo, lo_h = lo, hi_h = hi;
+  auto add = [](const Points<T>& p, Vec3d& l, Vec3d& h) {
     for (Eigen::Index i = 0; i < p.rows(); ++i) {
       const Vec3d x = p.row(i).transpose().template cast<double>();
-      lo = lo.cwiseMin(x);
-      hi = hi.cwiseMax(x);
+      l = l.cwiseMin(x);
+      h = h.cwiseMax(x);
     }
   };
-  add(vertices);
-  add(handles.points);
-  add(handles.segment_a);
-  add(handles.segment_b);
+  add(handles.points, lo_h, hi_h);
+  add(handles.segment_a, lo_h, hi_h);
+  add(handles.segment_b, lo_h, hi_h);
+  lo = lo_h, hi = hi_h;
+  add(vertices, lo, hi);
   LocalFrame s;
   s.e0 = exponent_of(std::max(hi.cwiseAbs().maxCoeff(), lo.cwiseAbs().maxCoeff()));
-  for (int c = 0; c < 3; ++c) hi[c] = std::ldexp(hi[c], -s.e0), lo[c] = std::ldexp(lo[c], -s.e0);
+  for (int c = 0; c < 3; ++c) {
+    hi[c] = std::ldexp(hi[c], -s.e0), lo[c] = std::ldexp(lo[c], -s.e0);
+    hi_h[c] = std::ldexp(hi_h[c], -s.e0), lo_h[c] = std::ldexp(lo_h[c], -s.e0);
+  }
   const Vec3d half = 0.5 * hi - 0.5 * lo;  // halves first: no overflow
-  s.centre0 = 0.5 * hi + 0.5 * lo;
+  s.centre0 = 0.5 * hi_h + 0.5 * lo_h;
   for (int c = 0; c < 3; ++c) s.centre[c] = std::ldexp(s.centre0[c], s.e0);
   const double m = half.maxCoeff();
   const double diag0 = m > 0 ? 2 * m * (half / m).norm() : 0.0, diag = std::ldexp(diag0, s.e0);

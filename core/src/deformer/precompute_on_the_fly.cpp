@@ -3,6 +3,7 @@
 // WeightStorage::precomputed_weights also the weights themselves, normalised, and p* (eq. 2).
 #include "core/src/deformer/precompute.hpp"
 
+#include "core/src/deformer/near_handles.hpp"
 #include "core/src/deformer/snap.hpp"
 #include "core/src/parallel.hpp"
 
@@ -82,6 +83,11 @@ void precompute_on_the_fly(DeformerData<T>& data, const Points<T>& vertices, con
   }
   for (std::size_t j = 0; j < k; ++j)
     for (int c = 0; c < 3; ++c) data.p_local[std::size_t(c) * k + j] = T(rh.P[j][c]);
+  NearHandlesBuilder near_builder;
+  // The handles' spread (their box's diagonal, local): a vertex kFarRatio of it from every handle is fitted apart.
+  Vec3d lo = Vec3d::Constant(std::numeric_limits<double>::infinity()), hi = -lo;
+  for (const Vec3d& p : rh.P) lo = lo.cwiseMin(p), hi = hi.cwiseMax(p);
+  const double spread = k > 0 ? (hi - lo).norm() : 0.0;
   parallel_ranges(data.blocks, o.threads, arena, [&](std::size_t b0, std::size_t b1) {
     for (std::size_t i = b0 * kLanes; i < std::min(data.n, b1 * kLanes); ++i) {
       if (i % kLanes == 0) throw_if_cancelled(cancel);
@@ -100,12 +106,27 @@ void precompute_on_the_fly(DeformerData<T>& data, const Points<T>& vertices, con
       // The rule of snap.hpp; and where d2 is not a normal number in T, the per-frame sum of squares in T
       // (whose terms are each rounded by up to half of T's smallest subnormal) could be 0 and the nearest
       // handle's weight dref2 / d2 infinite.
-      if (snaps<T>(std::sqrt(d2), std::sqrt(near.d_second)) || !(T(d2) >= std::numeric_limits<T>::min()))
+      if (snaps<T>(std::sqrt(d2), std::sqrt(near.d_second)) || !(T(d2) >= std::numeric_limits<T>::min())) {
         data.snap[i] = T(near.nearest);
-      else if (data.weights_only)
-        weights_of_vertex(data, i, vt, d2, double(data.half_u));
+        // Its frame: the fit's limit at the handle, apart from the kernels (near_handles.hpp).
+        NearRecord r;
+        NearColumns cols;
+        if (handle_limit(rh, o, near.nearest, 0.0, std::sqrt(near.d_second), r, cols)) {
+          r.vertex = i;
+          near_builder.add(std::move(r), cols);
+        }
+      } else {
+        if (data.weights_only) weights_of_vertex(data, i, vt, d2, double(data.half_u));
+        NearRecord r;
+        NearColumns cols;
+        if (std::sqrt(d2) > kFarRatio * spread && far_fit(rh, o, v, r, cols)) {
+          r.vertex = i;
+          near_builder.add(std::move(r), cols);
+        }
+      }
     }
   });
+  data.near = near_builder.finish(k);
 }
 
 template void precompute_on_the_fly<float>(DeformerData<float>&, const Points<float>&, const LocalFrame&,

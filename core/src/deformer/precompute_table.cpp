@@ -3,6 +3,7 @@
 #include "core/src/deformer/precompute.hpp"
 
 #include "core/src/deformer/fold.hpp"
+#include "core/src/deformer/near_handles.hpp"
 #include "core/src/deformer/rbf_centroids.hpp"
 #include "core/src/deformer/snap.hpp"
 #include "core/src/deformer/weights.hpp"
@@ -22,13 +23,115 @@ namespace {
 
 using Vec3d = Eigen::Vector3d;
 
+/// Beside a segment handle (not snapped; near_handles.hpp): the fit's sums split into the
+/// segment's own term and the rest, each formed without the other. Centred on the segment's closest point pc = p(tc)
+/// (q_pc = (1 - tc) c + tc d) rather than on p*, the segment's own share is exact: p(t) - pc = (t - tc) e and
+/// q(t) - q_pc = (t - tc) f (f = d - c), so with omega_j = w_j / S, j1 = J1 / S, j2 = J2 / S (its moments about tc,
+/// weights.hpp) and a = sum_{others} omega_j (p_j - pc) (another segment: its integral), from
+/// sum_j w_j (q_j - q*)(p_j - p*)^T = sum_j w_j (q_j - q_pc)(p_j - p*)^T and p* - pc = a + j1 e:
+///   H = H' + m f e^T,  H' = sum_{others} omega_j (q_j - q_pc)(p_j - p*)^T - j1 f a^T,   m = j2 - j1^2 (the
+///                      variance of t about its weighted mean, >= 0)
+///   G = G' + m e e^T,  G' = sum_{others} omega_j (p_j - pc)(p_j - p*)^T - j1 e a^T
+/// H' is sum_j (q_j - q_pc) A'_j^T with A'_j = omega_j (p_j - p*) (another segment: the table's A of its ends) and,
+/// on the segment's ends, A'_c = j1 a, A'_d = -j1 a. Nothing of order m is subtracted anywhere: H' keeps its own
+/// relative accuracy however small it is beside m (the others' weights fall as delta^u next to the segment).
+struct BandSums {
+  double m = 0;
+  std::vector<double> ref;  ///< q_pc's weights
+  std::vector<Vec3d> A;     ///< A'_j
+  Eigen::Matrix3d G = Eigen::Matrix3d::Zero();
+};
+
+BandSums band_sums(const RestHandles& rh, const std::vector<double>& omega, const std::vector<SegmentMoments>& mom,
+                   const std::vector<SegmentGeometry>& geo, double S, const Vec3d& p_star, std::size_t own) {
+  const std::size_t k = rh.k, s = rh.s, J = k + 2 * s;
+  BandSums b;
+  b.ref.assign(J, 0.0);
+  b.A.assign(J, Vec3d::Zero());
+  const Vec3d e = rh.P[k + 2 * own + 1] - rh.P[k + 2 * own];
+  const double tc = geo[own].tc;
+  const Vec3d pc = rh.P[k + 2 * own] + tc * e;
+  b.ref[k + 2 * own] = 1 - tc;
+  b.ref[k + 2 * own + 1] = tc;
+  Vec3d a = Vec3d::Zero();
+  Eigen::Matrix3d G = Eigen::Matrix3d::Zero();
+  for (std::size_t p = 0; p < k; ++p) {
+    b.A[p] = omega[p] * (rh.P[p] - p_star);
+    a += omega[p] * (rh.P[p] - pc);
+    G += omega[p] * (rh.P[p] - pc) * (rh.P[p] - p_star).transpose();
+  }
+  for (std::size_t q = 0; q < s; ++q) {
+    if (q == own) continue;
+    const SegmentMoments& m = mom[q];
+    const Vec3d eq = rh.P[k + 2 * q + 1] - rh.P[k + 2 * q];
+    const double t = geo[q].tc, J0 = m.I0 + 2 * m.I1 + m.I2;
+    const Vec3d g = (rh.P[k + 2 * q] + t * eq) - p_star;
+    b.A[k + 2 * q] = (g * (m.I0 + m.I1) + eq * ((1 - t) * m.J1 - m.J2)) / S;
+    b.A[k + 2 * q + 1] = (g * (m.I1 + m.I2) + eq * (t * m.J1 + m.J2)) / S;
+    const Vec3d integral = g * J0 + eq * m.J1;  // int w (p - p*)
+    a += (integral + J0 * (p_star - pc)) / S;
+    G += (J0 * g * g.transpose() + m.J1 * (g * eq.transpose() + eq * g.transpose()) + m.J2 * eq * eq.transpose() +
+          (p_star - pc) * integral.transpose()) /
+         S;
+  }
+  const double j1 = mom[own].J1 / S, j2 = mom[own].J2 / S;
+  b.m = j2 - j1 * j1;
+  b.A[k + 2 * own] = j1 * a;
+  b.A[k + 2 * own + 1] = -j1 * a;
+  G -= j1 * e * a.transpose();
+  b.G = 0.5 * (G + G.transpose());
+  return b;
+}
+
+/// Vertex i's record for near_handles.hpp, where it has one: on a handle (snapped), the fit's limit there; beside a
+/// segment handle whose own term swamps the others' (rho < kBandRatio<T>), its fit apart:
+/// `band` (band_sums), and the centroid weights for its position. In the unscaled local units of the table.
+template <class T>
+void add_near_record(NearHandlesBuilder& builder, std::size_t i, const RestHandles& rh, const Options& o,
+                     const NearestTwo& near, const std::vector<SegmentGeometry>& geo, bool snapped,
+                     const BandSums& band, const std::vector<double>& centroid, const Vec3d& vhat,
+                     const std::vector<std::array<double, kFoldedHandles>>& fold) {
+  const std::size_t k = rh.k;
+  NearRecord r;
+  NearColumns cols;
+  if (snapped) {
+    const double t = near.nearest < k ? 0.0 : geo[near.nearest - k].tc;
+    if (!handle_limit(rh, o, near.nearest, t, near.d_second, r, cols)) return;
+  } else {
+    if (!(band.m > 0)) return;
+    const std::size_t a = k + 2 * (near.nearest - k);
+    const double m_own = band.m;
+    r.e = rh.P[a + 1] - rh.P[a];
+    r.G = band.G;
+    const Vec3d u = r.e.normalized();
+    const double rho = (r.G.trace() - u.dot(r.G * u)) / (m_own * r.e.squaredNorm());
+    if (!(rho < kBandRatio<T>)) return;
+    r.dominated = !(rho >= kDominatedRatio);
+    r.m = r.dominated ? 0.0 : m_own;
+    r.own = std::ptrdiff_t(a);
+    r.position = true;
+    r.vhat = vhat;
+    cols.c = band.ref;
+    cols.star = centroid;
+    cols.A = band.A;
+  }
+  r.vertex = i;
+  if (!fold.empty()) {
+    fold_columns(cols.c, k - fold.size(), fold);
+    fold_columns(cols.star, k - fold.size(), fold);
+    fold_columns(cols.A, k - fold.size(), fold);
+    if (r.own >= 0) r.own = r.own - std::ptrdiff_t(fold.size()) + std::ptrdiff_t(kFoldedHandles);
+  }
+  builder.add(std::move(r), cols);
+}
+
 /// Sec. 5: the rest-pose precomputation for the vertices of block b (see data.hpp for what is
 /// stored). Everything in double in the local frame; results rounded to T once, at the end. `fold`: the
 /// weights beta of the data.folded fixed point handles that end the point handles (fold.hpp), or empty.
 template <class T>
 void precompute_block(DeformerData<T>& data, std::size_t b, const Points<T>& vertices, const LocalFrame& scene,
                       const RestHandles& rh, const Options& o, const RbfCentroids* rbf,
-                      const std::vector<std::array<double, kFoldedHandles>>& fold) {
+                      const std::vector<std::array<double, kFoldedHandles>>& fold, NearHandlesBuilder& near_builder) {
   const std::size_t J = rh.P.size(), k = rh.k, s = rh.s;
   const double u = o.weight_exponent;
   const bool affine = data.transform == Transform::affine;
@@ -71,18 +174,9 @@ void precompute_block(DeformerData<T>& data, std::size_t b, const Points<T>& ver
     //     midpoints, H = (d - c)(b - a)^T / 12. Rigid maps a stretched segment rigidly, not onto c..d, so
     //     interpolating there would be a jump; similarity and affine reproduce (1 - t) c + t d.
     const bool snapped = snaps<T>(d_min, near.d_second);
-    // At a point handle (rigid, similarity, another handle at a distance): q* = q_n and vhat = 0 as below,
-    // but A and D hold the fit's limit there, so that the vertex's frame (FramesOut, frames.hpp) is the
-    // rotation the map has around the handle rather than the identity of H = 0. As v -> p_n the weights
-    // relative to the nearest handle make H = sum_j (q_j - c) A_j^T tend to the direction of
-    //   sum_{j != n} w_j (q_j - q_n)(p_j - p_n)^T,   w_j = (d_2 / |p_j - p_n|)^u (segments: their moments),
-    // with d_2 the distance to the second-nearest handle (D stays 0: scale 1). The position q* + mu R vhat
-    // is q_n for any finite R (vhat = 0, mu = 1): the same bits as with A = 0. Affine likewise: the limit of
-    // G = sum_j A_j phat_j^T is that of the same weights (w_n |phat_n|^2 -> 0 as phat_n ~ 1 / w_n), L = H G^-1
-    // its matrix, and with vhat = 0 alpha = omega to the bit.
-    const bool limit =
-        snapped && nearest < k && near.d_second > 0 && near.d_second < std::numeric_limits<double>::infinity();
-    const bool interpolate = snapped && (nearest < k || exact) && !limit;
+    // Their frames are the fit's limit there, taken apart (near_handles.hpp); the table holds the map's value.
+    const bool interpolate = snapped && (nearest < k || exact);
+    BandSums band;  // beside a segment: the sums without its own second moment (near_handles.hpp)
     if (interpolate) {
       // All weight on the nearest handle, A = 0, vhat = 0.
       if (nearest < k) {
@@ -98,15 +192,14 @@ void precompute_block(DeformerData<T>& data, std::size_t b, const Points<T>& ver
     } else {
       // Weights relative to the nearest handle (weights.hpp): the nearest has weight 1, all are in [0, 1].
       // Snapped to a paper_constant segment: only that segment, with relative weight 1 (the limit above).
-      // At a point handle's limit: the other handles, relative to the second-nearest.
       double S = 0;
-      const double d_ref = limit ? near.d_second : d_min;
+      const double d_ref = d_min;
       for (std::size_t p = 0; p < k; ++p) {
-        omega[p] = (snapped && !limit) || (limit && p == nearest) ? 0.0 : relative_weight(d_ref / dist[p], u);
+        omega[p] = snapped ? 0.0 : relative_weight(d_ref / dist[p], u);
         S += omega[p];
       }
       for (std::size_t q = 0; q < s; ++q) {
-        if (snapped && !limit)
+        if (snapped)
           mom[q] = q + k == nearest ? segment_moments_of_constant(1.0, geo[q].tc) : SegmentMoments{};
         else
           mom[q] = exact ? segment_moments_exact(geo[q], d_ref, u) : segment_moments_constant(geo[q], d_ref, u);
@@ -120,7 +213,6 @@ void precompute_block(DeformerData<T>& data, std::size_t b, const Points<T>& ver
       }
       p_star.setZero();
       for (std::size_t j = 0; j < J; ++j) p_star += omega[j] * rh.P[j];
-      if (limit) p_star = rh.P[nearest];  // phat_j = p_j - p_n
       // A_j (data.hpp): sum_j q_j A_j^T = sum_i w_i qhat_i phat_i^T / S, with the segments' W_i.
       // Segments about their closest point pc = p(tc): phat(t) = g + (t - tc) e with g = pc - p* and e = b - a,
       // so A_c = int w (1 - t) phat / S = (g (I0 + I1) + e ((1 - tc) J1 - J2)) / S and
@@ -133,6 +225,7 @@ void precompute_block(DeformerData<T>& data, std::size_t b, const Points<T>& ver
         A[p] = omega[p] * (rh.P[p] - p_star);
         G += A[p] * (rh.P[p] - p_star).transpose();
       }
+
       for (std::size_t q = 0; q < s; ++q) {
         const SegmentMoments& m = mom[q];
         const Vec3d a = rh.P[k + 2 * q], e = rh.P[k + 2 * q + 1] - a;
@@ -148,20 +241,15 @@ void precompute_block(DeformerData<T>& data, std::size_t b, const Points<T>& ver
       // small (omega_j tiny or phat_j tiny), that common error would dominate H = sum q_j A_j^T. Project it
       // out: A_j -= omega_j sum_k A_k removes any error of the form -omega_j d (sum_j omega_j = 1), so what
       // remains of each A_j is its own relative rounding.
-      // At a point handle's limit, q* is the handle's target (omega its interpolation) and the projection
-      // makes A_n = -sum_{j != n} A_j: H = sum_{j != n} (q_j - q_n) A_j^T, whatever c is.
-      if (limit) {
-        std::fill(omega.begin(), omega.end(), 0.0);
-        omega[nearest] = 1;
-      }
       Vec3d sum_A = Vec3d::Zero();
       for (std::size_t j = 0; j < J; ++j) sum_A += A[j];
       for (std::size_t j = 0; j < J; ++j) A[j] -= omega[j] * sum_A;
-      vhat = limit ? Vec3d::Zero() : Vec3d(v - p_star);
-      // Sec. 6.1: D = sum_i w_i |phat_i|^2 / S (segments: int w |phat(t)|^2 / S). At a point handle's limit
-      // D = 0 (mu = 1): a similarity scale beyond T's range must not reach the position as inf * 0.
-      D = limit ? 0.0 : G.trace();
+      vhat = v - p_star;
+      // Sec. 6.1: D = sum_i w_i |phat_i|^2 / S (segments: int w |phat(t)|^2 / S).
+      D = G.trace();
       G_vertex = 0.5 * (G + G.transpose());
+      // Beside a segment: the fit's sums split, for near_handles.hpp (band_sums).
+      if (!snapped && nearest >= k) band = band_sums(rh, omega, mom, geo, S, p_star, nearest - k);
     }
     // H matters only up to a positive factor (the rotation fit is scale-invariant and mu = trace(R^T H) / D,
     // and for affine only H G^-1 does), so A and D are scaled per vertex by a power of two 2^s that brings
@@ -179,10 +267,11 @@ void precompute_block(DeformerData<T>& data, std::size_t b, const Points<T>& ver
     // projection above: it concerns p*, not q*). At a handle the interpolation is kept as it is: g interpolates
     // there too, and f(p_i) = q_i stays exact.
     const std::vector<double>* centroid = &omega;
-    if (rbf && !interpolate && !limit) {
+    if (rbf && !interpolate) {
       rbf->weights(p_star, rbf_weights, rbf_rhs);
       centroid = &rbf_weights;
     }
+    add_near_record<T>(near_builder, i, rh, o, near, geo, snapped, band, *centroid, vhat, fold);
     if (affine) {
       // Normal equations: L G = H with G = sum_j A_j phat_j^T (symmetric positive definite when the handles
       // span 3D), so v' = q* + H G^-1 vhat = sum_j (omega_j + A_j . G^-1 vhat) q_j. G is solved through its
@@ -266,12 +355,14 @@ void precompute_table(DeformerData<T>& data, const Points<T>& vertices, const Lo
   if (o.transform == Transform::similarity) data.D.assign(np, T(0));
   const std::unique_ptr<RbfCentroids> rbf =
       o.centroids == Centroids::rbf ? std::make_unique<RbfCentroids>(rh.P) : nullptr;
+  NearHandlesBuilder near_builder;
   parallel_ranges(data.blocks, o.threads, arena, [&](std::size_t b0, std::size_t b1) {
     for (std::size_t b = b0; b < b1; ++b) {
       throw_if_cancelled(cancel);
-      precompute_block(data, b, vertices, scene, rh, o, rbf.get(), fold);
+      precompute_block(data, b, vertices, scene, rh, o, rbf.get(), fold, near_builder);
     }
   });
+  data.near = near_builder.finish(data.pseudo_handles());
 }
 
 template void precompute_table<float>(DeformerData<float>&, const Points<float>&, const LocalFrame&, const RestHandles&,
