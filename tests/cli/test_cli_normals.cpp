@@ -202,7 +202,7 @@ TEST_CASE("normals computed on request: area-weighted, in place of the input's o
 TEST_CASE("an affine fit turns normals by its matrix's inverse transpose", "[cli][attributes]") {
   // A 3 x 3 x 3 grid whose 8 corners (vertices 0-7, the cube fixture's order) are the shear fixture's handles:
   // every handle moves by x -> A x, A = [[1, 0.5, 0], [0, 1, 0], [0, 0, 1]], which the affine fit reproduces,
-  // so every vertex's linear part is A (the 8 on handles: the fit's limit there, or a neighbour's) and every
+  // so every vertex's linear part is A (the 8 on handles: the fit's limit there) and every
   // normal becomes A^-T n, renormalised.
   cli_test::Fixture f;
   std::vector<Eigen::Vector3d> points, normals;

@@ -1,8 +1,8 @@
 // The program on 3D Gaussian splat files (tools/cli/splats.cpp, docs/splats.md): a rigid or similarity motion of
 // every handle turns each splat's rot_* by that rotation and shifts its scale_* by log(s), to the fit's bound,
 // rotates its f_rest_*, and passes every other property through bit for bit; a region leaves the splats outside
-// it bit for bit; an affine fit maps each splat by its centre's matrix; files that are splat files only in part
-// are refused.
+// it bit for bit; an affine fit maps each splat by its centre's matrix; splats on point and segment handles turn
+// with the motion; files that are splat files only in part are refused.
 #include "tests/cli/cli_test_util.hpp"
 #include "tests/support/accuracy_bounds.hpp"
 #include "tests/support/deform_cases.hpp"
@@ -290,7 +290,7 @@ TEST_CASE("splats: each frame of an animation turns the rest pose's splats", "[c
   CHECK(first != cli_test::read_text(dir / "in.ply"));
 }
 
-TEST_CASE("splats: a splat that is a handle turns by its nearest neighbour's frame", "[cli][splats]") {
+TEST_CASE("splats: splats on point and segment handles turn with the motion too", "[cli][splats]") {
   ScratchDir dir;
   const testing::SplatCloud cloud = testing::random_splat_cloud(400, 37);
   testing::write_splat_ply(dir / "in.ply", cloud);
@@ -299,21 +299,38 @@ TEST_CASE("splats: a splat that is a handle turns by its nearest neighbour's fra
                  Eigen::Vector3d(0, 0, 1), Eigen::Vector3d(0.3, -0.2, 0.1)};
   std::vector<Eigen::Vector3d> target;
   for (const auto& p : rest) target.push_back(m(p));
-  // splat 0 a handle too, moved with the rest: MLS gives it the identity frame, the program its neighbour's
-  const Eigen::Vector3d s0(cloud.positions[0], cloud.positions[1], cloud.positions[2]), t0 = m(s0);
-  char buf[160];
-  std::snprintf(buf, sizeof buf, ", {\"vertex\": 0, \"target\": [%.17g, %.17g, %.17g]}]}", t0.x(), t0.y(), t0.z());
+  // Splat 0 a point handle, splats 1 and 2 the ends of a segment handle, all moved with the rest: the library's
+  // frame there is the fit's limit at the handle, the same motion.
+  auto moved = [&](std::size_t i) {
+    const Eigen::Vector3d t =
+        m(Eigen::Vector3d(cloud.positions[3 * i], cloud.positions[3 * i + 1], cloud.positions[3 * i + 2]));
+    char buf[96];
+    std::snprintf(buf, sizeof buf, "[%.17g, %.17g, %.17g]", t.x(), t.y(), t.z());
+    return std::string(buf);
+  };
   std::string json = handles_json(rest, target);
-  json.replace(json.size() - 2, 2, buf);
+  json.replace(json.size() - 2, 2,
+               ", {\"vertex\": 0, \"target\": " + moved(0) + "}], \"segments\": [{\"vertices\": [1, 2], \"target\": [" +
+                   moved(1) + ", " + moved(2) + "]}]}");
   cli_test::write_text(dir / "h.json", json);
-  const auto r = cli_test::deform(dir / "in.ply", dir / "h.json", dir / "out.ply");
-  REQUIRE(r.exit_code == 0);
-  const std::vector<float> out =
-      records(cli_test::read_text(dir / "out.ply"), testing::splat_ply_header(cloud.n, 3), cloud.n);
-  const Eigen::Quaternion<L> qR(m.R.cast<L>());
-  const Eigen::Quaternion<L> q_in(cloud.rotations[0], cloud.rotations[1], cloud.rotations[2], cloud.rotations[3]);
-  const Eigen::Quaternion<L> q_out(out[58], out[59], out[60], out[61]);
-  // The neighbour's frame is the same rigid motion to the fit's bound (about 1e-5 here, test 1's figures): 1e-3
-  // tells it from the identity, which would leave it 0.7 rad away.
-  CHECK(2 * std::acos(std::min(L(1), std::abs((qR * q_in.normalized()).dot(q_out)))) < 1e-3L);
+  for (const char* weight : {"constant", "exact"}) {
+    INFO("--segment-weight " << weight);
+    const auto r =
+        cli_test::deform(dir / "in.ply", dir / "h.json", dir / "out.ply", {"-f", "--segment-weight", weight});
+    INFO(r.err);
+    REQUIRE(r.exit_code == 0);
+    const std::vector<float> out =
+        records(cli_test::read_text(dir / "out.ply"), testing::splat_ply_header(cloud.n, 3), cloud.n);
+    const Eigen::Quaternion<L> qR(m.R.cast<L>());
+    for (std::size_t i = 0; i < 3; ++i) {
+      INFO("splat " << i);
+      const float* r_in = cloud.rotations.data() + 4 * i;
+      const Eigen::Quaternion<L> q_in(r_in[0], r_in[1], r_in[2], r_in[3]);
+      const float* o = out.data() + kPer * i + 58;
+      const Eigen::Quaternion<L> q_out(o[0], o[1], o[2], o[3]);
+      // The frame at a handle is the same rigid motion to the fit's bound (about 1e-5 here, test 1's
+      // figures): 1e-3 tells it from the identity, or the segment's own rank-1 fit, which leave it far off.
+      CHECK(2 * std::acos(std::min(L(1), std::abs((qR * q_in.normalized()).dot(q_out)))) < 1e-3L);
+    }
+  }
 }

@@ -5,7 +5,6 @@
 #include "tools/cli/mesh.hpp"
 
 #include <algorithm>
-#include <array>
 #include <cmath>
 #include <unordered_map>
 
@@ -111,57 +110,6 @@ void transform_normals(BasicMesh<T>& mesh, const T* linear) {
 }
 
 template <class T>
-FrameDonors frame_donors(const BasicMesh<T>& mesh, const Points<T>& handles) {
-  // Exact positions: the deformer snaps a vertex to a point handle only at distance 0 (snap.hpp). +0.0 makes
-  // -0 and 0 one key.
-  auto key = [](T x, T y, T z) { return std::array<T, 3>{x + T(0), y + T(0), z + T(0)}; };
-  std::vector<std::array<T, 3>> points;
-  for (Eigen::Index i = 0; i < handles.rows(); ++i) points.push_back(key(handles(i, 0), handles(i, 1), handles(i, 2)));
-  std::sort(points.begin(), points.end());
-  const auto n = std::size_t(mesh.vertex_count());
-  std::vector<bool> on_handle(n, false);
-  std::size_t count = 0;
-  for (std::size_t v = 0; v < n; ++v) {
-    const auto& p = mesh.vertices;
-    on_handle[v] = std::binary_search(points.begin(), points.end(),
-                                      key(p(Eigen::Index(v), 0), p(Eigen::Index(v), 1), p(Eigen::Index(v), 2)));
-    count += on_handle[v];
-  }
-  FrameDonors d;
-  if (count == 0) return d;
-  auto distance2 = [&](std::size_t a, std::size_t b) {
-    return (mesh.vertices.row(Eigen::Index(a)).template cast<double>() -
-            mesh.vertices.row(Eigen::Index(b)).template cast<double>())
-        .squaredNorm();
-  };
-  // The nearest face neighbour (the previous and next corner of each polygon) not on a handle.
-  std::vector<std::int64_t> donor(n, -1);
-  for (std::size_t f = 0; f < mesh.face_count(); ++f) {
-    const auto b = mesh.face_start[f], e = mesh.face_start[f + 1];
-    for (auto c = b; c < e; ++c) {
-      const std::size_t v = mesh.face_indices[c];
-      if (!on_handle[v]) continue;
-      for (const std::size_t w : {mesh.face_indices[c + 1 < e ? c + 1 : b], mesh.face_indices[c > b ? c - 1 : e - 1]})
-        if (!on_handle[w] && (donor[v] < 0 || distance2(v, w) < distance2(v, std::size_t(donor[v]))))
-          donor[v] = std::int64_t(w);
-    }
-  }
-  // Else (a point cloud, or every neighbour on a handle) the nearest vertex not on a handle.
-  for (std::size_t v = 0; v < n; ++v) {
-    if (!on_handle[v]) continue;
-    if (donor[v] < 0)
-      for (std::size_t w = 0; w < n; ++w)
-        if (!on_handle[w] && (donor[v] < 0 || distance2(v, w) < distance2(v, std::size_t(donor[v]))))
-          donor[v] = std::int64_t(w);
-    if (donor[v] < 0)
-      ++d.orphans;
-    else
-      d.pairs.emplace_back(std::uint32_t(v), std::uint32_t(donor[v]));
-  }
-  return d;
-}
-
-template <class T>
 AttributeReport attribute_report(const BasicMesh<T>& mesh, const std::string& out_path, NormalsOut normals,
                                  InputNormals fate) {
   AttributeReport r;
@@ -240,9 +188,8 @@ AttributeReport attribute_report(const BasicMesh<T>& mesh, const std::string& ou
   return r;
 }
 
-#define MLSDEFORM_CLI_ATTRIBUTES(T)                                         \
-  template void transform_normals(BasicMesh<T>&, const T*);                 \
-  template FrameDonors frame_donors(const BasicMesh<T>&, const Points<T>&); \
+#define MLSDEFORM_CLI_ATTRIBUTES(T)                         \
+  template void transform_normals(BasicMesh<T>&, const T*); \
   template AttributeReport attribute_report(const BasicMesh<T>&, const std::string&, NormalsOut, InputNormals);
 MLSDEFORM_CLI_ATTRIBUTES(float)
 MLSDEFORM_CLI_ATTRIBUTES(double)

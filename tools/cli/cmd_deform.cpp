@@ -133,15 +133,6 @@ int deform(const DeformArgs& a) {
   frames.quaternions = std::span<T>(splat_turns);
   frames.scales = std::span<T>(splat_scales);
   double splat_ms = 0;
-  // Vertices on point handles get no frame from MLS (the identity): their normals take a neighbour's. ARAP's
-  // refined rotations cover every vertex.
-  const FrameDonors donors =
-      frames.any() && !arap ? frame_donors(mesh, Points<T>(resolved.rest.points)) : FrameDonors{};
-  if (donors.orphans > 0)
-    std::fprintf(stderr,
-                 "mlsdeform: %s: the normals of %zu vertices on handles are written as read (no vertex "
-                 "off a handle lends them a frame)\n",
-                 a.mesh.c_str(), donors.orphans);
   std::vector<double> deform_ms;
   std::vector<std::string> written;
   Progress progress(frame_count, a.quiet || !handles.animated());
@@ -165,22 +156,12 @@ int deform(const DeformArgs& a) {
       }
       deform_ms.push_back(ms_since(t0));
       result.vertices = out;
-      // A frame lent by a donor: `width` values a vertex (none where that output is not wanted).
-      auto lend = [&donors](std::vector<T>& values, std::size_t width) {
-        if (values.empty()) return;
-        for (const auto& [v, from] : donors.pairs)
-          std::copy_n(values.begin() + std::ptrdiff_t(width * std::size_t(from)), width,
-                      values.begin() + std::ptrdiff_t(width * std::size_t(v)));
-      };
-      lend(linear, 9);
       if (fate == InputNormals::transformed) {
         result.extras = mesh.extras;  // each frame's normals from the input's
         transform_normals(result, linear.data());
       }
       if (splats) {  // each frame's splats from the input's
         t0 = Clock::now();
-        lend(splat_turns, 4);
-        lend(splat_scales, 1);
         if (affine_splats)
           transform_splats_linear(*mesh.extras.ply, *result.extras.ply, linear.data(), a.options.threads, a.mesh);
         else
