@@ -199,6 +199,29 @@ TEST_CASE("normals computed on request: area-weighted, in place of the input's o
   CHECK(text.find("\n0 0 0 1 0 0 1\n") != std::string::npos);  // the unit normal of the square in z = 0
 }
 
+TEST_CASE("normals computed on a file without faces are refused, the input's not written over", "[cli][attributes]") {
+  // A point cloud has no faces to take normals from: every computed normal would be 0 0 0.
+  cli_test::Fixture f;
+  write_text(f.in + "/cloud.ply",
+             "ply\nformat ascii 1.0\nelement vertex 4\nproperty float x\nproperty float y\nproperty float z\n"
+             "property float nx\nproperty float ny\nproperty float nz\nend_header\n"
+             "0 0 0 0 0 1\n1 0 0 0 0 1\n0 1 0 0 0 1\n0 0 1 1 0 0\n");
+  write_text(f.in + "/cloud.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\n");
+  write_text(f.in + "/still.json", R"({"points": [{"vertex": 0}, {"vertex": 3, "offset": [0.1, 0, 0]}]})");
+  for (const std::string mesh : {"cloud.ply", "cloud.obj"}) {
+    INFO(mesh);
+    cli_test::require_bad_input(f,
+                                {"deform", "-m", f.in + "/" + mesh, "-H", f.in + "/still.json", "-o",
+                                 f.out + "/out." + mesh.substr(6), "--normals", "computed"},
+                                f.in + "/" + mesh +
+                                    ": --normals computed needs a surface, and the mesh has no faces (a point "
+                                    "cloud?); --normals input carries the file's own normals through the deformation");
+  }
+  // Without the option the cloud's own normals are carried through.
+  const auto r = cli_test::deform(f.in + "/cloud.ply", f.in + "/still.json", f.out + "/a.ply", {"-q"});
+  CHECK(r.exit_code == 0);
+}
+
 TEST_CASE("an affine fit turns normals by its matrix's inverse transpose", "[cli][attributes]") {
   // A 3 x 3 x 3 grid whose 8 corners (vertices 0-7, the cube fixture's order) are the shear fixture's handles:
   // every handle moves by x -> A x, A = [[1, 0.5, 0], [0, 1, 0], [0, 0, 1]], which the affine fit reproduces,

@@ -31,6 +31,11 @@ int deform(const DeformArgs& a) {
   const bool arap = a.options.arap_iterations > 0;
   if (arap && mesh.face_count() == 0)
     throw InputError(a.mesh, "--arap needs a surface, and the mesh has no faces (a point cloud?)");
+  // Normals of faces need faces: a point cloud's would all be zero, written over the input's.
+  if (a.normals == NormalsOut::computed && mesh.face_count() == 0)
+    throw InputError(a.mesh,
+                     "--normals computed needs a surface, and the mesh has no faces (a point cloud?); --normals "
+                     "input carries the file's own normals through the deformation");
   // A 3D Gaussian splat file (docs/splats.md): each splat turns (and grows) by its centre's frame.
   const std::optional<SplatLayout> splats = mesh.extras.ply ? splat_layout(*mesh.extras.ply, a.mesh) : std::nullopt;
   const HandlesFile handles = read_handles(a.handles);
