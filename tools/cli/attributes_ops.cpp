@@ -24,18 +24,32 @@ bool normalise(double* v) {
   return true;
 }
 
+/// Whether L is exactly the identity (a vertex outside a region, or one nothing turns): its normal is then
+/// written as read, bit for bit, not renormalised.
+template <class T>
+bool is_identity(const T* l) {
+  for (int k = 0; k < 9; ++k)
+    if (l[k] != (k % 4 == 0 ? T(1) : T(0))) return false;
+  return true;
+}
+
 /// n' = L^-T n renormalised, through the cofactor matrix: cof(L) = det(L) L^-T, so L^-T n points along
 /// sign(det L) cof(L) n, which needs no division and stays defined for a singular L of rank 2 (the normal of
 /// the plane L flattens onto). The input is made unit first (any finite normal, however long, then transforms
 /// without overflow). Where the result is zero or not finite (L of rank < 2, or non-finite), the input normal
 /// is kept, unit length: there is no transformed direction to give. A zero or non-finite input is kept as
-/// it is. In double: float input is exact in it, and the rounding to the output type comes once, at the end.
+/// it is, and so is any input where L is exactly the identity (true: `out` is `n` unchanged). In double: float
+/// input is exact in it, and the rounding to the output type comes once, at the end.
 template <class T>
-void transformed(const T* l, const double* n, double* out) {
+bool transformed(const T* l, const double* n, double* out) {
+  if (is_identity(l)) {
+    std::copy(n, n + 3, out);
+    return true;
+  }
   double u[3] = {n[0], n[1], n[2]};
   if (!normalise(u)) {
     std::copy(n, n + 3, out);
-    return;
+    return false;
   }
   const double a = double(l[0]), b = double(l[1]), c = double(l[2]);
   const double d = double(l[3]), e = double(l[4]), f = double(l[5]);
@@ -49,9 +63,10 @@ void transformed(const T* l, const double* n, double* out) {
   for (int r = 0; r < 3; ++r) m[r] = sign * (cof[3 * r] * u[0] + cof[3 * r + 1] * u[1] + cof[3 * r + 2] * u[2]);
   if (!normalise(m)) {
     std::copy(u, u + 3, out);
-    return;
+    return false;
   }
   std::copy(m, m + 3, out);
+  return false;
 }
 
 std::string joined(const std::vector<std::string>& names, std::size_t most = 12) {
@@ -90,7 +105,7 @@ void transform_normals(BasicMesh<T>& mesh, const T* linear) {
     // pair that a corner names becomes one new vn, in the order corners first name them.
     std::unordered_map<std::uint64_t, std::uint32_t> made;
     std::vector<double> normals;
-    std::vector<std::uint32_t> corners(obj->corner_normals.size(), ObjExtras::kNone);
+    std::vector<std::uint32_t> sources, corners(obj->corner_normals.size(), ObjExtras::kNone);
     for (std::size_t c = 0; c < corners.size(); ++c) {
       const std::uint32_t k = obj->corner_normals[c];
       if (k == ObjExtras::kNone) continue;
@@ -98,13 +113,15 @@ void transform_normals(BasicMesh<T>& mesh, const T* linear) {
       const auto [it, fresh] = made.try_emplace(std::uint64_t(k) << 32 | vertex, std::uint32_t(normals.size() / 3));
       if (fresh) {
         double out[3];
-        transformed(linear + 9 * std::size_t(vertex), &obj->normals[3 * std::size_t(k)], out);
+        const bool as_read = transformed(linear + 9 * std::size_t(vertex), &obj->normals[3 * std::size_t(k)], out);
         normals.insert(normals.end(), out, out + 3);
+        sources.push_back(as_read ? k : ObjExtras::kNone);
       }
       corners[c] = it->second;
     }
     obj->normals = std::move(normals);
     obj->corner_normals = std::move(corners);
+    obj->normal_sources = std::move(sources);
     obj->normals_rewritten = true;
   }
 }

@@ -111,8 +111,9 @@ template <class T>
 void write_mesh(const BasicMesh<T>& mesh, const std::string& path, const WriteOptions& options = {});
 
 /// Transforms the input's normals (OBJ vn, PLY nx ny nz) by each vertex's linear part: `linear` holds n
-/// row-major 3x3 matrices L (n = the vertex count); a normal becomes L^-T n renormalised (attributes_ops.cpp:
-/// an OBJ vn that corners of vertices with different L share is split, one vn per vertex and vn).
+/// row-major 3x3 matrices L (n = the vertex count); a normal becomes L^-T n renormalised, or stays as read,
+/// bit for bit, where L is exactly the identity (attributes_ops.cpp: an OBJ vn that corners of vertices with
+/// different L share is split, one vn per vertex and vn; one kept as read is written as the file's own line).
 template <class T>
 void transform_normals(BasicMesh<T>& mesh, const T* linear);
 
