@@ -100,6 +100,29 @@ inline bool may_share_memory(const py::array& a, const py::array& b) {
   return a0 < b1 && b0 < a1;
 }
 
+/// Refuses two arrays that one call writes and that share memory (views of one buffer: no order of writes
+/// gives both their values), with a ValueError naming both; None (an output not wanted) is skipped. Checked
+/// after each array's own checks, before anything is written.
+inline void check_outputs_apart(std::initializer_list<std::pair<const char*, py::object>> outputs) {
+  for (auto i = outputs.begin(); i != outputs.end(); ++i)
+    for (auto j = i + 1; j != outputs.end(); ++j)
+      if (!i->second.is_none() && !j->second.is_none() &&
+          may_share_memory(py::reinterpret_borrow<py::array>(i->second), py::reinterpret_borrow<py::array>(j->second)))
+        throw py::value_error(std::string(i->first) + " and " + j->first +
+                              " share memory (views of one buffer?): each output needs an array of its own");
+}
+
+/// An input of a call that writes `outputs` (arrays; None skipped) while it still reads the input: the input
+/// itself, or a copy of it where it shares memory with one of them, so that the call reads the values the
+/// caller passed, not ones it has already written over.
+template <class T>
+Array<T> apart_from(const Array<T>& input, std::initializer_list<py::object> outputs) {
+  for (const py::object& o : outputs)
+    if (!o.is_none() && may_share_memory(input, py::reinterpret_borrow<py::array>(o)))
+      return Array<T>::ensure(input.attr("copy")());
+  return input;
+}
+
 /// `threads` of every call that takes one, checked in one place so that the session and the batched fit
 /// refuse the same values with the same message (1 = the calling thread, 0 = all cores).
 inline int checked_threads(int threads) {

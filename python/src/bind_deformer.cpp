@@ -117,7 +117,8 @@ Frames: each vertex's transform, written into the caller's preallocated C-contig
 dtype (no copy, nothing allocated; None: not wanted): quaternions (n, 4) unit (w, x, y, z) with w >= 0,
 rotations (n, 3, 3), scales (n,) (similarity; 1 for rigid), linear (n, 3, 3) the linear part R, s R or the
 affine fit's matrix. With arap_iterations the refined local rotations (scales 1); outside a region the identity;
-affine sessions give linear only, and only when built with affine_frames=True (otherwise ValueError). A wrong shape is a ValueError, a wrong dtype a TypeError, both before anything is written.)")
+affine sessions give linear only, and only when built with affine_frames=True (otherwise ValueError). A wrong shape is a ValueError, a wrong dtype a TypeError, two outputs (out among them) sharing memory a ValueError naming
+them, all before anything is written; the handles may share memory with an output (they are read first).)")
       .def("set_point_target", on_session(&PyDeformer::set_point_target), py::arg("i"), py::arg("target"),
            "Move point handle i's target (3 numbers) for later deform() calls; IndexError if out of range.")
       .def("set_segment_target", on_session(&PyDeformer::set_segment_target), py::arg("i"), py::arg("a"), py::arg("b"),

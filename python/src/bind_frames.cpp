@@ -9,8 +9,10 @@
 #include <pybind11/numpy.h>
 #include <pybind11/pybind11.h>
 
+#include <algorithm>
 #include <span>
 #include <string>
+#include <vector>
 
 namespace mlsdeform::python {
 namespace {
@@ -48,8 +50,19 @@ py::array_t<T> carry(const py::object& linear, const py::object& data, const py:
     result = py::reinterpret_borrow<py::array_t<T>>(out);
   }
   const auto size = std::size_t(n * width);
-  f(std::span<const T>(L.data(), std::size_t(9 * n)), std::span<const T>(x.data(), size),
-    std::span<T>(result.mutable_data(), size));
+  // The library writes row by row and may write over its own input (out is data): where out overlaps linear,
+  // or overlaps data shifted, a row written would be read later as input, so the results go to a scratch array
+  // and reach out after all of both is read (as fit_rotations does).
+  const bool overlaps =
+      !out.is_none() && (may_share_memory(L, result) || (x.data() != result.data() && may_share_memory(x, result)));
+  if (!overlaps) {
+    f(std::span<const T>(L.data(), std::size_t(9 * n)), std::span<const T>(x.data(), size),
+      std::span<T>(result.mutable_data(), size));
+    return result;
+  }
+  std::vector<T> scratch(size);
+  f(std::span<const T>(L.data(), std::size_t(9 * n)), std::span<const T>(x.data(), size), std::span<T>(scratch));
+  std::copy(scratch.begin(), scratch.end(), result.mutable_data());
   return result;
 }
 
@@ -76,7 +89,7 @@ Normals carried through per-vertex linear parts (Deformer.deform(linear=...), (n
 renormalised (for a rotation, R n). A zero normal stays zero; where L maps the normal to zero or to a
 non-finite vector (L of rank 1 or 0), the input normal is kept, unit length. The dtype is linear's
 (float32, else float64). out: None (a new array) or a C-contiguous (n, 3) array of that dtype (it may be
-normals itself). ValueError on a shape that does not match or a non-finite normal (nothing written).)");
+normals itself, or overlap normals or linear: the results then reach out after all of both is read). ValueError on a shape that does not match or a non-finite normal (nothing written).)");
   m.def(
       "transform_tangents",
       [](const py::object& linear, const py::object& tangents, const py::object& out) -> py::array {

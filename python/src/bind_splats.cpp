@@ -82,8 +82,11 @@ void rotate_t(const py::object& quaternions, const py::object& scales, const py:
   const SplatArrays<T> a{in_place<T>(rotations, "rotations", n, 4), in_place<T>(log_scales, "log_scales", n, 3),
                          in_place<T>(sh_rest, "sh_rest", n, splat_sh_rest_count(degree)), degree};
   checked_threads(threads);
+  check_outputs_apart({{"rotations", rotations}, {"log_scales", log_scales}, {"sh_rest", sh_rest}});
+  const Array<T> turns = apart_from(q, {rotations, log_scales, sh_rest});
+  if (s) s = apart_from(*s, {rotations, log_scales, sh_rest});
   const py::gil_scoped_release release;
-  rotate_splats<T>(a, std::size_t(n), q.data(), s ? s->data() : nullptr, threads);
+  rotate_splats<T>(a, std::size_t(n), turns.data(), s ? s->data() : nullptr, threads);
 }
 
 template <class T>
@@ -97,8 +100,10 @@ void affine_t(const py::object& linear, const py::object& rotations, const py::o
   const SplatArrays<T> a{in_place<T>(rotations, "rotations", n, 4), in_place<T>(log_scales, "log_scales", n, 3),
                          in_place<T>(sh_rest, "sh_rest", n, splat_sh_rest_count(degree)), degree};
   checked_threads(threads);
+  check_outputs_apart({{"rotations", rotations}, {"log_scales", log_scales}, {"sh_rest", sh_rest}});
+  const Array<T> matrices = apart_from(m, {rotations, log_scales, sh_rest});
   const py::gil_scoped_release release;
-  transform_splats_affine<T>(a, std::size_t(n), m.data(), threads);
+  transform_splats_affine<T>(a, std::size_t(n), matrices.data(), threads);
 }
 
 }  // namespace
@@ -120,8 +125,9 @@ Turns n Gaussian splats (the 3DGS layout, docs/splats.md) in place by per-splat 
 and grows them by scales (n,) if given (a similarity). rotations (n, 4): rot_0..3, composed q' = q_R q and
 normalised; log_scales (n, 3): scale_0..2, offset by log(s); sh_rest (n, 45), (n, 24) or (n, 9) (or (n, 3, k)):
 f_rest_* channel-major, bands 1-3 rotated so that the colour seen from R d is the one formerly seen from d. The
-arrays updated must be C-contiguous and writeable, float32 or float64 alike; None leaves one out. A splat whose
-transform is exactly the identity keeps every bit. ValueError naming the splat, with nothing written, for NaN
+arrays updated must be C-contiguous and writeable, float32 or float64 alike, and share no memory (ValueError
+naming two that do); None leaves one out. quaternions and scales are read as passed, even where they share
+memory with an array updated (copied first). A splat whose transform is exactly the identity keeps every bit. ValueError naming the splat, with nothing written, for NaN
 or infinite values, a quaternion that is not of unit length, a scale <= 0, a zero rot_*.)");
   m.def(
       "transform_splats_affine",
@@ -137,8 +143,8 @@ or infinite values, a quaternion that is not of unit length, a scale <= 0, a zer
 
 Maps n splats in place by per-splat linear parts M (n, 3, 3) (the affine deformation's frames): the covariance
 M Sigma M^T decomposed again into rotations and log_scales (both or neither), its axes matched to the images of
-the old ones; sh_rest rotated by M's polar rotation (mirrored for det M < 0). ValueError as rotate_splats, and
-for a singular M.)");
+the old ones; sh_rest rotated by M's polar rotation (mirrored for det M < 0). linear is read as passed, even
+where it shares memory with an array updated. ValueError as rotate_splats, and for a singular M.)");
 }
 
 }  // namespace mlsdeform::python

@@ -314,6 +314,12 @@ class PyDeformer {
     const FramesOut<T> frames{frame_output<T>(fa.quaternions, "quaternions", {4}),
                               frame_output<T>(fa.rotations, "rotations", {3, 3}),
                               frame_output<T>(fa.scales, "scales", {}), frame_output<T>(fa.linear, "linear", {3, 3})};
+    // The handles are copies (moved): an output may share memory with them, but not with another output.
+    check_outputs_apart({{"out", out},
+                         {"quaternions", fa.quaternions},
+                         {"rotations", fa.rotations},
+                         {"scales", fa.scales},
+                         {"linear", fa.linear}});
     const Deformer<T>& d = get<T>();
     T* data = result.mutable_data();
     // Watched: ARAP frames (the library checks between iterations, `out` untouched when stopped) and plain

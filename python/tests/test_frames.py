@@ -177,3 +177,73 @@ def test_transform_normals_and_tangents():
     N[3, 1] = np.nan
     with pytest.raises(ValueError, match="row 3 is not finite"):
         mlsdeform.transform_normals(L, N)
+
+
+def rigid_motion(g, *arrays, dtype=np.float64):
+    """A random rotation R0 far from the identity and each array moved by x -> R0 x + t (in double, rounded
+    once to dtype)."""
+    R0 = random_rotation(g)
+    while np.linalg.norm(R0 - np.eye(3)) <= 1:
+        R0 = random_rotation(g)
+    t = np.array([0.5, -1.0, 2.0])
+    return R0, [(X.astype(np.float64) @ R0.T + t).astype(dtype) for X in arrays]
+
+
+# Handles placed on vertices, as users place them: a rigid motion of every handle must give its rotation at
+# every vertex, those on handles too (the fit's limit there). 1e-9 (double) and 1e-3 (float32: the fit's error
+# is a few hundred eps_f times these scenes' conditioning) are far below the identity's distance from R0 (over
+# 1) and that of a segment's own rank-1 fit.
+def tolerance(dtype):
+    return 1e-3 if dtype == np.float32 else 1e-9
+
+
+def worst(R, R0):
+    err = np.abs(R - R0).reshape(len(R), 9).max(axis=1)
+    return err.max(), np.argsort(err)[-3:]
+
+
+@pytest.mark.parametrize("dtype", [np.float32, np.float64])
+@pytest.mark.parametrize("storage", ["precomputed", "on_the_fly", "precomputed_weights"])
+@pytest.mark.parametrize("transform", ["rigid", "similarity"])
+def test_rigid_motion_turns_vertices_on_point_handles(dtype, storage, transform):
+    g = rng()
+    V = scene(g)[0].astype(dtype)
+    P = V[[0, 3, 5, 10, 20, 40]]
+    R0, (Q,) = rigid_motion(g, P, dtype=dtype)
+    d = mlsdeform.Deformer(V, points=P, weight_storage=storage, transform=transform)
+    R, s = np.empty((len(V), 3, 3), dtype), np.empty(len(V), dtype)
+    d.deform(points=Q, rotations=R, scales=s)
+    err, at = worst(R, R0)
+    assert err <= tolerance(dtype), f"worst at vertices {at}"
+    assert np.abs(s - 1).max() <= tolerance(dtype)
+
+
+@pytest.mark.parametrize("dtype", [np.float32, np.float64])
+@pytest.mark.parametrize("segment_weight", ["paper_constant", "exact_integral"])
+def test_rigid_motion_turns_vertices_on_segment_handles(dtype, segment_weight):
+    # Point handles on six vertices, two segments between vertices and a vertex at one segment's midpoint
+    # (segment handles are served by the precomputed table alone).
+    g = rng()
+    V = scene(g)[0]
+    V = np.vstack([V, (V[6] + V[7]) / 2]).astype(dtype)
+    P, A, B = V[:6], V[[6, 8]], V[[7, 9]]
+    R0, (Q, C, D) = rigid_motion(g, P, A, B, dtype=dtype)
+    d = mlsdeform.Deformer(V, points=P, segments=(A, B), segment_weight=segment_weight)
+    R = np.empty((len(V), 3, 3), dtype)
+    d.deform(points=Q, segments=(C, D), rotations=R)
+    err, at = worst(R, R0)
+    assert err <= tolerance(dtype), f"worst at vertices {at}"
+
+
+@pytest.mark.parametrize("segments", [False, True])
+def test_affine_motion_gives_its_matrix_on_point_and_segment_handles(segments):
+    g = rng()
+    V = scene(g)[0]
+    P, A, B = V[:6], V[[6, 8]], V[[7, 9]]
+    M = np.array([[1.0, 0.5, 0.0], [0.0, 1.0, 0.25], [0.0, 0.0, 1.5]])
+    t = np.array([0.25, -1.0, 0.5])
+    d = mlsdeform.Deformer(V, points=P, segments=(A, B) if segments else None, transform="affine", affine_frames=True)
+    L = np.empty((len(V), 3, 3))
+    d.deform(points=P @ M.T + t, segments=(A @ M.T + t, B @ M.T + t) if segments else None, linear=L)
+    err = np.abs(L - M).reshape(len(V), 9).max(axis=1)
+    assert err.max() <= 1e-9, f"worst at vertices {np.argsort(err)[-3:]}"

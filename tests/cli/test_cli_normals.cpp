@@ -11,6 +11,7 @@
 #include <catch2/catch.hpp>
 
 #include <cmath>
+#include <cstring>
 #include <random>
 
 using namespace mlsdeform;
@@ -199,10 +200,121 @@ TEST_CASE("normals computed on request: area-weighted, in place of the input's o
   CHECK(text.find("\n0 0 0 1 0 0 1\n") != std::string::npos);  // the unit normal of the square in z = 0
 }
 
+TEST_CASE("normals computed on a file without faces are refused, the input's not written over", "[cli][attributes]") {
+  // A point cloud has no faces to take normals from: every computed normal would be 0 0 0.
+  cli_test::Fixture f;
+  write_text(f.in + "/cloud.ply",
+             "ply\nformat ascii 1.0\nelement vertex 4\nproperty float x\nproperty float y\nproperty float z\n"
+             "property float nx\nproperty float ny\nproperty float nz\nend_header\n"
+             "0 0 0 0 0 1\n1 0 0 0 0 1\n0 1 0 0 0 1\n0 0 1 1 0 0\n");
+  write_text(f.in + "/cloud.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\n");
+  write_text(f.in + "/still.json", R"({"points": [{"vertex": 0}, {"vertex": 3, "offset": [0.1, 0, 0]}]})");
+  for (const std::string mesh : {"cloud.ply", "cloud.obj"}) {
+    INFO(mesh);
+    cli_test::require_bad_input(f,
+                                {"deform", "-m", f.in + "/" + mesh, "-H", f.in + "/still.json", "-o",
+                                 f.out + "/out." + mesh.substr(6), "--normals", "computed"},
+                                f.in + "/" + mesh +
+                                    ": --normals computed needs a surface, and the mesh has no faces (a point "
+                                    "cloud?); --normals input carries the file's own normals through the deformation");
+  }
+  // Without the option the cloud's own normals are carried through.
+  const auto r = cli_test::deform(f.in + "/cloud.ply", f.in + "/still.json", f.out + "/a.ply", {"-q"});
+  CHECK(r.exit_code == 0);
+}
+
+TEST_CASE("normals where the frame is exactly the identity are written as read, bit for bit", "[cli][attributes]") {
+  // A strip of 2 x 10 vertices with a region on its right end (x >= 6), turned there by its handles; the left
+  // end's frames are the identity (Options::region), so its normals, of length 3 and with more digits than a
+  // float holds, stay as the file has them: PLY's values in their types, OBJ's vn lines as their text.
+  ScratchDir dir;
+  const char* vn_text[3] = {"vn 0 0 3", "vn 0.12345678901234567890 -0.5 2", "vn -0 4 0.5"};
+  std::string obj, ply_float, ply_double;
+  const std::string header =
+      "ply\nformat ascii 1.0\nelement vertex 20\nproperty float x\nproperty float y\nproperty float z\n"
+      "property T nx\nproperty T ny\nproperty T nz\nelement face 9\nproperty list uchar int vertex_indices\n"
+      "end_header\n";
+  std::string body, faces, obj_v, obj_vn, obj_f;
+  for (int k = 0; k < 20; ++k) {
+    const int x = k % 10, y = k / 10;
+    const std::string v = std::to_string(x) + " " + std::to_string(y) + " " + std::to_string(x % 2);
+    const std::string n = std::string(vn_text[k % 3]).substr(3);
+    body += v + " " + n + "\n";
+    obj_v += "v " + v + "\n";
+    obj_vn += std::string(vn_text[k % 3]) + "\n";
+  }
+  for (int x = 0; x + 1 < 10; ++x) {
+    faces += "4 " + std::to_string(x) + " " + std::to_string(x + 1) + " " + std::to_string(x + 11) + " " +
+             std::to_string(x + 10) + "\n";
+    obj_f += "f";
+    for (const int k : {x, x + 1, x + 11, x + 10})
+      obj_f.append(" ").append(std::to_string(k + 1)).append("//").append(std::to_string(k + 1));
+    obj_f += "\n";
+  }
+  for (const char* type : {"float", "double"}) {
+    std::string h = header;
+    for (std::size_t at; (at = h.find("property T ")) != std::string::npos;) h.replace(at + 9, 1, type);
+    write_text(dir / (std::string("strip_") + type + ".ply"), h + body + faces);
+  }
+  write_text(dir / "strip.obj", obj_v + obj_vn + obj_f);
+  write_text(dir / "h.json",
+             R"({"points": [{"vertex": 8}, {"vertex": 9}, {"vertex": 18}, {"vertex": 19}, {"vertex": 6}],
+                 "groups": [{"points": [0, 1, 2, 3, 4], "rotate": {"axis": [1, 1, 0], "degrees": 30}}],
+                 "region": [6, 7, 8, 9, 16, 17, 18, 19]})");
+  auto outside = [](std::size_t k) { return k % 10 < 6; };
+  // Of the region's vertices, those off the handles (the handles' own frames are held by
+  // test_cli_handle_frames.cpp): turned, so renormalised.
+  auto turned = [](std::size_t k) { return k == 7 || k == 16 || k == 17; };
+  for (const std::string precision : {"float", "double"})
+    for (const std::string mesh : {"strip_float.ply", "strip_double.ply", "strip.obj"}) {
+      INFO(precision << ", " << mesh);
+      const std::string out = dir / ("out" + mesh.substr(mesh.find('.')));
+      const auto r = cli_test::deform(dir / mesh, dir / "h.json", out, {"-f", "-q", "--precision", precision});
+      INFO(r.err);
+      REQUIRE(r.exit_code == 0);
+      const Mesh a = read_mesh(dir / mesh), b = read_mesh(out);
+      if (a.extras.ply) {
+        const PlyElement &va = a.extras.ply->vertices(), &vb = b.extras.ply->vertices();
+        for (std::size_t k = 0; k < 20; ++k) {
+          INFO("vertex " << k);
+          const Eigen::Vector3d na(va.get(k, 3), va.get(k, 4), va.get(k, 5)),
+              nb(vb.get(k, 3), vb.get(k, 4), vb.get(k, 5));
+          if (outside(k))
+            CHECK(std::memcmp(na.data(), nb.data(), sizeof na) == 0);  // -0 stays -0
+          else if (turned(k))
+            CHECK(std::fabs(nb.norm() - 1) < 1e-6);
+        }
+        continue;
+      }
+      // OBJ: each corner's vn line, as text.
+      auto vn_lines = [](const std::string& t) {
+        std::vector<std::string> lines;
+        for (std::size_t at = 0; at < t.size();) {
+          const std::size_t nl = t.find('\n', at);
+          if (t.compare(at, 3, "vn ") == 0) lines.push_back(t.substr(at, nl - at));
+          at = nl + 1;
+        }
+        return lines;
+      };
+      const std::vector<std::string> la = vn_lines(cli_test::read_text(dir / mesh)),
+                                     lb = vn_lines(cli_test::read_text(out));
+      const ObjExtras &xa = *a.extras.obj, &xb = *b.extras.obj;
+      REQUIRE(xb.corner_normals.size() == xa.corner_normals.size());
+      for (std::size_t c = 0; c < xa.corner_normals.size(); ++c) {
+        const std::size_t k = a.face_indices[c];
+        INFO("corner " << c << ", vertex " << k);
+        if (outside(k))
+          CHECK(lb.at(xb.corner_normals[c]) == la.at(xa.corner_normals[c]));
+        else if (turned(k))
+          CHECK(std::fabs(Eigen::Vector3d(&xb.normals[3 * xb.corner_normals[c]]).norm() - 1) < 1e-6);
+      }
+    }
+}
+
 TEST_CASE("an affine fit turns normals by its matrix's inverse transpose", "[cli][attributes]") {
   // A 3 x 3 x 3 grid whose 8 corners (vertices 0-7, the cube fixture's order) are the shear fixture's handles:
   // every handle moves by x -> A x, A = [[1, 0.5, 0], [0, 1, 0], [0, 0, 1]], which the affine fit reproduces,
-  // so every vertex's linear part is A (the 8 on handles: the fit's limit there, or a neighbour's) and every
+  // so every vertex's linear part is A (the 8 on handles: the fit's limit there) and every
   // normal becomes A^-T n, renormalised.
   cli_test::Fixture f;
   std::vector<Eigen::Vector3d> points, normals;

@@ -1,8 +1,9 @@
 // The program on 3D Gaussian splat files (tools/cli/splats.cpp, docs/splats.md): a rigid or similarity motion of
 // every handle turns each splat's rot_* by that rotation and shifts its scale_* by log(s), to the fit's bound,
 // rotates its f_rest_*, and passes every other property through bit for bit; a region leaves the splats outside
-// it bit for bit; an affine fit maps each splat by its centre's matrix; files that are splat files only in part
-// are refused.
+// it bit for bit; an affine fit maps each splat by its centre's matrix; splats on point and segment handles turn
+// with the motion; files that are splat files only in part, and values a float property cannot hold after the
+// turn, are refused.
 #include "tests/cli/cli_test_util.hpp"
 #include "tests/support/accuracy_bounds.hpp"
 #include "tests/support/deform_cases.hpp"
@@ -18,7 +19,9 @@
 #include <cmath>
 #include <cstdio>
 #include <cstring>
+#include <filesystem>
 #include <limits>
+#include <numbers>
 #include <string>
 #include <vector>
 
@@ -290,7 +293,7 @@ TEST_CASE("splats: each frame of an animation turns the rest pose's splats", "[c
   CHECK(first != cli_test::read_text(dir / "in.ply"));
 }
 
-TEST_CASE("splats: a splat that is a handle turns by its nearest neighbour's frame", "[cli][splats]") {
+TEST_CASE("splats: splats on point and segment handles turn with the motion too", "[cli][splats]") {
   ScratchDir dir;
   const testing::SplatCloud cloud = testing::random_splat_cloud(400, 37);
   testing::write_splat_ply(dir / "in.ply", cloud);
@@ -299,21 +302,81 @@ TEST_CASE("splats: a splat that is a handle turns by its nearest neighbour's fra
                  Eigen::Vector3d(0, 0, 1), Eigen::Vector3d(0.3, -0.2, 0.1)};
   std::vector<Eigen::Vector3d> target;
   for (const auto& p : rest) target.push_back(m(p));
-  // splat 0 a handle too, moved with the rest: MLS gives it the identity frame, the program its neighbour's
-  const Eigen::Vector3d s0(cloud.positions[0], cloud.positions[1], cloud.positions[2]), t0 = m(s0);
-  char buf[160];
-  std::snprintf(buf, sizeof buf, ", {\"vertex\": 0, \"target\": [%.17g, %.17g, %.17g]}]}", t0.x(), t0.y(), t0.z());
+  // Splat 0 a point handle, splats 1 and 2 the ends of a segment handle, all moved with the rest: the library's
+  // frame there is the fit's limit at the handle, the same motion.
+  auto moved = [&](std::size_t i) {
+    const Eigen::Vector3d t =
+        m(Eigen::Vector3d(cloud.positions[3 * i], cloud.positions[3 * i + 1], cloud.positions[3 * i + 2]));
+    char buf[96];
+    std::snprintf(buf, sizeof buf, "[%.17g, %.17g, %.17g]", t.x(), t.y(), t.z());
+    return std::string(buf);
+  };
   std::string json = handles_json(rest, target);
-  json.replace(json.size() - 2, 2, buf);
+  json.replace(json.size() - 2, 2,
+               ", {\"vertex\": 0, \"target\": " + moved(0) + "}], \"segments\": [{\"vertices\": [1, 2], \"target\": [" +
+                   moved(1) + ", " + moved(2) + "]}]}");
   cli_test::write_text(dir / "h.json", json);
-  const auto r = cli_test::deform(dir / "in.ply", dir / "h.json", dir / "out.ply");
-  REQUIRE(r.exit_code == 0);
-  const std::vector<float> out =
-      records(cli_test::read_text(dir / "out.ply"), testing::splat_ply_header(cloud.n, 3), cloud.n);
-  const Eigen::Quaternion<L> qR(m.R.cast<L>());
-  const Eigen::Quaternion<L> q_in(cloud.rotations[0], cloud.rotations[1], cloud.rotations[2], cloud.rotations[3]);
-  const Eigen::Quaternion<L> q_out(out[58], out[59], out[60], out[61]);
-  // The neighbour's frame is the same rigid motion to the fit's bound (about 1e-5 here, test 1's figures): 1e-3
-  // tells it from the identity, which would leave it 0.7 rad away.
-  CHECK(2 * std::acos(std::min(L(1), std::abs((qR * q_in.normalized()).dot(q_out)))) < 1e-3L);
+  for (const char* weight : {"constant", "exact"}) {
+    INFO("--segment-weight " << weight);
+    const auto r =
+        cli_test::deform(dir / "in.ply", dir / "h.json", dir / "out.ply", {"-f", "--segment-weight", weight});
+    INFO(r.err);
+    REQUIRE(r.exit_code == 0);
+    const std::vector<float> out =
+        records(cli_test::read_text(dir / "out.ply"), testing::splat_ply_header(cloud.n, 3), cloud.n);
+    const Eigen::Quaternion<L> qR(m.R.cast<L>());
+    for (std::size_t i = 0; i < 3; ++i) {
+      INFO("splat " << i);
+      const float* r_in = cloud.rotations.data() + 4 * i;
+      const Eigen::Quaternion<L> q_in(r_in[0], r_in[1], r_in[2], r_in[3]);
+      const float* o = out.data() + kPer * i + 58;
+      const Eigen::Quaternion<L> q_out(o[0], o[1], o[2], o[3]);
+      // The frame at a handle is the same rigid motion to the fit's bound (about 1e-5 here, test 1's
+      // figures): 1e-3 tells it from the identity, or the segment's own rank-1 fit, which leave it far off.
+      CHECK(2 * std::acos(std::min(L(1), std::abs((qR * q_in.normalized()).dot(q_out)))) < 1e-3L);
+    }
+  }
+}
+
+TEST_CASE("splats: a value its float property cannot hold after the turn is refused, nothing written",
+          "[cli][splats][errors]") {
+  // Splat 5's band-1 coefficients of the red channel (f_rest_0..2: y, z, x) are (a, 0, a), a = 0.9 x float's
+  // largest: an eighth of a turn about z takes (a, a) to (0, sqrt(2) a) up to signs and order, beyond float;
+  // a turn of 0.05 rad to at most (cos 0.05 + sin 0.05) a < 0.95 x float's largest, within it.
+  ScratchDir dir;
+  testing::SplatCloud cloud = testing::random_splat_cloud(50, 41, 1);
+  const float a = 0.9f * std::numeric_limits<float>::max();
+  cloud.f_rest[9 * 5 + 0] = a;
+  cloud.f_rest[9 * 5 + 1] = 0;
+  cloud.f_rest[9 * 5 + 2] = a;
+  testing::write_splat_ply(dir / "in.ply", cloud);
+  const std::vector<Eigen::Vector3d> rest = handle_rests();
+  const Motion m{Eigen::AngleAxisd(std::numbers::pi / 4, Eigen::Vector3d::UnitZ()).toRotationMatrix(), 1.0,
+                 Eigen::Vector3d(0, 0, 1), Eigen::Vector3d::Zero()};
+  std::vector<Eigen::Vector3d> target;
+  for (const auto& p : rest) target.push_back(m(p));
+  cli_test::write_text(dir / "h.json", handles_json(rest, target));
+  const auto r = cli_test::deform(dir / "in.ply", dir / "h.json", dir / "out.ply", {"-q"});
+  INFO(r.err);
+  CHECK(r.exit_code == 2);
+  CHECK(cli_test::line_count(r.err) == 1);
+  CHECK(r.err.find("mlsdeform: error: " + dir / "in.ply" + ": splat (vertex) 5: its f_rest_") == 0);
+  CHECK(r.err.find("beyond the range of float, the property's type") != std::string::npos);
+  CHECK(!std::filesystem::exists(dir / "out.ply"));
+  const Motion small{Eigen::AngleAxisd(0.05, Eigen::Vector3d::UnitZ()).toRotationMatrix(), 1.0,
+                     Eigen::Vector3d(0, 0, 1), Eigen::Vector3d::Zero()};
+  target.clear();
+  for (const auto& p : rest) target.push_back(small(p));
+  cli_test::write_text(dir / "h.json", handles_json(rest, target));
+  const auto fits = cli_test::deform(dir / "in.ply", dir / "h.json", dir / "out.ply", {"-q"});
+  CHECK(fits.exit_code == 0);
+  CHECK(fits.err.empty());
+  const std::string bytes = cli_test::read_text(dir / "out.ply");
+  const std::size_t body = bytes.find("end_header\n") + 11, per = 3 + 3 + 3 + 9 + 1 + 3 + 4;  // degree 1
+  REQUIRE(bytes.size() == body + cloud.n * per * 4);
+  for (std::size_t j = 0; j < 9; ++j) {
+    float c;
+    std::memcpy(&c, bytes.data() + body + (5 * per + 9 + j) * 4, 4);
+    CHECK(std::isfinite(c));
+  }
 }

@@ -121,6 +121,10 @@ struct ObjExtras {
   /// Set when `normals` and `corner_normals` were replaced (transformed or computed): the writer then writes
   /// `normals` as one block of `vn` in place of the file's and rewrites each corner's normal index.
   bool normals_rewritten = false;
+  /// With normals_rewritten, per normal of `normals`: the file's `vn` (0-based) that it repeats unchanged
+  /// (its vertex's frame is exactly the identity), which the writer writes as the file's own line, so that
+  /// its text is as read; kNone for a transformed one. Empty: none repeats one.
+  std::vector<std::uint32_t> normal_sources;
 };
 
 /// OFF's optional colours after a vertex's coordinates or a face's indices, verbatim.

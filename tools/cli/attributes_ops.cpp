@@ -5,7 +5,6 @@
 #include "tools/cli/mesh.hpp"
 
 #include <algorithm>
-#include <array>
 #include <cmath>
 #include <unordered_map>
 
@@ -25,18 +24,32 @@ bool normalise(double* v) {
   return true;
 }
 
+/// Whether L is exactly the identity (a vertex outside a region, or one nothing turns): its normal is then
+/// written as read, bit for bit, not renormalised.
+template <class T>
+bool is_identity(const T* l) {
+  for (int k = 0; k < 9; ++k)
+    if (l[k] != (k % 4 == 0 ? T(1) : T(0))) return false;
+  return true;
+}
+
 /// n' = L^-T n renormalised, through the cofactor matrix: cof(L) = det(L) L^-T, so L^-T n points along
 /// sign(det L) cof(L) n, which needs no division and stays defined for a singular L of rank 2 (the normal of
 /// the plane L flattens onto). The input is made unit first (any finite normal, however long, then transforms
 /// without overflow). Where the result is zero or not finite (L of rank < 2, or non-finite), the input normal
 /// is kept, unit length: there is no transformed direction to give. A zero or non-finite input is kept as
-/// it is. In double: float input is exact in it, and the rounding to the output type comes once, at the end.
+/// it is, and so is any input where L is exactly the identity (true: `out` is `n` unchanged). In double: float
+/// input is exact in it, and the rounding to the output type comes once, at the end.
 template <class T>
-void transformed(const T* l, const double* n, double* out) {
+bool transformed(const T* l, const double* n, double* out) {
+  if (is_identity(l)) {
+    std::copy(n, n + 3, out);
+    return true;
+  }
   double u[3] = {n[0], n[1], n[2]};
   if (!normalise(u)) {
     std::copy(n, n + 3, out);
-    return;
+    return false;
   }
   const double a = double(l[0]), b = double(l[1]), c = double(l[2]);
   const double d = double(l[3]), e = double(l[4]), f = double(l[5]);
@@ -50,9 +63,10 @@ void transformed(const T* l, const double* n, double* out) {
   for (int r = 0; r < 3; ++r) m[r] = sign * (cof[3 * r] * u[0] + cof[3 * r + 1] * u[1] + cof[3 * r + 2] * u[2]);
   if (!normalise(m)) {
     std::copy(u, u + 3, out);
-    return;
+    return false;
   }
   std::copy(m, m + 3, out);
+  return false;
 }
 
 std::string joined(const std::vector<std::string>& names, std::size_t most = 12) {
@@ -91,7 +105,7 @@ void transform_normals(BasicMesh<T>& mesh, const T* linear) {
     // pair that a corner names becomes one new vn, in the order corners first name them.
     std::unordered_map<std::uint64_t, std::uint32_t> made;
     std::vector<double> normals;
-    std::vector<std::uint32_t> corners(obj->corner_normals.size(), ObjExtras::kNone);
+    std::vector<std::uint32_t> sources, corners(obj->corner_normals.size(), ObjExtras::kNone);
     for (std::size_t c = 0; c < corners.size(); ++c) {
       const std::uint32_t k = obj->corner_normals[c];
       if (k == ObjExtras::kNone) continue;
@@ -99,66 +113,17 @@ void transform_normals(BasicMesh<T>& mesh, const T* linear) {
       const auto [it, fresh] = made.try_emplace(std::uint64_t(k) << 32 | vertex, std::uint32_t(normals.size() / 3));
       if (fresh) {
         double out[3];
-        transformed(linear + 9 * std::size_t(vertex), &obj->normals[3 * std::size_t(k)], out);
+        const bool as_read = transformed(linear + 9 * std::size_t(vertex), &obj->normals[3 * std::size_t(k)], out);
         normals.insert(normals.end(), out, out + 3);
+        sources.push_back(as_read ? k : ObjExtras::kNone);
       }
       corners[c] = it->second;
     }
     obj->normals = std::move(normals);
     obj->corner_normals = std::move(corners);
+    obj->normal_sources = std::move(sources);
     obj->normals_rewritten = true;
   }
-}
-
-template <class T>
-FrameDonors frame_donors(const BasicMesh<T>& mesh, const Points<T>& handles) {
-  // Exact positions: the deformer snaps a vertex to a point handle only at distance 0 (snap.hpp). +0.0 makes
-  // -0 and 0 one key.
-  auto key = [](T x, T y, T z) { return std::array<T, 3>{x + T(0), y + T(0), z + T(0)}; };
-  std::vector<std::array<T, 3>> points;
-  for (Eigen::Index i = 0; i < handles.rows(); ++i) points.push_back(key(handles(i, 0), handles(i, 1), handles(i, 2)));
-  std::sort(points.begin(), points.end());
-  const auto n = std::size_t(mesh.vertex_count());
-  std::vector<bool> on_handle(n, false);
-  std::size_t count = 0;
-  for (std::size_t v = 0; v < n; ++v) {
-    const auto& p = mesh.vertices;
-    on_handle[v] = std::binary_search(points.begin(), points.end(),
-                                      key(p(Eigen::Index(v), 0), p(Eigen::Index(v), 1), p(Eigen::Index(v), 2)));
-    count += on_handle[v];
-  }
-  FrameDonors d;
-  if (count == 0) return d;
-  auto distance2 = [&](std::size_t a, std::size_t b) {
-    return (mesh.vertices.row(Eigen::Index(a)).template cast<double>() -
-            mesh.vertices.row(Eigen::Index(b)).template cast<double>())
-        .squaredNorm();
-  };
-  // The nearest face neighbour (the previous and next corner of each polygon) not on a handle.
-  std::vector<std::int64_t> donor(n, -1);
-  for (std::size_t f = 0; f < mesh.face_count(); ++f) {
-    const auto b = mesh.face_start[f], e = mesh.face_start[f + 1];
-    for (auto c = b; c < e; ++c) {
-      const std::size_t v = mesh.face_indices[c];
-      if (!on_handle[v]) continue;
-      for (const std::size_t w : {mesh.face_indices[c + 1 < e ? c + 1 : b], mesh.face_indices[c > b ? c - 1 : e - 1]})
-        if (!on_handle[w] && (donor[v] < 0 || distance2(v, w) < distance2(v, std::size_t(donor[v]))))
-          donor[v] = std::int64_t(w);
-    }
-  }
-  // Else (a point cloud, or every neighbour on a handle) the nearest vertex not on a handle.
-  for (std::size_t v = 0; v < n; ++v) {
-    if (!on_handle[v]) continue;
-    if (donor[v] < 0)
-      for (std::size_t w = 0; w < n; ++w)
-        if (!on_handle[w] && (donor[v] < 0 || distance2(v, w) < distance2(v, std::size_t(donor[v]))))
-          donor[v] = std::int64_t(w);
-    if (donor[v] < 0)
-      ++d.orphans;
-    else
-      d.pairs.emplace_back(std::uint32_t(v), std::uint32_t(donor[v]));
-  }
-  return d;
 }
 
 template <class T>
@@ -240,9 +205,8 @@ AttributeReport attribute_report(const BasicMesh<T>& mesh, const std::string& ou
   return r;
 }
 
-#define MLSDEFORM_CLI_ATTRIBUTES(T)                                         \
-  template void transform_normals(BasicMesh<T>&, const T*);                 \
-  template FrameDonors frame_donors(const BasicMesh<T>&, const Points<T>&); \
+#define MLSDEFORM_CLI_ATTRIBUTES(T)                         \
+  template void transform_normals(BasicMesh<T>&, const T*); \
   template AttributeReport attribute_report(const BasicMesh<T>&, const std::string&, NormalsOut, InputNormals);
 MLSDEFORM_CLI_ATTRIBUTES(float)
 MLSDEFORM_CLI_ATTRIBUTES(double)

@@ -31,6 +31,11 @@ int deform(const DeformArgs& a) {
   const bool arap = a.options.arap_iterations > 0;
   if (arap && mesh.face_count() == 0)
     throw InputError(a.mesh, "--arap needs a surface, and the mesh has no faces (a point cloud?)");
+  // Normals of faces need faces: a point cloud's would all be zero, written over the input's.
+  if (a.normals == NormalsOut::computed && mesh.face_count() == 0)
+    throw InputError(a.mesh,
+                     "--normals computed needs a surface, and the mesh has no faces (a point cloud?); --normals "
+                     "input carries the file's own normals through the deformation");
   // A 3D Gaussian splat file (docs/splats.md): each splat turns (and grows) by its centre's frame.
   const std::optional<SplatLayout> splats = mesh.extras.ply ? splat_layout(*mesh.extras.ply, a.mesh) : std::nullopt;
   const HandlesFile handles = read_handles(a.handles);
@@ -133,15 +138,6 @@ int deform(const DeformArgs& a) {
   frames.quaternions = std::span<T>(splat_turns);
   frames.scales = std::span<T>(splat_scales);
   double splat_ms = 0;
-  // Vertices on point handles get no frame from MLS (the identity): their normals take a neighbour's. ARAP's
-  // refined rotations cover every vertex.
-  const FrameDonors donors =
-      frames.any() && !arap ? frame_donors(mesh, Points<T>(resolved.rest.points)) : FrameDonors{};
-  if (donors.orphans > 0)
-    std::fprintf(stderr,
-                 "mlsdeform: %s: the normals of %zu vertices on handles are written as read (no vertex "
-                 "off a handle lends them a frame)\n",
-                 a.mesh.c_str(), donors.orphans);
   std::vector<double> deform_ms;
   std::vector<std::string> written;
   Progress progress(frame_count, a.quiet || !handles.animated());
@@ -165,22 +161,12 @@ int deform(const DeformArgs& a) {
       }
       deform_ms.push_back(ms_since(t0));
       result.vertices = out;
-      // A frame lent by a donor: `width` values a vertex (none where that output is not wanted).
-      auto lend = [&donors](std::vector<T>& values, std::size_t width) {
-        if (values.empty()) return;
-        for (const auto& [v, from] : donors.pairs)
-          std::copy_n(values.begin() + std::ptrdiff_t(width * std::size_t(from)), width,
-                      values.begin() + std::ptrdiff_t(width * std::size_t(v)));
-      };
-      lend(linear, 9);
       if (fate == InputNormals::transformed) {
         result.extras = mesh.extras;  // each frame's normals from the input's
         transform_normals(result, linear.data());
       }
       if (splats) {  // each frame's splats from the input's
         t0 = Clock::now();
-        lend(splat_turns, 4);
-        lend(splat_scales, 1);
         if (affine_splats)
           transform_splats_linear(*mesh.extras.ply, *result.extras.ply, linear.data(), a.options.threads, a.mesh);
         else

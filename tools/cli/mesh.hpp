@@ -111,22 +111,11 @@ template <class T>
 void write_mesh(const BasicMesh<T>& mesh, const std::string& path, const WriteOptions& options = {});
 
 /// Transforms the input's normals (OBJ vn, PLY nx ny nz) by each vertex's linear part: `linear` holds n
-/// row-major 3x3 matrices L (n = the vertex count); a normal becomes L^-T n renormalised (attributes_ops.cpp:
-/// an OBJ vn that corners of vertices with different L share is split, one vn per vertex and vn).
+/// row-major 3x3 matrices L (n = the vertex count); a normal becomes L^-T n renormalised, or stays as read,
+/// bit for bit, where L is exactly the identity (attributes_ops.cpp: an OBJ vn that corners of vertices with
+/// different L share is split, one vn per vertex and vn; one kept as read is written as the file's own line).
 template <class T>
 void transform_normals(BasicMesh<T>& mesh, const T* linear);
-
-/// The deformer gives a vertex on a point handle the identity frame (the map interpolates the handle's target
-/// there, and the fit has no data: FramesOut); its normal takes instead the frame of the nearest vertex not on
-/// a handle: its nearest polygon neighbour not on one, else (a point cloud, or all its neighbours on handles)
-/// the nearest such vertex of the mesh. `pairs`: (vertex, donor); `orphans`: vertices on handles with no
-/// donor (every vertex is on a handle), which keep the identity.
-struct FrameDonors {
-  std::vector<std::pair<std::uint32_t, std::uint32_t>> pairs;
-  std::size_t orphans = 0;
-};
-template <class T>
-FrameDonors frame_donors(const BasicMesh<T>& mesh, const Points<T>& handle_points);
 
 /// What writing `mesh` to `out_path` keeps, transforms and drops of the input's attributes, each a short
 /// phrase ("vertex properties red, green, blue", "12 vt"), for the program's summary and its stderr line.

@@ -6,6 +6,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <cstring>
 #include <stdexcept>
 
@@ -83,6 +84,32 @@ void gather(const PlyElement& v, const std::vector<std::size_t>& ks, const std::
     const unsigned char* record = v.data.data() + (first + i) * stride;
     for (std::size_t j = 0; j < w; ++j) out[i * w + j] = load(type[j], record + at[j]);
   }
+}
+
+/// Whether `value` is finite once rounded to `type` (float or double). A splat's values come in finite (the
+/// library refuses others) and are transformed in double, where a rotated f_rest_* can grow to its band's
+/// norm: a float near float's largest then rounds to inf.
+bool fits(PlyScalar type, double value) {
+  return type == PlyScalar::f32 ? std::isfinite(float(value)) : std::isfinite(value);
+}
+
+/// Throws InputError naming `path`, the property and the splat (vertex) where a value of vertices
+/// [first, first + count) would not fit its property's type: checked for every property before any is stored,
+/// so a refused file is not written at all (the caller writes only after every splat is stored).
+void check_range(const PlyElement& v, const std::vector<std::size_t>& ks, std::size_t first, std::size_t count,
+                 const std::vector<double>& values, const std::string& path) {
+  const std::size_t w = ks.size();
+  for (std::size_t i = 0; i < count; ++i)
+    for (std::size_t j = 0; j < w; ++j) {
+      const PlyProperty& p = v.properties[ks[j]];
+      if (!fits(p.type, values[i * w + j])) {
+        char number[32];
+        std::snprintf(number, sizeof number, "%.9g", values[i * w + j]);
+        throw InputError(path, "splat (vertex) " + std::to_string(first + i) + ": its " + p.name + " becomes " +
+                                   number + " under its centre's frame, beyond the range of " +
+                                   std::string(type_name(p.type)) + ", the property's type");
+      }
+    }
 }
 
 /// And back.
@@ -163,6 +190,9 @@ void each_chunk(const PlyLayout& in, PlyLayout& out, const std::string& path, F&
       }
       throw InputError(path, what);
     }
+    check_range(w, out_rot, first, count, r, path);
+    check_range(w, out_scale, first, count, s, path);
+    check_range(w, to.f_rest, first, count, sh, path);
     scatter(w, out_rot, out_rot_at, first, count, r);
     scatter(w, out_scale, out_scale_at, first, count, s);
     scatter(w, to.f_rest, out_sh_at, first, count, sh);

@@ -34,14 +34,17 @@ std::optional<SplatLayout> splat_layout(const PlyLayout& ply, const std::string&
 /// splats) transformed by per-vertex unit quaternions (n x 4, w x y z) and, if given, similarity scales (n):
 /// rotate_splats (mlsdeform/splats.hpp) on the properties gathered in double, stored back in their own types. A
 /// splat whose transform is exactly the identity keeps every bit. Throws InputError naming `path` for values
-/// rotate_splats refuses (NaN, a zero rot_*), naming the splat (vertex).
+/// rotate_splats refuses (NaN, a zero rot_*), naming the splat (vertex), and for a transformed value its
+/// property's type cannot hold (a float f_rest_* near float's largest, rotated), naming the splat and the
+/// property.
 template <class T>
 void transform_splats(const PlyLayout& in, PlyLayout& out, const T* quaternions, const T* scales, int threads,
                       const std::string& path);
 
 /// The same for affine fits: each splat mapped by its centre's linear part (n x 9 row-major, FramesOut::linear)
 /// through transform_splats_affine (mlsdeform/splats.hpp: covariance M Sigma M^T decomposed again, f_rest_* by
-/// M's polar rotation). Throws InputError naming `path` and the splat for what it refuses (a singular M).
+/// M's polar rotation). Throws InputError naming `path` and the splat for what it refuses (a singular M), and
+/// for a value beyond its property's type as transform_splats does.
 template <class T>
 void transform_splats_linear(const PlyLayout& in, PlyLayout& out, const T* linear, int threads,
                              const std::string& path);

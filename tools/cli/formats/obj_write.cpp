@@ -55,6 +55,16 @@ std::string encode_extras(const BasicMesh<T>& m, const PointsRowMajor<T>* comput
   const bool rewrite = computed || x.normals_rewritten;
   const std::vector<double>& normals = computed ? computed_normals : x.normals;
   const std::vector<std::uint32_t>& corner_normals = computed ? computed_corners : x.corner_normals;
+  // The file's own `vn` lines, for the normals that repeat one unchanged (ObjExtras::normal_sources).
+  const std::vector<std::uint32_t>& sources = x.normal_sources;
+  std::vector<std::string_view> vn_lines;
+  if (!computed && !sources.empty())
+    for (std::size_t at = 0; at < x.text.size();) {
+      const std::size_t nl = x.text.find('\n', at);
+      const std::string_view line = std::string_view(x.text).substr(at, nl - at);
+      if (first_token(line) == "vn") vn_lines.push_back(line);
+      at = nl + 1;
+    }
   TextOut o;
   o.s.reserve(x.text.size() + std::size_t(m.vertex_count()) * 35 + x.vertex_tails.text.size() + 64);
   o << "# " << comment() << '\n';
@@ -63,6 +73,10 @@ std::string encode_extras(const BasicMesh<T>& m, const PointsRowMajor<T>* comput
     if (!rewrite || block_written) return;
     block_written = true;
     for (std::size_t i = 0; i + 2 < normals.size(); i += 3) {
+      if (!computed && i / 3 < sources.size() && sources[i / 3] < vn_lines.size()) {
+        o << vn_lines[sources[i / 3]] << '\n';
+        continue;
+      }
       o << "vn ";
       o.num(O(normals[i]));
       o << ' ';
