@@ -70,6 +70,7 @@ def build_cases(args):
         cases_cli,
         cases_fit_points,
         cases_fit_rotations,
+        cases_frames,
         cases_groups,
         cases_inputs,
         cases_long_calls,
@@ -93,6 +94,7 @@ def build_cases(args):
     cases_snap.build(args)
     cases_long_calls.build(args)
     cases_cli.build(args)
+    cases_frames.build(args)
     return CASES
 
 
