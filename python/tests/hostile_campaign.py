@@ -72,6 +72,7 @@ def build_cases(args):
         cases_fit_rotations,
         cases_frames,
         cases_groups,
+        cases_helpers,
         cases_inputs,
         cases_long_calls,
         cases_mls,
@@ -95,6 +96,7 @@ def build_cases(args):
     cases_long_calls.build(args)
     cases_cli.build(args)
     cases_frames.build(args)
+    cases_helpers.build(args)
     return CASES
 
 

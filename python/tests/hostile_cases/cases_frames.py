@@ -74,7 +74,6 @@ def frames_case(g, dt, storage, transform, kind, sw, placement, param=None):
     P, a, b, clouds = handles(g, kind)
     h = spacing(clouds)
     gen = g.uniform(-1.3, 1.3, (16, 3))
-    on = np.zeros(0, bool)
     if placement == "generic":
         V = g.uniform(-1.3, 1.3, (60, 3))
     elif placement in ("on", "near"):
