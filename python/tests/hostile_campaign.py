@@ -80,6 +80,7 @@ def build_cases(args):
         cases_rbf_region,
         cases_scale,
         cases_snap,
+        cases_splats,
     )
 
     cases_fit_rotations.build(args)
@@ -97,6 +98,7 @@ def build_cases(args):
     cases_cli.build(args)
     cases_frames.build(args)
     cases_helpers.build(args)
+    cases_splats.build(args)
     return CASES
 
 
