@@ -67,7 +67,9 @@ def build_cases(args):
     # Imported here, as mlsdeform itself: --help needs neither.
     from hostile_cases import (
         cases_arap,
+        cases_attributes,
         cases_cli,
+        cases_dask,
         cases_fit_points,
         cases_fit_rotations,
         cases_frames,
@@ -99,6 +101,8 @@ def build_cases(args):
     cases_frames.build(args)
     cases_helpers.build(args)
     cases_splats.build(args)
+    cases_attributes.build(args)
+    cases_dask.build(args)
     return CASES
 
 
