@@ -108,7 +108,6 @@ def build(args):
                 f"render_animation {ext} {transform}",
                 f,
                 timeout=120,
-                quick=(ext, transform) == (".npy", "rigid"),
             )
 
     def f(g):

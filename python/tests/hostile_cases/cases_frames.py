@@ -185,7 +185,7 @@ def build(args):
                         def f(g, dt=dt, storage=storage, transform=transform, kind=kind, sw=sw, k=k):
                             frames_case(g, dt, storage, transform, kind, sw, "near", k)
 
-                        add("frames-near", f"1e-{k} x spacing {name} {kind} {sw}", f, quick=k in (1, 3, 6, 9, 12))
+                        add("frames-near", f"1e-{k} x spacing {name} {kind} {sw}", f)
                 for (kind, sw), far in zip(mixed or pt + pt, (10.0, 1000.0)):
 
                     def f(g, dt=dt, storage=storage, transform=transform, kind=kind, sw=sw, far=far):
