@@ -101,9 +101,12 @@ def build_cases(args):
     cases_long_calls.build(args)
     cases_cli.build(args)
     cases_frames.build(args)
+    cases_frames.build_isa(args)
+    cases_frames.build_alias(args)
     cases_helpers.build(args)
     cases_splats.build(args)
     cases_attributes.build(args)
+    cases_attributes.build_splats(args)
     cases_dask.build(args)
     return CASES
 

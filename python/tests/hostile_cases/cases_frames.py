@@ -7,7 +7,7 @@ import numpy as np
 
 import mlsdeform
 
-from .common import DTYPES, EPS, VALUE, Wrong, add, refused, same, within
+from .common import DTYPES, EPS, VALUE, Skip, Wrong, add, refused, same, within
 from .motions import check_motion, conditioning, effective_kappa, frame_arrays, motion, moved, rotation_bound
 
 D_ = mlsdeform.Deformer
@@ -70,7 +70,7 @@ def run_session(V, P, a, b, dt, storage, transform, sw, Q, c, d, extra=None):
     return X, fr
 
 
-def frames_case(g, dt, storage, transform, kind, sw, placement, param=None):
+def frames_case(g, dt, storage, transform, kind, sw, placement, param=None, extra=None):
     P, a, b, clouds = handles(g, kind)
     h = spacing(clouds)
     gen = g.uniform(-1.3, 1.3, (16, 3))
@@ -110,7 +110,7 @@ def frames_case(g, dt, storage, transform, kind, sw, placement, param=None):
             V[n0 + len(P) + 4 * j + 1] = b[j]
     A, R, s, t = motion(g, transform)
     Q, c, d = moved(P, A, t, dt), moved(a, A, t, dt), moved(b, A, t, dt)
-    X, fr = run_session(V, P, a, b, dt, storage, transform, sw, Q, c, d)
+    X, fr = run_session(V, P, a, b, dt, storage, transform, sw, Q, c, d, extra)
     if len(P):
         # A vertex on a point handle lands on its target bit for bit (the map interpolates it: docs/api.md).
         hit = (V[:, None, :] == P[None]).all(axis=2)
@@ -214,3 +214,86 @@ def build(args):
                         return refused(lambda: D_(V, points=P.astype(dt), **kw), VALUE, [storage])
 
                     add("frames-storage", f"{storage} with {what} {np.dtype(dt).name}: refused", f)
+
+
+def build_isa(args):
+    """The same oracle under each instruction set the CPU runs (mlsdeform.set_isa; the scalar backend too):
+    on handles and beside them, float and double, rigid and affine."""
+    for isa in ("scalar", "sse4_2", "avx2", "avx512", "backend=scalar"):
+        for dt in DTYPES:
+            for transform in ("rigid", "affine"):
+                for placement, k in (("on", None), ("near", 6), ("near", 10)):
+
+                    def f(g, isa=isa, dt=dt, transform=transform, placement=placement, k=k):
+                        extra = {}
+                        if isa == "backend=scalar":
+                            extra["backend"] = "scalar"
+                        elif isa not in mlsdeform.supported_isas():
+                            raise Skip(f"this CPU lacks {isa}")
+                        before = mlsdeform.active_isa()
+                        try:
+                            if not extra:
+                                mlsdeform.set_isa(isa)
+                            frames_case(g, dt, "automatic", transform, "mixed", "paper_constant", placement, k, extra)
+                        finally:
+                            mlsdeform.set_isa(before)
+
+                    where = "on handles" if k is None else f"1e-{k} x spacing"
+                    add("frames-isa", f"{isa} {where} {transform} {np.dtype(dt).name}", f)
+
+
+def build_alias(args):
+    """deform(out=, quaternions=, rotations=, scales=, linear=) with outputs that share memory with each other
+    or with the targets: the result of the same call on separate arrays (bitwise), or a refusal naming it."""
+    layouts = (
+        "out and linear one buffer",
+        "rotations and linear one buffer",
+        "quaternions inside rotations",
+        "scales inside out",
+        "out over the targets",
+    )
+    for dt in DTYPES:
+        for layout in layouts:
+
+            def f(g, dt=dt, layout=layout):
+                P, a, b, _ = handles(g, "points")
+                n = 32
+                V = np.ascontiguousarray(g.uniform(-1, 1, (n, 3)).astype(dt))
+                P = np.ascontiguousarray(P.astype(dt))
+                A, R, s, t = motion(g, "similarity")
+                Q = moved(P, A, t, dt)
+                ses = D_(V, points=P, transform="similarity")
+                want = frame_arrays(n, dt, "similarity")
+                X0 = ses.deform(points=Q.copy(), **want)
+                buf = np.zeros(9 * n + 3 * n + 16, dt)
+                kw = {}
+                if layout == "out and linear one buffer":
+                    kw["out"] = buf[: 3 * n].reshape(n, 3)
+                    kw["linear"] = buf[3 : 3 + 9 * n].reshape(n, 3, 3)
+                elif layout == "rotations and linear one buffer":
+                    kw["rotations"] = buf[: 9 * n].reshape(n, 3, 3)
+                    kw["linear"] = buf[9 : 9 + 9 * n].reshape(n, 3, 3)
+                elif layout == "quaternions inside rotations":
+                    kw["rotations"] = buf[: 9 * n].reshape(n, 3, 3)
+                    kw["quaternions"] = buf[4 : 4 + 4 * n].reshape(n, 4)
+                elif layout == "scales inside out":
+                    kw["out"] = buf[: 3 * n].reshape(n, 3)
+                    kw["scales"] = buf[5 : 5 + n]
+                targets = Q.copy()
+                if layout == "out over the targets":
+                    big = np.zeros(3 * n, dt)
+                    big[: 3 * len(Q)] = Q.ravel()
+                    targets = big[: 3 * len(Q)].reshape(-1, 3)
+                    kw["out"] = big.reshape(n, 3)
+                try:
+                    X = ses.deform(points=targets, **kw)
+                except ValueError as e:
+                    if any(w in str(e).lower() for w in ("overlap", "alias", "share", "same memory")):
+                        return "clear error"
+                    raise
+                same(np.asarray(X), X0, f"{layout}: positions")
+                for k, v in kw.items():
+                    if k != "out":
+                        same(v, want[k], f"{layout}: {k}")
+
+            add("frames-alias", f"{layout} {np.dtype(dt).name}", f)
