@@ -172,9 +172,13 @@ def check_motion(X, fr, V, A, R, s, t, transform, dt, kappa, arm, J, what):
     tol_pos = 16 * (J + 16) * eps * scale + tolR * nA * arm
     within(X, V64 @ A.T + t, tol_pos, f"{what}: positions")
     if transform == "affine":
+        # L = H G^-1: the weighted sums' (J + 16) eps relative error (references.mls_tol's derivation) through
+        # G^-1, amplified by kappa(G), times 16 for both sides and the paths' constants, relative to |A|; plus
+        # float64's own 64 eps64 kappa for the conditioning computed here.
         L = fr["linear"].astype(np.float64)
         finite(L, f"{what}: linear")
-        within(L.reshape(-1, 9), np.broadcast_to(A.reshape(9), (len(V), 9)), tolR * nA, f"{what}: linear = A")
+        tolL = (16 * (J + 16) * eps * (1 + kappa) + 64 * EPS64 * kappa) * nA
+        within(L.reshape(-1, 9), np.broadcast_to(A.reshape(9), (len(V), 9)), tolL, f"{what}: linear = A")
         return
     Rg = fr["rotations"].astype(np.float64)
     q = fr["quaternions"].astype(np.float64)
