@@ -134,6 +134,15 @@ def conditioning(V, P, A=None, B=None, sw="paper_constant", u=2.0, transform="ri
         G, m = centred(terms)
         kf[i] = kappa(G)
         arm[i] = np.linalg.norm(v - m)
+        if not np.isfinite(arm[i]):
+            # The nearest term's weight is beyond double's range (a vertex on a segment within rounding): p*
+            # is that term's own centre, the closest point (exact_integral) or the midpoint (paper_constant);
+            # the larger of the two distances bounds the lever arm.
+            if near < len(P):
+                arm[i] = np.linalg.norm(v - c)
+            else:
+                a, b = A[near - len(P)], B[near - len(P)]
+                arm[i] = max(np.linalg.norm(v - c), np.linalg.norm(v - (a + b) / 2))
     return kf, ko, arm
 
 
