@@ -107,6 +107,7 @@ def build_cases(args):
     cases_splats.build(args)
     cases_attributes.build(args)
     cases_attributes.build_splats(args)
+    cases_attributes.build_cube(args)
     cases_dask.build(args)
     return CASES
 

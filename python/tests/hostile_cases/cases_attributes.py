@@ -417,3 +417,85 @@ def build_splats(args):
                 return splat_case(cli, g, variant)
 
             add("cli-splats", f"splat PLY, {variant} #{rep}", f)
+
+
+def cube_case(program, g, precision):
+    """A flat-shaded cube (6 vn shared by the corners of a face, docs/cli.md: each (vn, vertex) pair becomes its
+    own vn) with vt, groups, materials, smoothing, comments and a polyline, every corner a point handle, all
+    moved by one rigid motion: every corner's normal R n, every vertex R v + t, every other line verbatim and
+    in order."""
+    if not program:
+        raise Skip("no program (--cli or MLSDEFORM_CLI)")
+    dt = np.float64 if precision == "double" else np.float32
+    V = np.array([[x, y, z] for x in (0, 1) for y in (0, 1) for z in (0, 1)], float) * 1.5 - 0.4
+    faces = [(0, 1, 3, 2, (-1, 0, 0)), (4, 6, 7, 5, (1, 0, 0)), (0, 4, 5, 1, (0, -1, 0))]
+    faces += [(2, 3, 7, 6, (0, 1, 0)), (0, 2, 6, 4, (0, 0, -1)), (1, 5, 7, 3, (0, 0, 1))]
+    other = ["# a cube", "mtllib cube.mtl", "o cube", "vt 0 0", "vt 1 0", "vt 1 1", "g sides", "usemtl red", "s off"]
+    lines = other[:3] + ["v %r %r %r" % tuple(v) for v in V] + other[3:]
+    lines += ["vn %d %d %d" % f[4] for f in faces]
+    for k, f in enumerate(faces):
+        lines.append("f " + " ".join(f"{i + 1}/{(j % 3) + 1}/{k + 1}" for j, i in enumerate(f[:4])))
+    lines += ["l 1 2", "# end"]
+    R = random_rotation(g)
+    axis, degrees = axis_angle(R)
+    R = rotation(axis, degrees)
+    t = g.uniform(-1, 1, 3)
+    spec = {
+        "points": [{"vertex": i} for i in range(8)],
+        "groups": [
+            {
+                "points": list(range(8)),
+                "rotate": {"axis": axis.tolist(), "degrees": degrees, "pivot": [0, 0, 0]},
+                "translate": t.tolist(),
+            }
+        ],
+    }
+    with tempfile.TemporaryDirectory() as tmp:
+        with open(os.path.join(tmp, "in.obj"), "w") as fh:
+            fh.write("\n".join(lines) + "\n")
+        with open(os.path.join(tmp, "h.json"), "w") as fh:
+            json.dump(spec, fh)
+        r = run(program, ["deform", "-m", "in.obj", "-H", "h.json", "-o", "out.obj", "--precision", precision], tmp)
+        if r.returncode != 0:
+            raise BadError(f"exit {r.returncode}: {r.stderr[-300:]}")
+        out = open(os.path.join(tmp, "out.obj")).read().splitlines()
+        X, Nout, corners = read_obj(os.path.join(tmp, "out.obj"))
+    # The program stamps its own first line (its reader drops it again: tools/cli/formats/obj_read.cpp).
+    if out and out[0].startswith("# written by mlsdeform "):
+        out = out[1:]
+    kept = [x for x in out if not x.startswith(("v ", "vn ", "f "))]
+    if kept != [x for x in lines if not x.startswith(("v ", "vn ", "f "))]:
+        raise Wrong(f"other lines not kept verbatim and in order: {kept}")
+    vt_text = [x.split()[1].split("/")[1] for x in out if x.startswith("f ")]
+    if vt_text != [x.split()[1].split("/")[1] for x in lines if x.startswith("f ")]:
+        raise Wrong("the corners' vt indices were rewritten")
+    # Every vertex is a handle: each lands on its target, the motion's image rounded once to the precision;
+    # the frame on a handle is the fit's limit there (motions.py, on handles), conditioned by the others.
+    V64 = V.astype(dt).astype(np.float64)
+    kf, ko, arm = conditioning(V64, V64, None, None, "paper_constant", 2.0, "rigid")
+    kappa = effective_kappa(kf, ko, dt, ~np.isfinite(kf))
+    tolR = rotation_bound(kappa, EPS[dt])
+    within(X, V64 @ R.T + t, 4 * EPS[dt] * 3 * np.ones(8), "corners on their targets")
+    normals = {k + 1: np.array(f[4], float) for k, f in enumerate(faces)}
+    src = {}
+    for line in lines:
+        if line.startswith("f "):
+            for c in line.split()[1:]:
+                v, _, n = c.split("/")
+                src.setdefault(int(v) - 1, []).append(normals[int(n)])
+    want = []
+    for v, _ in corners:
+        want.append(src[v].pop(0))
+    vs = np.array([c[0] for c in corners])
+    within(Nout[[c[1] for c in corners]], np.array(want) @ R.T, tolR[vs] + 4 * EPS[dt], "corner normals R n")
+
+
+def build_cube(args):
+    cli = args.cli
+    for precision in ("float", "double"):
+        for rep in range(2):
+
+            def f(g, precision=precision):
+                cube_case(cli, g, precision)
+
+            add("cli-attributes", f"flat-shaded cube, every line kept, {precision} #{rep}", f)
