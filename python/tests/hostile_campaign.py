@@ -1,6 +1,6 @@
 #!/usr/bin/env python3
-"""A hostile campaign against the Python package (and, given the program, a few of its file cases): about a
-thousand cases, each run in a worker process and classified by its outcome:
+"""A hostile campaign against the Python package (and, given the program, a few of its file cases): about
+1,800 cases, each run in a worker process and classified by its outcome:
 
   correct       the result holds against an independent numpy reference or an exact invariant
   clear error   a refusal of the expected type whose message names the argument or the reason
@@ -25,7 +25,9 @@ paper's equations, an RBF solve) or against an exact invariant (rest pose, rigid
 between paths that must agree, scale by powers of two).
 
 The cases are in hostile_cases/, one module per area (cases_<area>.py), with the checks, references and
-scenes they share.
+scenes they share. The frames' oracle (motions.py) is an exact rigid, similarity or affine motion of every
+handle: every vertex must get that motion's position and frame (cases_frames: every weight storage, on, near
+and far from point and segment handles, outliers; cases_attributes: the program's normals; cases_dask).
 """
 import argparse
 import json
@@ -67,10 +69,14 @@ def build_cases(args):
     # Imported here, as mlsdeform itself: --help needs neither.
     from hostile_cases import (
         cases_arap,
+        cases_attributes,
         cases_cli,
+        cases_dask,
         cases_fit_points,
         cases_fit_rotations,
+        cases_frames,
         cases_groups,
+        cases_helpers,
         cases_inputs,
         cases_long_calls,
         cases_mls,
@@ -78,6 +84,7 @@ def build_cases(args):
         cases_rbf_region,
         cases_scale,
         cases_snap,
+        cases_splats,
     )
 
     cases_fit_rotations.build(args)
@@ -93,6 +100,15 @@ def build_cases(args):
     cases_snap.build(args)
     cases_long_calls.build(args)
     cases_cli.build(args)
+    cases_frames.build(args)
+    cases_frames.build_isa(args)
+    cases_frames.build_alias(args)
+    cases_helpers.build(args)
+    cases_splats.build(args)
+    cases_attributes.build(args)
+    cases_attributes.build_splats(args)
+    cases_attributes.build_cube(args)
+    cases_dask.build(args)
     return CASES
 
 
