@@ -197,7 +197,7 @@ namespace {
 
 /// Pseudo-handle j's target in the local frame (fr's moved handles times local_scale, exact), in double.
 template <class T>
-Vec3d target(const kernels::DeformFrame<T>& fr, std::size_t j) {
+Vec3d target_of(const kernels::DeformFrame<T>& fr, std::size_t j) {
   const double ls = double(fr.local_scale);
   if (j < fr.k) return ls * Vec3d(double(fr.points[j]), double(fr.points[fr.k + j]), double(fr.points[2 * fr.k + j]));
   const std::size_t i = (j - fr.k) / 2;
@@ -205,27 +205,39 @@ Vec3d target(const kernels::DeformFrame<T>& fr, std::size_t j) {
   return ls * Vec3d(double(x[i]), double(x[fr.s + i]), double(x[2 * fr.s + i]));
 }
 
+/// The targets as apply_record reads them: from `cache` (3 J values, filled once per range of records) where the
+/// frame has at most kCachedTargets pseudo-handles, else computed again from fr each time.
+inline constexpr std::size_t kCachedTargets = kernels::kCachedTargets;
+
+template <class T>
+struct Targets {
+  const kernels::DeformFrame<T>& fr;
+  const double* cache;
+  Vec3d operator()(std::size_t j) const {
+    return cache ? Vec3d(cache[3 * j], cache[3 * j + 1], cache[3 * j + 2]) : target_of(fr, j);
+  }
+};
+
 /// One record: its frame into the wanted outputs, and its position where it has one. False where a value is not
 /// finite in T.
 template <class T>
 bool apply_record(const NearHandles& nh, const NearRecord& r, const kernels::DeformFrame<T>& fr, RotationMethod method,
-                  bool frames) {
+                  bool frames, const Targets<T>& target) {
   constexpr std::size_t W = NearHandlesBuilder::kWidth;
   const double* co = nh.coefficients.data() + r.offset;
   Vec3d q_ref = Vec3d::Zero(), q_star = Vec3d::Zero();
   for (std::size_t j = 0; j < nh.J; ++j) {
     if (co[W * j] == 0 && co[W * j + 1] == 0) continue;
-    const Vec3d q = target(fr, j);
+    const Vec3d q = target(j);
     q_ref += co[W * j] * q;
     q_star += co[W * j + 1] * q;
   }
   Mat3d Hp = Mat3d::Zero();
   for (std::size_t j = 0; j < nh.J; ++j) {
     const Vec3d a(co[W * j + 2], co[W * j + 3], co[W * j + 4]);
-    if (a != Vec3d::Zero()) Hp += (target(fr, j) - q_ref) * a.transpose();
+    if (a != Vec3d::Zero()) Hp += (target(j) - q_ref) * a.transpose();
   }
-  const Vec3d f =
-      r.own >= 0 ? Vec3d(target(fr, std::size_t(r.own) + 1) - target(fr, std::size_t(r.own))) : Vec3d::Zero();
+  const Vec3d f = r.own >= 0 ? Vec3d(target(std::size_t(r.own) + 1) - target(std::size_t(r.own))) : Vec3d::Zero();
   Mat3d R = Mat3d::Identity(), L;
   double mu = 1;
   if (fr.transform == Transform::affine) {
@@ -285,9 +297,17 @@ std::size_t apply_near_handles(const NearHandles& nh, const kernels::DeformFrame
   const std::size_t count = frames ? nh.records.size() : nh.positions.size();
   std::atomic<std::size_t> first_bad{kAllFinite};
   parallel_ranges(count, threads, arena, [&](std::size_t i0, std::size_t i1) {
+    alignas(64) double cache[3 * kCachedTargets];
+    const bool cached = nh.J <= kCachedTargets;
+    if (cached)
+      for (std::size_t j = 0; j < nh.J; ++j) {
+        const Vec3d q = target_of(fr, j);
+        for (int c = 0; c < 3; ++c) cache[3 * j + std::size_t(c)] = q[c];
+      }
+    const Targets<T> target{fr, cached ? cache : nullptr};
     for (std::size_t i = i0; i < i1; ++i) {
       const NearRecord& r = nh.records[frames ? i : nh.positions[i]];
-      if (apply_record(nh, r, fr, method, frames)) continue;
+      if (apply_record(nh, r, fr, method, frames, target)) continue;
       for (std::size_t seen = first_bad.load(); r.vertex < seen && !first_bad.compare_exchange_weak(seen, r.vertex);) {
       }
     }
