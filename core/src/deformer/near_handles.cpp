@@ -205,16 +205,27 @@ Vec3d target_of(const kernels::DeformFrame<T>& fr, std::size_t j) {
   return ls * Vec3d(double(x[i]), double(x[fr.s + i]), double(x[2 * fr.s + i]));
 }
 
-/// The targets as apply_record reads them: from `cache` (3 J values, filled once per range of records) where the
-/// frame has at most kCachedTargets pseudo-handles, else computed again from fr each time.
+/// The targets as apply_record reads them, centred on the frame's centre c (DeformFrame::centre, the kernels'):
+/// from `cache` (3 J values, filled once per range of records) where the frame has at most kCachedTargets
+/// pseudo-handles, else computed again from fr each time.
 inline constexpr std::size_t kCachedTargets = kernels::kCachedTargets;
 
 template <class T>
 struct Targets {
   const kernels::DeformFrame<T>& fr;
   const double* cache;
+  void centred(std::size_t j, double (&q)[3]) const {
+    if (cache) {
+      for (int a = 0; a < 3; ++a) q[a] = cache[3 * j + std::size_t(a)];
+      return;
+    }
+    const Vec3d x = target_of(fr, j);
+    for (int a = 0; a < 3; ++a) q[a] = x[a] - double(fr.centre[a]);
+  }
   Vec3d operator()(std::size_t j) const {
-    return cache ? Vec3d(cache[3 * j], cache[3 * j + 1], cache[3 * j + 2]) : target_of(fr, j);
+    double q[3];
+    centred(j, q);
+    return Vec3d(q[0], q[1], q[2]);
   }
 };
 
@@ -225,17 +236,27 @@ bool apply_record(const NearHandles& nh, const NearRecord& r, const kernels::Def
                   bool frames, const Targets<T>& target) {
   constexpr std::size_t W = NearHandlesBuilder::kWidth;
   const double* co = nh.coefficients.data() + r.offset;
-  Vec3d q_ref = Vec3d::Zero(), q_star = Vec3d::Zero();
+  // One pass over the pseudo-handles, the targets centred on c: q_ref - c = sum_j c_j (q_j - c) (sum_j c_j = 1),
+  // q* = sum_j c*_j (q_j - c) + (sum_j c*_j) c (RBF centroid weights need not sum to 1), and
+  // H' = sum_j (q_j - q_ref) A'_j^T = sum_j (q_j - c) A'_j^T - (q_ref - c)(sum_j A'_j)^T.
+  double ref[3] = {0, 0, 0}, star[3] = {0, 0, 0}, star_sum = 0, h[9] = {0, 0, 0, 0, 0, 0, 0, 0, 0}, sa[3] = {0, 0, 0};
   for (std::size_t j = 0; j < nh.J; ++j) {
-    if (co[W * j] == 0 && co[W * j + 1] == 0) continue;
-    const Vec3d q = target(j);
-    q_ref += co[W * j] * q;
-    q_star += co[W * j + 1] * q;
+    const double* cj = co + W * j;
+    double q[3];
+    target.centred(j, q);
+    star_sum += cj[1];
+    for (int a = 0; a < 3; ++a) {
+      ref[a] += cj[0] * q[a];
+      star[a] += cj[1] * q[a];
+      sa[a] += cj[2 + a];
+      for (int b = 0; b < 3; ++b) h[3 * a + b] += q[a] * cj[2 + b];
+    }
   }
-  Mat3d Hp = Mat3d::Zero();
-  for (std::size_t j = 0; j < nh.J; ++j) {
-    const Vec3d a(co[W * j + 2], co[W * j + 3], co[W * j + 4]);
-    if (a != Vec3d::Zero()) Hp += (target(j) - q_ref) * a.transpose();
+  Mat3d Hp;
+  Vec3d q_star;
+  for (int a = 0; a < 3; ++a) {
+    for (int b = 0; b < 3; ++b) Hp(a, b) = h[3 * a + b] - ref[a] * sa[b];
+    q_star[a] = star[a] + star_sum * double(fr.centre[a]);
   }
   const Vec3d f = r.own >= 0 ? Vec3d(target(std::size_t(r.own) + 1) - target(std::size_t(r.own))) : Vec3d::Zero();
   Mat3d R = Mat3d::Identity(), L;
@@ -302,7 +323,7 @@ std::size_t apply_near_handles(const NearHandles& nh, const kernels::DeformFrame
     if (cached)
       for (std::size_t j = 0; j < nh.J; ++j) {
         const Vec3d q = target_of(fr, j);
-        for (int c = 0; c < 3; ++c) cache[3 * j + std::size_t(c)] = q[c];
+        for (int c = 0; c < 3; ++c) cache[3 * j + std::size_t(c)] = q[c] - double(fr.centre[c]);
       }
     const Targets<T> target{fr, cached ? cache : nullptr};
     for (std::size_t i = i0; i < i1; ++i) {
