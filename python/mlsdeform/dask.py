@@ -309,26 +309,27 @@ def render_animation(
     V_remote, faces_remote = client.scatter([V, faces], broadcast=True)
     setup = time.perf_counter() - start
     futures = []
-    for first in range(0, n, per_task):
-        ids = list(range(first, min(n, first + per_task)))
-        futures.append(
-            client.submit(
-                _render_shard,
-                run,
-                V_remote,
-                faces_remote,
-                anim.session_arguments(),
-                options,
-                ids,
-                [anim.targets(i) for i in ids],
-                [paths[i] for i in ids],
-                pure=False,
-                retries=retries,
-                key=f"mlsdeform-frames-{first}-{run}",
+    summary = Summary(seconds_setup=setup)
+    try:  # submitted in the try: an interrupt while submitting cancels what was submitted
+        for first in range(0, n, per_task):
+            ids = list(range(first, min(n, first + per_task)))
+            futures.append(
+                client.submit(
+                    _render_shard,
+                    run,
+                    V_remote,
+                    faces_remote,
+                    anim.session_arguments(),
+                    options,
+                    ids,
+                    [anim.targets(i) for i in ids],
+                    [paths[i] for i in ids],
+                    pure=False,
+                    retries=retries,
+                    key=f"mlsdeform-frames-{first}-{run}",
+                )
             )
-        )
-    summary = Summary(tasks=len(futures), seconds_setup=setup)
-    try:
+        summary.tasks = len(futures)
         results = client.gather(futures)
     except BaseException:
         _abandon(client, run, futures)
@@ -475,23 +476,23 @@ def deform_meshes(
     if threads is not None:
         options["threads"] = threads
     run = uuid.uuid4().hex
-    futures = {
-        mesh: client.submit(
-            _deform_one,
-            run,
-            mesh,
-            handles,
-            outputs[mesh],
-            options,
-            dtype,
-            pure=False,
-            retries=retries,
-            key=f"mlsdeform-mesh-{name}-{run}",
-        )
-        for mesh, handles, name in jobs
-    }
-    summary = Summary(tasks=len(futures))
-    try:
+    futures = {}
+    summary = Summary()
+    try:  # submitted in the try: an interrupt while submitting cancels what was submitted
+        for mesh, handles, name in jobs:
+            futures[mesh] = client.submit(
+                _deform_one,
+                run,
+                mesh,
+                handles,
+                outputs[mesh],
+                options,
+                dtype,
+                pure=False,
+                retries=retries,
+                key=f"mlsdeform-mesh-{name}-{run}",
+            )
+        summary.tasks = len(futures)
         client.gather(list(futures.values()), errors="skip")
     except BaseException:
         _abandon(client, run, list(futures.values()))
