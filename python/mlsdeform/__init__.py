@@ -9,20 +9,48 @@ fit at its heart. numpy in, numpy out; the C++ library does the work with the GI
 
 See docs/python.md for the whole API.
 """
-from ._mlsdeform import (
-    Deformer,
-    __version__,
-    active_isa,
-    fit_points,
-    fit_rotation,
-    fit_rotations,
-    rotate_splats,
-    set_isa,
-    supported_isas,
-    transform_normals,
-    transform_splats_affine,
-    transform_tangents,
-)
+try:
+    from ._mlsdeform import (
+        Deformer,
+        __version__,
+        active_isa,
+        fit_points,
+        fit_rotation,
+        fit_rotations,
+        rotate_splats,
+        set_isa,
+        supported_isas,
+        transform_normals,
+        transform_splats_affine,
+        transform_tangents,
+    )
+except ModuleNotFoundError as _e:
+    if _e.name != __name__ + "._mlsdeform":
+        raise
+
+    def _missing_module(error):
+        """The compiled module is not beside these files: say which folder was imported, and why that happens."""
+        import os
+        import sys
+
+        here = os.path.dirname(os.path.abspath(__file__))
+        parent = os.path.dirname(here)
+        others = [
+            p
+            for p in sys.path
+            if os.path.abspath(p or os.curdir) != parent
+            and os.path.isfile(os.path.join(p or os.curdir, __name__, "__init__.py"))
+        ]
+        text = f"mlsdeform: the compiled module _mlsdeform is not in {here}, the package Python imported: " + (
+            f"a source folder (a checkout's python/) that comes on sys.path before the installed package in "
+            f"{others[0]}; run from another folder, or put the build's python/ folder (build/python) first"
+            if others
+            else "a source folder (a checkout's python/) without the built module; build it (docs/python.md) and "
+            "put the build's python/ folder (build/python) on PYTHONPATH, or install the package"
+        )
+        return ImportError(text, name=__name__ + "._mlsdeform", path=here)
+
+    raise _missing_module(_e) from None
 
 __all__ = [
     "Deformer",

@@ -12,15 +12,21 @@ render_animation: the mesh is read and the handles file (the program's format, d
 the client; the rest pose is sent to every worker once (Client.scatter(broadcast=True)); each worker builds one
 session from it, the first time one of its tasks runs, and keeps it for the rest of the run; the frames are
 split into shards, one task each, whose results are the frames' files (OUT_0000.EXT, ... as the program names
-them).
+them: the number zero-padded to the digits of the largest index, at least 4).
 
 deform_meshes: one task per mesh of a folder: NAME.obj / NAME.ply (or .gz) with its handles file NAME.json beside
 it; each frame of the handles file is one output (NAME_0000.EXT, ...; NAME.EXT when the file has no frames).
 
 Every file is written all or nothing (a temporary file beside it, then a rename): a reader never sees part of a
-file. A task that fails (an exception: retried `retries` times) or whose worker dies (the scheduler runs it
-again elsewhere) writes its files again under the same names, so each output exists exactly once whatever ran
-twice; the temporary files of attempts that died are removed at the end. Bad input (a malformed mesh or handles
+file. Every output path of the run is known before anything is submitted (deform_meshes counts each handles
+file's frames on the client): two inputs that would write the same file (meshes `a`, with 3 frames, and `a_0001`)
+are refused with ValueError naming both. A run that is interrupted (KeyboardInterrupt: Ctrl-C) or fails on the
+client cancels its tasks, stops the running ones before their next frame, removes every file it wrote (as the
+program does) and raises again.
+
+A task that fails (an exception: retried `retries` times) or whose worker dies (the scheduler runs it again
+elsewhere) writes its files again under the same names, so each output exists exactly once whatever ran twice; the
+temporary files of attempts that died are removed at the end. Bad input (a malformed mesh or handles
 file) is no transient failure: render_animation raises ValueError before any work, deform_meshes lists the mesh
 under `failed` and goes on with the others. Outputs that exist already are refused unless overwrite=True.
 
@@ -29,6 +35,8 @@ otherwise; give each worker process one or more cores (LocalCluster(n_workers=co
 machine, or `dask worker --nworkers N --nthreads 1 tcp://scheduler:8786` on each machine of a cluster). Every
 worker must see the input and output paths (a shared file system).
 """
+import asyncio
+import json
 import os
 import threading
 import time
@@ -39,12 +47,18 @@ import numpy as np
 
 from . import Deformer
 from . import files
+from ._files_handles import _strip_comments
 
 __all__ = ["render_animation", "deform_meshes", "Summary"]
 
 # Sessions built on this worker process, by run: each is built once, by the first of the run's tasks to need it.
 _sessions = {}
 _sessions_lock = threading.Lock()
+# Under _sessions_lock as well: the runs stopped on this worker (their tasks write nothing more), the tasks of each
+# run running here, and the files each run's tasks wrote here (removed when the run is stopped).
+_stopped = set()
+_active = {}
+_written = {}
 
 
 @dataclass
@@ -97,12 +111,39 @@ class Summary:
         return text
 
 
+def _frame_path(out, frame, frame_count):
+    """The program's name of frame `frame` of `frame_count` (tools/cli/cmd_deform.cpp, frame_path): "_NNNN" before
+    the format extension (".ply", or ".ply.gz"), the number zero-padded to the digits of the largest index, at
+    least 4: out_0007.ply of 120 frames, out_00007.ply of 10,001."""
+    gz = out[-3:].lower() == ".gz"
+    stem = out[:-3] if gz else out
+    name = stem[stem.rfind("/") + 1 :]
+    dot = name.rfind(".")
+    ext = name[dot + 1 :] if dot > 0 else ""
+    cut = len(out) - (len(ext) + 1 + (3 if gz else 0) if ext else 0)
+    digits = max(4, len(str(max(frame_count - 1, 0))))
+    return f"{out[:cut]}_{frame:0{digits}d}{out[cut:]}"
+
+
 def _output_paths(out, count, animated):
     """The program's naming: OUT.EXT for one output, OUT_0000.EXT, OUT_0001.EXT, ... for an animation."""
     if not animated:
         return [out]
-    stem, ext = os.path.splitext(out)
-    return [f"{stem}_{i:04d}{ext}" for i in range(count)]
+    return [_frame_path(out, i, count) for i in range(count)]
+
+
+def _frame_count(handles):
+    """(frames, animated) of a handles file from its "frames" alone, without resolving it (that needs the mesh,
+    read on a worker); None if it is no readable handles file (its task then reports why, writing nothing)."""
+    try:
+        with open(handles, encoding="utf-8") as f:
+            root = json.loads(_strip_comments(f.read()))
+    except (OSError, ValueError):
+        return None
+    if not isinstance(root, dict) or "frames" not in root:
+        return 1, False
+    frames = root["frames"]
+    return (len(frames), True) if isinstance(frames, list) and frames else None
 
 
 def _check_outputs(paths, overwrite):
@@ -114,6 +155,54 @@ def _check_outputs(paths, overwrite):
             raise ValueError(f"{p}: already exists (overwrite=True replaces it)")
         if os.path.splitext(p)[1].lower() not in (".ply", ".obj", ".npy"):
             raise ValueError(f"{p}: unknown output format (.ply, .obj, .npy)")
+
+
+def _begin(run):
+    """On a worker, as a task of `run` starts: False if the run was stopped (the task then writes nothing)."""
+    with _sessions_lock:
+        if run in _stopped:
+            return False
+        _active[run] = _active.get(run, 0) + 1
+        return True
+
+
+def _end(run):
+    with _sessions_lock:
+        _active[run] -= 1
+
+
+def _wrote(run, path):
+    with _sessions_lock:
+        _written.setdefault(run, []).append(path)
+
+
+async def _stop(run, timeout=120.0):
+    """On each worker (Client.run), when the client abandons `run`: its tasks that start from now on write
+    nothing, those running stop before their next frame (waited for, up to `timeout` seconds: one frame), and
+    every file the run's tasks wrote on this worker is removed. Returns the count removed."""
+    with _sessions_lock:
+        _stopped.add(run)
+    deadline = time.monotonic() + timeout
+    while _active.get(run, 0) > 0 and time.monotonic() < deadline:
+        await asyncio.sleep(0.01)
+    with _sessions_lock:
+        paths = _written.pop(run, [])
+        _sessions.pop(run, None)
+    removed = 0
+    for p in dict.fromkeys(paths):
+        try:
+            os.unlink(p)
+            removed += 1
+        except OSError:
+            pass
+    return removed
+
+
+def _abandon(client, run, futures):
+    """The client's part of an interrupted run: its tasks stopped and cancelled, what they wrote removed."""
+    removed = sum(client.run(_stop, run).values())
+    client.cancel(futures)
+    return removed
 
 
 def _threads(threads):
@@ -130,7 +219,17 @@ def _threads(threads):
 
 def _render_shard(run, V, faces, rest, options, frames, targets, paths):
     """One task of render_animation: the frames `frames` (with their `targets` and output `paths`) on this
-    worker's session of `run`, built from the rest pose if this is the worker's first task of the run."""
+    worker's session of `run`, built from the rest pose if this is the worker's first task of the run. Stops
+    before the next frame if the run is stopped (_stop)."""
+    if not _begin(run):
+        return {"stopped": True}
+    try:
+        return _render_frames(run, V, faces, rest, options, frames, targets, paths)
+    finally:
+        _end(run)
+
+
+def _render_frames(run, V, faces, rest, options, frames, targets, paths):
     built = False
     with _sessions_lock:
         session = _sessions.get(run)
@@ -145,10 +244,13 @@ def _render_shard(run, V, faces, rest, options, frames, targets, paths):
     written, nbytes = [], 0
     cpu = time.process_time()
     for frame, target, path in zip(frames, targets, paths):
+        if run in _stopped:
+            break
         t0 = time.perf_counter()
         session.deform(**target, out=out)
         t1 = time.perf_counter()
         nbytes += files.write_mesh(path, out, faces, tag=run)
+        _wrote(run, path)
         seconds_deform += t1 - t0
         seconds_write += time.perf_counter() - t1
         written.append((frame, path))
@@ -165,6 +267,8 @@ def _render_shard(run, V, faces, rest, options, frames, targets, paths):
 def _forget(run):
     with _sessions_lock:
         _sessions.pop(run, None)
+        _active.pop(run, None)
+        _written.pop(run, None)
 
 
 def render_animation(
@@ -184,7 +288,9 @@ def render_animation(
     the Dask `client`'s workers, into the program's file names for `out` (OUT_0000.EXT, ...; .ply, .obj or
     .npy). `options` go to mlsdeform.Deformer (transform=, exponent=, backend=, ...); `dtype` is the session's
     precision. `frames_per_task`: the shard size (default: about four tasks per worker thread). Returns a
-    Summary. ValueError for bad input or outputs that exist, before anything is sent to the cluster."""
+    Summary. ValueError for bad input or outputs that exist, before anything is sent to the cluster. Interrupted
+    (KeyboardInterrupt) or failed: the tasks are cancelled, the frames written removed, and the exception raised
+    again."""
     start = time.perf_counter()
     V, faces = files.read_mesh(mesh, dtype)  # in the session's precision, as the program's --precision
     anim = files.read_handles(handles, V, dtype)
@@ -203,27 +309,31 @@ def render_animation(
     V_remote, faces_remote = client.scatter([V, faces], broadcast=True)
     setup = time.perf_counter() - start
     futures = []
-    for first in range(0, n, per_task):
-        ids = list(range(first, min(n, first + per_task)))
-        futures.append(
-            client.submit(
-                _render_shard,
-                run,
-                V_remote,
-                faces_remote,
-                anim.session_arguments(),
-                options,
-                ids,
-                [anim.targets(i) for i in ids],
-                [paths[i] for i in ids],
-                pure=False,
-                retries=retries,
-                key=f"mlsdeform-frames-{first}-{run}",
+    summary = Summary(seconds_setup=setup)
+    try:  # submitted in the try: an interrupt while submitting cancels what was submitted
+        for first in range(0, n, per_task):
+            ids = list(range(first, min(n, first + per_task)))
+            futures.append(
+                client.submit(
+                    _render_shard,
+                    run,
+                    V_remote,
+                    faces_remote,
+                    anim.session_arguments(),
+                    options,
+                    ids,
+                    [anim.targets(i) for i in ids],
+                    [paths[i] for i in ids],
+                    pure=False,
+                    retries=retries,
+                    key=f"mlsdeform-frames-{first}-{run}",
+                )
             )
-        )
-    summary = Summary(tasks=len(futures), seconds_setup=setup)
-    try:
+        summary.tasks = len(futures)
         results = client.gather(futures)
+    except BaseException:
+        _abandon(client, run, futures)
+        raise
     finally:
         client.run(_forget, run)
         summary.temporaries_removed = sum(
@@ -244,14 +354,27 @@ def render_animation(
     return summary
 
 
-def _deform_one(run, mesh, handles, outs_for, options, dtype, overwrite):
-    """One task of deform_meshes: a mesh and its handles file to its outputs. Bad input -> ("failed", message);
-    any other exception propagates (Dask retries the task), after removing what this attempt wrote."""
+def _deform_one(run, mesh, handles, paths, options, dtype):
+    """One task of deform_meshes: a mesh and its handles file to its outputs `paths` (computed on the client from
+    the handles file's frames). Bad input -> ("failed", message); any other exception propagates (Dask retries the
+    task), after removing what this attempt wrote. Stops before the next frame if the run is stopped (_stop)."""
+    if not _begin(run):
+        return {"stopped": True}
+    try:
+        return _deform_frames(run, mesh, handles, paths, options, dtype)
+    finally:
+        _end(run)
+
+
+def _deform_frames(run, mesh, handles, paths, options, dtype):
     t0 = time.perf_counter()
     try:
         V, faces = files.read_mesh(mesh, dtype)
         anim = files.read_handles(handles, V, dtype)
-        paths = outs_for(len(anim.frames), anim.animated)
+        if len(paths) != (len(anim.frames) if anim.animated else 1):
+            raise ValueError(
+                f"{handles}: changed during the run ({len(paths)} outputs counted, now {len(anim.frames)})"
+            )
         # A path that exists was there before the run unless this mesh's earlier attempt wrote it.
         _check_outputs(paths, overwrite=True)
         opts = dict(options)
@@ -268,10 +391,13 @@ def _deform_one(run, mesh, handles, outs_for, options, dtype, overwrite):
     seconds_deform, seconds_write, nbytes, written = time.perf_counter() - t0, 0.0, 0, []
     try:
         for i, path in enumerate(paths):
+            if run in _stopped:
+                break
             t1 = time.perf_counter()
             session.deform(**anim.targets(i), out=out)
             t2 = time.perf_counter()
             nbytes += files.write_mesh(path, out, faces, tag=run)
+            _wrote(run, path)
             seconds_deform += t2 - t1
             seconds_write += time.perf_counter() - t2
             written.append(path)
@@ -286,14 +412,24 @@ def _deform_one(run, mesh, handles, outs_for, options, dtype, overwrite):
     return {"written": written, "bytes": nbytes, "deform": seconds_deform, "write": seconds_write, "frames": len(paths)}
 
 
-class _Outputs:
-    """Output names of one mesh (picklable, for the task)."""
-
-    def __init__(self, out_dir, name, ext):
-        self.out_dir, self.name, self.ext = out_dir, name, ext
-
-    def __call__(self, count, animated):
-        return _output_paths(os.path.join(self.out_dir, self.name + self.ext), count, animated)
+def _claim_outputs(jobs, out_dir, output_format):
+    """Every job's output paths, before anything is submitted: {mesh: paths}. ValueError when two inputs would
+    write one file (meshes a, with 3 frames, and a_0001: a_0001.EXT twice), naming both."""
+    outputs, owner = {}, {}
+    for mesh, handles, name in jobs:
+        counted = _frame_count(handles)
+        out = os.path.join(out_dir, name + output_format)
+        paths = [] if counted is None else _output_paths(out, *counted)
+        for i, p in enumerate(paths):
+            what = f"{mesh} (frame {i} of {handles})" if counted[1] else f"{mesh} ({handles})"
+            if p in owner:
+                raise ValueError(
+                    f"{p}: two inputs would write it: {owner[p]} and {what} (rename one of them, or run them "
+                    "into separate folders)"
+                )
+            owner[p] = what
+        outputs[mesh] = paths
+    return outputs
 
 
 def deform_meshes(
@@ -310,8 +446,11 @@ def deform_meshes(
 ):
     """Deforms every mesh NAME.obj / NAME.ply (or .gz) of `in_dir` that has a handles file NAME.json beside it,
     one task per mesh over the Dask `client`'s workers, into `out_dir` (NAME_0000.EXT per frame of the handles
-    file, or NAME.EXT). `options` go to mlsdeform.Deformer (arap_iterations= with the mesh's triangles). Returns
-    a Summary whose `failed` maps each mesh that could not be done to the reason; the others are written."""
+    file, or NAME.EXT, named as the program names frames). `options` go to mlsdeform.Deformer (arap_iterations=
+    with the mesh's triangles). Returns a Summary whose `failed` maps each mesh that could not be done to the
+    reason; the others are written. ValueError, before any work, when two meshes would write one file or (unless
+    overwrite=True) an output exists. Interrupted (KeyboardInterrupt): the tasks are cancelled, every file the run
+    wrote removed, and the exception raised again."""
     start = time.perf_counter()
     if output_format not in (".ply", ".obj", ".npy"):
         raise ValueError(f"output_format {output_format!r}: .ply, .obj or .npy")
@@ -329,44 +468,37 @@ def deform_meshes(
     names = [name for _, _, name in jobs]
     if len(set(names)) != len(names):
         raise ValueError(f"{in_dir}: two meshes share a name: {sorted(n for n in names if names.count(n) > 1)}")
+    outputs = _claim_outputs(jobs, out_dir, output_format)
     if not overwrite:
-        # Whatever this run may write: NAME.EXT and NAME_NNNN.EXT.
-        taken = [
-            e
-            for e in os.listdir(out_dir)
-            for name in names
-            if e == name + output_format
-            or (
-                e.startswith(name + "_")
-                and e.endswith(output_format)
-                and e[len(name) + 1 : -len(output_format)].isdigit()
-            )
-        ]
+        taken = [p for paths in outputs.values() for p in paths if os.path.lexists(p)]
         if taken:
-            raise ValueError(f"{out_dir}: {taken[0]} already exists (overwrite=True replaces outputs)")
+            raise ValueError(f"{taken[0]}: already exists (overwrite=True replaces outputs)")
     if threads is not None:
         options["threads"] = threads
     run = uuid.uuid4().hex
-    futures = {
-        mesh: client.submit(
-            _deform_one,
-            run,
-            mesh,
-            handles,
-            _Outputs(out_dir, name, output_format),
-            options,
-            dtype,
-            overwrite,
-            pure=False,
-            retries=retries,
-            key=f"mlsdeform-mesh-{name}-{run}",
-        )
-        for mesh, handles, name in jobs
-    }
-    summary = Summary(tasks=len(futures))
-    try:
+    futures = {}
+    summary = Summary()
+    try:  # submitted in the try: an interrupt while submitting cancels what was submitted
+        for mesh, handles, name in jobs:
+            futures[mesh] = client.submit(
+                _deform_one,
+                run,
+                mesh,
+                handles,
+                outputs[mesh],
+                options,
+                dtype,
+                pure=False,
+                retries=retries,
+                key=f"mlsdeform-mesh-{name}-{run}",
+            )
+        summary.tasks = len(futures)
         client.gather(list(futures.values()), errors="skip")
+    except BaseException:
+        _abandon(client, run, list(futures.values()))
+        raise
     finally:
+        client.run(_forget, run)
         summary.temporaries_removed = files.remove_temporaries(out_dir, run)
     for mesh, fut in futures.items():
         if fut.status != "finished":

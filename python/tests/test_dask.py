@@ -1,8 +1,11 @@
 """mlsdeform.dask on a LocalCluster of two worker processes: every output exactly once and bitwise equal to the same
 session run directly, one session per worker, outputs refused unless overwrite=True, a worker killed in the middle
-of a task, a write that fails once and is retried, bad input reported per mesh."""
+of a task, a write that fails once and is retried, bad input reported per mesh, two inputs that would write one
+file refused, an interrupted run leaving nothing, frames named as the program names them."""
 import logging
 import os
+import shutil
+import subprocess
 import sys
 
 import numpy as np
@@ -180,3 +183,125 @@ def test_deform_meshes(client, tmp_path):
     assert s.frames == 4 and s.sessions_built == 2 and len(s.written) == 4
     with pytest.raises(ValueError, match="already exists"):
         mdask.deform_meshes(client, str(src), str(out))
+
+
+def program():
+    path = os.environ.get("MLSDEFORM_CLI") or shutil.which("mlsdeform")
+    if not path or not os.path.exists(path):
+        pytest.skip("the mlsdeform program is not found (MLSDEFORM_CLI, or on PATH)")
+    return path
+
+
+@pytest.mark.parametrize("frames", [3, 10000, 10001])
+def test_frame_names_as_the_program(tmp_path, frames):
+    """Dask names frames by the program's rule: the number zero-padded to the digits of the largest index, at
+    least 4 (a_00000 .. a_10000 for 10,001 frames)."""
+    import json
+
+    (tmp_path / "m.obj").write_text("v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nf 1 2 3\n")
+    spec = {
+        "points": [{"vertex": 0}, {"vertex": 1}],
+        "frames": [{"points": [None, [1, 0, 1e-3 * i]]} for i in range(frames)],
+    }
+    (tmp_path / "h.json").write_text(json.dumps(spec))
+    out = tmp_path / "out"
+    out.mkdir()
+    run = subprocess.run(
+        [
+            program(),
+            "deform",
+            "-q",
+            "-m",
+            str(tmp_path / "m.obj"),
+            "-H",
+            str(tmp_path / "h.json"),
+            "-o",
+            str(out / "a.obj"),
+        ],
+        capture_output=True,
+        text=True,
+    )
+    assert run.returncode == 0, run.stderr
+    program_names = sorted(os.listdir(out))
+    dask_names = sorted(os.path.basename(p) for p in mdask._output_paths(str(out / "a.obj"), frames, True))
+    assert len(program_names) == frames and dask_names == program_names
+    if frames == 10001:
+        assert dask_names[0] == "a_00000.obj" and dask_names[-1] == "a_10000.obj"
+
+
+def test_deform_meshes_refuses_two_inputs_writing_one_output(client, tmp_path):
+    import json
+
+    src, out = tmp_path / "in", tmp_path / "out"
+    src.mkdir()
+    out.mkdir()
+    V, F = files.read_mesh(HUMAN)
+    spec = json.load(open(BEND))
+    spec["frames"] = spec["frames"][:3]
+    for name in ("a", "a_0001"):
+        files.write_mesh(str(src / f"{name}.ply"), V, F)
+    (src / "a.json").write_text(json.dumps(spec))  # a_0000 .. a_0002
+    (src / "a_0001.json").write_text(json.dumps({"points": [{"vertex": 0}]}))  # a_0001
+    with pytest.raises(ValueError) as e:
+        mdask.deform_meshes(client, str(src), str(out), overwrite=True)
+    message = str(e.value)
+    assert str(out / "a_0001.ply") in message and str(src / "a.ply") in message and str(src / "a_0001.ply") in message
+    assert os.listdir(out) == [], "refused before any work"
+
+
+def slow_writes(seconds):
+    """On a worker: every write takes `seconds` longer."""
+    import time
+
+    real = files.write_mesh
+
+    def write_mesh(path, vertices, faces=None, tag=""):
+        time.sleep(seconds)
+        return real(path, vertices, faces, tag)
+
+    files.write_mesh = write_mesh
+
+
+def interrupt_when(folder, count):
+    """Ctrl-C (SIGINT to the main thread) once `folder` holds `count` files."""
+    import signal
+    import threading
+    import time
+
+    def watch():
+        deadline = time.monotonic() + 60
+        while len(os.listdir(folder)) < count and time.monotonic() < deadline:
+            time.sleep(0.01)
+        signal.pthread_kill(threading.main_thread().ident, signal.SIGINT)
+
+    t = threading.Thread(target=watch, daemon=True)
+    t.start()
+    return t
+
+
+@pytest.mark.parametrize("call", ["render_animation", "deform_meshes"])
+def test_interrupted_run_cancels_and_removes_what_it_wrote(client, tmp_path, call):
+    """Ctrl-C during a run: KeyboardInterrupt, the queued tasks cancelled and the running ones stopped (nothing
+    written after), and every file the run wrote removed, as the program does."""
+    import time
+
+    out = tmp_path / "out"
+    out.mkdir()
+    handles = long_animation(tmp_path / "long.json", 60)
+    client.run(slow_writes, 0.05)
+    watcher = interrupt_when(out, 4)
+    with pytest.raises(KeyboardInterrupt):
+        if call == "render_animation":
+            mdask.render_animation(client, HUMAN, handles, str(out / "f.npy"), frames_per_task=3)
+        else:
+            src = tmp_path / "in"
+            src.mkdir()
+            for name in ("a", "b", "c"):
+                os.symlink(HUMAN, src / f"{name}.obj")
+                os.symlink(handles, src / f"{name}.json")
+            mdask.deform_meshes(client, str(src), str(out), output_format=".npy")
+        time.sleep(60)  # not reached: the interrupt comes first
+    watcher.join()
+    assert os.listdir(out) == []
+    time.sleep(1.0)
+    assert os.listdir(out) == [], "tasks went on writing after the interrupt"

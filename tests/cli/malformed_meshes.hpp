@@ -72,6 +72,16 @@ inline std::vector<MalformedMesh> malformed_meshes() {
       {"zero.obj", cube_v + "f 0 1 2\n", "line 9: not a vertex index: '0'"},
       {"range.obj", cube_v + "f 1 2 9\n", "line 9: vertex index 9 is out of range (8 vertices)"},
       {"stmt.obj", cube_v + "curv 0 1 2\n", "line 9: unsupported OBJ statement 'curv'"},
+      // Issue 45: a fourth part of a corner was dropped when written back, a texture index out of range kept, and a
+      // two-corner face of a minimal OFF refused by the byte count before its own message.
+      {"corner4.obj", cube_v + "vt 0 0\nvn 0 0 1\nf 1/1/1/7 2/1/1 3/1/1\n",
+       "line 11: a face corner is v, v/vt, v//vn or v/vt/vn, found '1/1/1/7'"},
+      {"vt.obj", cube_v + "vt 0 0\nf 1/9 2/1 3/1\n", "line 10: texture coordinate index 9 is out of range (1 vt)"},
+      {"vt0.obj", cube_v + "vt 0 0\nf 1/0 2/1 3/1\n", "line 10: not a texture coordinate index: '1/0'"},
+      {"vtneg.obj", cube_v + "vt 0 0\nf 1/-2 2/1 3/1\n",
+       "line 10: texture coordinate index -2 refers before the first vt"},
+      {"two.off", "OFF\n3 1 0\n0 0 0\n1 0 0\n0 1 0\n2 0 1\n",
+       "line 6: face 0: expected a vertex count of at least 3, found '2'"},
       // Bytes of a binary file read as text: shown escaped, and the message stays one line.
       {"binary.obj", cube_v + "\x1c\x01\xff 1 2\n", "line 9: unsupported OBJ statement '\\x1c\\x01\\xff'"},
       {"noprops.ply", "ply\nformat binary_little_endian 1.0\nelement junk 4000000000\nend_header\n",

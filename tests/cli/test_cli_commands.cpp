@@ -5,10 +5,13 @@
 
 #include "tools/cli/mesh.hpp"
 
+#include <mlsdeform/deformer.hpp>
+
 #include <catch2/catch.hpp>
 
 #include <filesystem>
 #include <string>
+#include <utility>
 
 using namespace mlsdeform;
 using namespace mlsdeform::cli;
@@ -28,6 +31,12 @@ TEST_CASE("usage: --help, --version, no arguments, bad options", "[cli][commands
   for (const char* opt : {"--mesh", "--handles", "--out", "--transform", "--exponent", "--method", "--precision",
                           "--threads", "--force", "horn_quaternion", "similarity"})
     CHECK(r.out.find(opt) != std::string::npos);
+  // The weight budget's default as the library has it (Options), in MiB.
+  const std::string budget =
+      "--weight-budget FLOAT:FLOAT in [0 - 1.04858e+06]=" + std::to_string(Options{}.precompute_budget_bytes >> 20) +
+      "\n";
+  CHECK(Options{}.precompute_budget_bytes % (1 << 20) == 0);
+  CHECK(r.out.find(budget) != std::string::npos);
   r = cli_test::run(program, {"--version"});
   CHECK(r.exit_code == 0);
   r = cli_test::run(program, {});
@@ -95,6 +104,27 @@ TEST_CASE("deform: each format in, each format out", "[cli][commands]") {
       cli_test::run(program, {"deform", "-m", previous, "-H", h, "-o", f.out + "/ascii.ply", "--ply-ascii", "-q"});
   REQUIRE(r.exit_code == 0);
   CHECK(cli_test::read_text(f.out + "/ascii.ply").rfind("ply\nformat ascii 1.0\n", 0) == 0);
+}
+
+TEST_CASE("deform: a minimal OFF or ASCII PLY without a final newline is read", "[cli][commands]") {
+  // The last line's newline is optional: the byte counts checked before allocating must not need it.
+  Fixture f;
+  const std::string h = f.in + "/tri.json";
+  write_text(h, R"({"points": [{"vertex": 0}, {"vertex": 1, "offset": [0, 0.5, 0]}]})");
+  const std::string ply_points =
+      "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\n"
+      "property float z\nend_header\n0 0 0\n1 0 0\n0 1 0";
+  for (const auto& [name, bytes] :
+       {std::pair<std::string, std::string>{"tri.off", "OFF\n3 1 0\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2"},
+        {"pts.off", "OFF\n3 0 0\n0 0 0\n1 0 0\n0 1 0"},
+        {"pts.ply", ply_points}}) {
+    const std::string m = f.in + "/" + name, o = f.out + "/" + name;
+    write_text(m, bytes);
+    const auto r = cli_test::run(program, {"deform", "-m", m, "-H", h, "-o", o, "-q"});
+    INFO(name << ": " << r.err);
+    REQUIRE(r.exit_code == 0);
+    CHECK(read_mesh(o).vertex_count() == 3);
+  }
 }
 
 TEST_CASE("deform: frames write one numbered file each, with a line per frame", "[cli][commands]") {

@@ -14,6 +14,7 @@
 #include <charconv>
 #include <cmath>
 #include <cstdio>
+#include <string>
 #include <utility>
 #include <vector>
 
@@ -79,6 +80,13 @@ CLI::Option* add_choice(CLI::App* app, const std::string& flags, E& target,
 const std::vector<std::pair<std::string, Precision>> precisions{{"float", Precision::single},
                                                                 {"double", Precision::double_}};
 
+/// Bytes as the MiB --weight-budget takes ("64" for 64 << 20), for the help's default: the library's own.
+std::string mib_text(std::size_t bytes) {
+  char buf[32];
+  const auto r = std::to_chars(buf, buf + sizeof buf, double(bytes) / 1048576.0);
+  return std::string(buf, r.ptr);
+}
+
 void add_common_deformer_options(CLI::App* c, Options& o, Precision& precision) {
   std::vector<std::pair<std::string, RotationMethod>> methods;
   for (auto r : all_rotation_methods) methods.emplace_back(std::string(to_string(r)), r);
@@ -100,7 +108,7 @@ void add_common_deformer_options(CLI::App* c, Options& o, Precision& precision) 
        "--weight-budget", [&o](double mib) { o.precompute_budget_bytes = static_cast<std::size_t>(mib * 1048576.0); },
        "MiB that the precomputed weight table may take (automatic storage); beyond it, on-the-fly weights or an error")
       ->check(CLI::Range(0.0, 1048576.0))
-      ->default_str("32");
+      ->default_str(mib_text(Options{}.precompute_budget_bytes));
   add_choice<SegmentWeight>(
       c, "--segment-weight", o.segment_weight,
       {{"constant", SegmentWeight::paper_constant}, {"exact", SegmentWeight::exact_integral}},

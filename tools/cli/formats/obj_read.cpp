@@ -1,7 +1,7 @@
-// The Wavefront OBJ reader: `v` lines and `f` lines (v, v/vt, v//vn or v/vt/vn corners, negative indices
-// counted back from the last `v` or `vn`); every other line (texture coordinates, normals, names, groups,
-// materials, smoothing, points and lines, comments) is kept verbatim in order (ObjExtras), and what follows a
-// vertex's coordinates (colours) with it; `vn` values and the normal each corner names are read for
+// The Wavefront OBJ reader: `v` lines and `f` lines (v, v/vt, v//vn or v/vt/vn corners, every index in range,
+// negative ones counted back from the last `v`, `vt` or `vn`); every other line (texture coordinates, normals,
+// names, groups, materials, smoothing, points and lines, comments) is kept verbatim in order (ObjExtras), and what
+// follows a vertex's coordinates (colours) with it; `vn` values and the normal each corner names are read for
 // transform_normals. Points and lines are counted (other formats drop them); any other statement is refused.
 #include "tools/cli/formats/reader.hpp"
 
@@ -20,6 +20,8 @@ BasicMesh<T> read_obj(Reader& reader, const std::string& path) {
   std::size_t max_corner_line = 0;
   std::uint64_t max_normal = 0;  // the same for normals
   std::size_t max_normal_line = 0;
+  std::uint64_t max_texture = 0;  // and for texture coordinates (vt)
+  std::size_t max_texture_line = 0;
   std::vector<std::string_view> t;
   Lines lines(reader);
   auto keep_line = [&] {
@@ -73,8 +75,11 @@ BasicMesh<T> read_obj(Reader& reader, const std::string& path) {
         std::int64_t v = 0;
         if (!parse_number(corner.substr(0, slash), v) || v == 0)
           throw InputError(path, "not a vertex index: " + shown(corner), at_line(lines.line()));
-        std::int64_t vn = 0;  // 0: none
+        std::int64_t vt = 0, vn = 0;  // 0: none
         for (int part = 1; slash != std::string_view::npos; ++part) {
+          if (part > 2)  // a fourth part would be dropped when the face is written back
+            throw InputError(path, "a face corner is v, v/vt, v//vn or v/vt/vn, found " + shown(corner),
+                             at_line(lines.line()));
           const std::size_t next = corner.find('/', slash + 1);
           const std::string_view text =
               corner.substr(slash + 1, next == std::string_view::npos ? next : next - slash - 1);
@@ -82,6 +87,11 @@ BasicMesh<T> read_obj(Reader& reader, const std::string& path) {
           if (!(text.empty() && next != std::string_view::npos && slash + 1 == next) && !text.empty() &&
               !parse_number(text, index))
             throw InputError(path, "not an index: " + shown(corner), at_line(lines.line()));
+          if (part == 1 && !text.empty()) {
+            if (index == 0)
+              throw InputError(path, "not a texture coordinate index: " + shown(corner), at_line(lines.line()));
+            vt = index;
+          }
           if (part == 2 && !text.empty()) {
             if (index == 0) throw InputError(path, "not a normal index: " + shown(corner), at_line(lines.line()));
             vn = index;
@@ -108,6 +118,13 @@ BasicMesh<T> read_obj(Reader& reader, const std::string& path) {
         if (std::uint64_t(vn) >= ObjExtras::kNone)
           throw InputError(path, "normal index " + std::to_string(vn) + " is out of range", at_line(lines.line()));
         if (std::uint64_t(vn) > max_normal) max_normal = std::uint64_t(vn), max_normal_line = lines.line();
+        if (vt < 0) {  // relative to the texture coordinates defined so far
+          if (-vt > std::int64_t(x.texture_coordinates))
+            throw InputError(path, "texture coordinate index " + std::to_string(vt) + " refers before the first vt",
+                             at_line(lines.line()));
+          vt = std::int64_t(x.texture_coordinates) + vt + 1;
+        }
+        if (std::uint64_t(vt) > max_texture) max_texture = std::uint64_t(vt), max_texture_line = lines.line();
         any_corner_normal = any_corner_normal || vn > 0;
         corner_normals.push_back(vn > 0 ? std::uint32_t(vn - 1) : ObjExtras::kNone);
       }
@@ -148,6 +165,11 @@ BasicMesh<T> read_obj(Reader& reader, const std::string& path) {
                      "normal index " + std::to_string(max_normal) + " is out of range (" +
                          std::to_string(normals.size() / 3) + " vn)",
                      at_line(max_normal_line));
+  if (max_texture > x.texture_coordinates)
+    throw InputError(path,
+                     "texture coordinate index " + std::to_string(max_texture) + " is out of range (" +
+                         std::to_string(x.texture_coordinates) + " vt)",
+                     at_line(max_texture_line));
   mesh.vertices.resize(Eigen::Index(n), 3);
   std::copy(coords.begin(), coords.end(), mesh.vertices.data());
   std::deque<T>().swap(coords);

@@ -30,10 +30,11 @@ BasicMesh<T> read_off(Reader& reader, const std::string& path) {
   if (counts.size() != 3 || !parse_number(counts[0], nv) || !parse_number(counts[1], nf) ||
       !parse_number(counts[2], ne))
     throw InputError(path, "malformed OFF: expected 'vertices faces edges' counts", at_line(lines.line()));
-  // Each vertex line needs at least "0 0 0\n", each face line "3 0 0 0\n".
-  check_count(nv, 6, reader.remaining(), "vertices", path, at_line(lines.line()));
-  check_count(nf, 8, reader.remaining(), "faces", path, at_line(lines.line()));
-  if (nv * 6 + nf * 8 > reader.remaining())
+  // Each vertex line needs at least "0 0 0\n", each face line its corner count and a newline ("3 0 0 0\n" for a
+  // valid one; a shorter face is read, and refused with its own message); the last line may lack its newline.
+  check_count(nv, 6, reader.remaining(), "vertices", path, at_line(lines.line()), true);
+  check_count(nf, 2, reader.remaining(), "faces", path, at_line(lines.line()), true);
+  if (nv * 6 + nf * 2 > reader.remaining() + (nv + nf > 0 ? 1 : 0))
     throw InputError(path,
                      "the header promises " + std::to_string(nv) + " vertices and " + std::to_string(nf) +
                          " faces, but only " + std::to_string(reader.remaining()) + " bytes follow",

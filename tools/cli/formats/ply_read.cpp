@@ -151,10 +151,11 @@ BasicMesh<T> read_ply(Reader& reader, const std::string& path) {
   const std::size_t body = reader.remaining();
   std::size_t min_total = 0;
   for (const auto& el : elements) {
-    check_count(el.count, min_bytes(el, binary), body, el.name + " elements", path, "header");
+    check_count(el.count, min_bytes(el, binary), body, el.name + " elements", path, "header", !binary);
     min_total += std::size_t(el.count) * min_bytes(el, binary);
   }
-  if (min_total > body)
+  // An ASCII body's last line may end without a newline.
+  if (min_total > body + (!binary && min_total > 0 ? 1 : 0))
     throw InputError(path,
                      "the header's elements need at least " + std::to_string(min_total) + " bytes, but only " +
                          std::to_string(body) + " follow",

@@ -225,9 +225,10 @@ inline std::string_view tail_after(std::string_view raw, std::string_view last) 
 /// The message for a vertex with an infinite or NaN coordinate.
 std::string non_finite(std::size_t vertex);
 
-/// Refuses a count that the rest of the file cannot hold (`min_bytes` per item), before allocating for it.
+/// Refuses a count that the rest of the file cannot hold (`min_bytes` per item), before allocating for it. In a
+/// text body (`text`) each item's `min_bytes` count its line's newline, which the last line may lack.
 void check_count(std::uint64_t count, std::size_t min_bytes, std::size_t remaining, const std::string& what,
-                 const std::string& path, const std::string& where);
+                 const std::string& path, const std::string& where, bool text = false);
 
 /// The message for a face corner that names no vertex (0 to nv - 1).
 std::string out_of_range(std::size_t face, std::int64_t v, std::uint64_t nv);
