@@ -2,7 +2,7 @@
 // and a one-line error with the JSON path for each kind of mistake.
 #include "tools/cli/handles_file.hpp"
 
-#include <catch2/catch.hpp>
+#include "tests/support/catch.hpp"
 
 using namespace mlsdeform;
 using namespace mlsdeform::cli;
