@@ -38,6 +38,7 @@
 #include <fstream>
 #include <map>
 #include <string>
+#include <utility>
 #include <vector>
 
 namespace {
@@ -99,8 +100,10 @@ Scene make_scene(std::string name, PointsD v, Triangles f) {
   Scene s{std::move(name), std::move(v), std::move(f), {}, {}};
   std::vector<Eigen::Index> by_height(std::size_t(s.v.rows()));
   for (Eigen::Index i = 0; i < s.v.rows(); ++i) by_height[std::size_t(i)] = i;
-  std::stable_sort(by_height.begin(), by_height.end(),
-                   [&](Eigen::Index a, Eigen::Index b) { return s.v(a, 1) < s.v(b, 1); });
+  // Ties broken by index: std::stable_sort's order, without its temporary buffer (std::get_temporary_buffer,
+  // deprecated: clang warns inside Debian 12's libstdc++).
+  std::sort(by_height.begin(), by_height.end(),
+            [&](Eigen::Index a, Eigen::Index b) { return std::pair(s.v(a, 1), a) < std::pair(s.v(b, 1), b); });
   s.held.assign(by_height.begin(), by_height.begin() + s.v.rows() / 100);
   s.held.push_back(by_height.back());
   s.targets.resize(Eigen::Index(s.held.size()), 3);

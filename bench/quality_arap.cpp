@@ -163,15 +163,13 @@ Animation human_animation(const QualityScene& human) {
     PointsD t = human.targets;
     std::string w;
     int moved = 0;
-    for (Eigen::Index row = 0; words >> w;)
-      if (w == "null") {
-        ++row;
-      } else {
-        const double x = std::stod(w);
-        double y, z;
-        words >> y >> z;
-        t.row(t.rows() - 3 + moved++) << x, y, z;
-      }
+    while (words >> w) {
+      if (w == "null") continue;  // a handle that stays where it is
+      const double x = std::stod(w);
+      double y, z;
+      words >> y >> z;
+      t.row(t.rows() - 3 + moved++) << x, y, z;
+    }
     if (moved != 3) throw std::runtime_error("data/human_bend.json: a frame without three moved points");
     a.frames.push_back(t);
   }

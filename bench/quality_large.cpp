@@ -30,8 +30,10 @@ std::vector<std::string> print_large_arap(const Settings& set) {
   // The hooves (the 1% lowest vertices) held, the highest vertex moved along x by a tenth of the height.
   std::vector<Eigen::Index> by_height(std::size_t(rest.rows()));
   for (Eigen::Index i = 0; i < rest.rows(); ++i) by_height[std::size_t(i)] = i;
-  std::stable_sort(by_height.begin(), by_height.end(),
-                   [&](Eigen::Index a, Eigen::Index b) { return rest(a, 1) < rest(b, 1); });
+  // Ties broken by index: std::stable_sort's order, without its temporary buffer (std::get_temporary_buffer,
+  // deprecated: clang warns inside Debian 12's libstdc++).
+  std::sort(by_height.begin(), by_height.end(),
+            [&](Eigen::Index a, Eigen::Index b) { return std::pair(rest(a, 1), a) < std::pair(rest(b, 1), b); });
   std::vector<Eigen::Index> held(by_height.begin(), by_height.begin() + rest.rows() / 100);
   held.push_back(by_height.back());
   mlsdeform::Points<T> targets(Eigen::Index(held.size()), 3);

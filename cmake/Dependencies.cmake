@@ -13,7 +13,12 @@ if(NOT COMMAND _mlsdeform_find)
 endif()
 _mlsdeform_find(Eigen3 3.4 CONFIG)
 _mlsdeform_find(TBB 2021 CONFIG)
-_mlsdeform_find(xsimd 8 CONFIG)
+# xsimd 8 (Debian 12) to 13 (Debian 13): its package accepts only a request of its own major version, so none
+# is asked and the range is checked here (kernels/simd.hpp switches on XSIMD_VERSION_MAJOR where the API moved).
+_mlsdeform_find(xsimd CONFIG)
+if(xsimd_VERSION VERSION_LESS 8 OR xsimd_VERSION VERSION_GREATER_EQUAL 14)
+  message(FATAL_ERROR "xsimd ${xsimd_VERSION} found; mlsdeform builds with xsimd 8 to 13 (Debian: libxsimd-dev)")
+endif()
 # Debian's xsimd names a link interface 'xtl' that no package defines: without this empty target every link
 # fails with 'cannot find -lxtl'.
 if(NOT TARGET xtl)

@@ -222,10 +222,21 @@ struct Simd : SimdCommon<T, xsimd::batch<T, A>::size> {
     constexpr int mant = std::numeric_limits<T>::digits - 1;                // 23 or 52
     constexpr I bias2 = I((std::numeric_limits<T>::max_exponent - 1) * 2);  // 254 or 2046
     const VI exp_mask = VI(I(((I(1) << (sizeof(T) * 8 - 1 - mant)) - 1)) << mant);
-    VI e = xsimd::bitwise_cast<VI>(m) & exp_mask;
+    VI e = bits_as<I>(m) & exp_mask;
     e = xsimd::min(e, VI(I(bias2 - 1) << mant));  // keep the result normal
     e = xsimd::max(e, VI(I(1) << mant));          // subnormal m: scale by 2^(emax-1)
-    return xsimd::bitwise_cast<V>(VI(bias2 << mant) - e);
+    return bits_as<T>(VI(bias2 << mant) - e);
+  }
+
+  /// The bits of x read as a batch of To (a reinterpret_cast per lane). xsimd 11 changed bitwise_cast's
+  /// template argument from the batch type (xsimd 8, Debian 12) to the element type (xsimd 13, Debian 13).
+  template <class To, class From>
+  MLSDEFORM_KERNEL_INLINE static xsimd::batch<To, A> bits_as(xsimd::batch<From, A> x) {
+#if XSIMD_VERSION_MAJOR >= 11
+    return xsimd::bitwise_cast<To>(x);
+#else
+    return xsimd::bitwise_cast<xsimd::batch<To, A>>(x);
+#endif
   }
 };
 

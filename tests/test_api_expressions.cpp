@@ -1,7 +1,7 @@
 // The public fits take Eigen expressions and any storage order, not only the exact Matrix3 / Points types.
 #include <mlsdeform/mlsdeform.hpp>
 
-#include <catch2/catch.hpp>
+#include "tests/support/catch.hpp"
 
 #include <Eigen/Geometry>
 

@@ -12,7 +12,7 @@
 
 #include <mlsdeform/mlsdeform.hpp>
 
-#include <catch2/catch.hpp>
+#include "tests/support/catch.hpp"
 
 #include <xmmintrin.h>  // MXCSR: flush-to-zero and denormals-are-zero
 

@@ -6,7 +6,7 @@
 
 #include <mlsdeform/mlsdeform.hpp>
 
-#include <catch2/catch.hpp>
+#include "tests/support/catch.hpp"
 
 #include <atomic>
 #include <cstring>
@@ -72,7 +72,8 @@ TEST_CASE("cancel: construction checks once per block of kLanes vertices and sto
   Counter first;
   first.stop_at = 1;
   CHECK_THROWS_AS(Deformer<double>(human().v, rest, o, first.check()), Cancelled);
-  CHECK_THROWS_WITH(Deformer<double>(human().v, rest, o, [] { return true; }), Catch::Contains("cancelled"));
+  CHECK_THROWS_WITH(Deformer<double>(human().v, rest, o, [] { return true; }),
+                    Catch::Matchers::ContainsSubstring("cancelled"));
 }
 
 TEST_CASE("cancel: reset_rest_pose leaves the session as it was", "[cancel][deformer]") {

@@ -10,7 +10,7 @@
 
 #include <mlsdeform/mlsdeform.hpp>
 
-#include <catch2/catch.hpp>
+#include "tests/support/catch.hpp"
 
 #include <Eigen/Eigenvalues>
 #include <Eigen/SVD>
@@ -41,7 +41,7 @@ const char* type_name() {
 
 /// The seed of the random tests: Catch's --rng-seed (0 means the fixed default below).
 inline unsigned seed() {
-  const unsigned s = Catch::rngSeed();
+  const unsigned s = Catch::getSeed();
   return s != 0 ? s : 20240611u;
 }
 

@@ -5,7 +5,7 @@
 
 #include <mlsdeform/mlsdeform.hpp>
 
-#include <catch2/catch.hpp>
+#include "tests/support/catch.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -65,20 +65,23 @@ TEST_CASE("on-the-fly weights: unsupported settings are refused, automatic follo
   Options o;
   o.weight_storage = WeightStorage::on_the_fly;
   o.transform = Transform::affine;
-  CHECK_THROWS_WITH(Deformer<float>(s.vertices, s.rest, o), Catch::Contains("point handles and MLS centroids only"));
+  CHECK_THROWS_WITH(Deformer<float>(s.vertices, s.rest, o),
+                    Catch::Matchers::ContainsSubstring("point handles and MLS centroids only"));
   o.transform = Transform::rigid;
   Handles<float> seg = s.rest;
   seg.segment_a = s.rest.points.topRows(1);
   seg.segment_b = s.rest.points.bottomRows(1);
-  CHECK_THROWS_WITH(Deformer<float>(s.vertices, seg, o), Catch::Contains("point handles and MLS centroids only"));
+  CHECK_THROWS_WITH(Deformer<float>(s.vertices, seg, o),
+                    Catch::Matchers::ContainsSubstring("point handles and MLS centroids only"));
   o.weight_storage = WeightStorage::automatic;
   CHECK(Deformer<float>(s.vertices, s.rest, o).uses_precomputed_weights());  // 2000 x 8 x 16 B << 64 MiB
   o.precompute_budget_bytes = 1000;
   CHECK(!Deformer<float>(s.vertices, s.rest, o).uses_precomputed_weights());
   // Segments and affine have no on-the-fly weights: over the budget they are refused, naming the budget.
-  CHECK_THROWS_WITH(Deformer<float>(s.vertices, seg, o), Catch::Contains("precompute_budget_bytes"));
+  CHECK_THROWS_WITH(Deformer<float>(s.vertices, seg, o), Catch::Matchers::ContainsSubstring("precompute_budget_bytes"));
   o.transform = Transform::affine;
-  CHECK_THROWS_WITH(Deformer<float>(s.vertices, s.rest, o), Catch::Contains("precompute_budget_bytes"));
+  CHECK_THROWS_WITH(Deformer<float>(s.vertices, s.rest, o),
+                    Catch::Matchers::ContainsSubstring("precompute_budget_bytes"));
   // Within the budget, or asked for explicitly, they are precomputed; automatic never exceeds the budget.
   o.precompute_budget_bytes = std::size_t(1) << 20;
   const Deformer<float> affine(s.vertices, s.rest, o);
@@ -205,14 +208,16 @@ TEST_CASE("precomputed weights: unsupported settings are refused, frames as on t
   o.weight_storage = WeightStorage::precomputed_weights;
   o.transform = Transform::affine;
   CHECK_THROWS_WITH(Deformer<float>(s.vertices, s.rest, o),
-                    Catch::Contains("precomputed_weights supports") && Catch::Contains("point handles"));
+                    Catch::Matchers::ContainsSubstring("precomputed_weights supports") &&
+                        Catch::Matchers::ContainsSubstring("point handles"));
   o.transform = Transform::rigid;
   Handles<float> seg = s.rest;
   seg.segment_a = s.rest.points.topRows(1);
   seg.segment_b = s.rest.points.bottomRows(1);
-  CHECK_THROWS_WITH(Deformer<float>(s.vertices, seg, o), Catch::Contains("point handles and MLS centroids only"));
+  CHECK_THROWS_WITH(Deformer<float>(s.vertices, seg, o),
+                    Catch::Matchers::ContainsSubstring("point handles and MLS centroids only"));
   o.centroids = Centroids::rbf;
-  CHECK_THROWS_WITH(Deformer<float>(s.vertices, s.rest, o), Catch::Contains("Centroids::rbf"));
+  CHECK_THROWS_WITH(Deformer<float>(s.vertices, s.rest, o), Catch::Matchers::ContainsSubstring("Centroids::rbf"));
   o.centroids = Centroids::mls;
   // Frames: the rotations of the on-the-fly path to its bound; at a vertex on a handle the fit's limit there, from
   // one computation for every storage (near_handles.hpp): the same bits (its accuracy: test_frames_near_handles).

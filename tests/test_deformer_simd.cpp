@@ -8,7 +8,7 @@
 
 #include <Eigen/Geometry>
 #include <Eigen/SVD>
-#include <catch2/catch.hpp>
+#include "tests/support/catch.hpp"
 
 #include <cmath>
 #include <cstdio>

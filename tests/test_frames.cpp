@@ -13,7 +13,7 @@
 
 #include <mlsdeform/mlsdeform.hpp>
 
-#include <catch2/catch.hpp>
+#include "tests/support/catch.hpp"
 
 #include <Eigen/Eigenvalues>
 #include <Eigen/Geometry>
@@ -334,11 +334,13 @@ TEMPLATE_TEST_CASE("frames: bad outputs are refused before anything is written",
   const auto untouched = [&] {
     return (out.array() == T(-7)).all() && std::all_of(f.r.begin(), f.r.end(), [](T x) { return x == T(-7); });
   };
-  CHECK_THROWS_WITH(d.deform(moved, out, FramesOut<T>{short_q, f.r, {}, {}}),
-                    Catch::Contains("frames.quaternions") && Catch::Contains("200"));
+  CHECK_THROWS_WITH(
+      d.deform(moved, out, FramesOut<T>{short_q, f.r, {}, {}}),
+      Catch::Matchers::ContainsSubstring("frames.quaternions") && Catch::Matchers::ContainsSubstring("200"));
   CHECK(untouched());
   std::vector<T> long_s(51);
-  CHECK_THROWS_WITH(d.deform(moved, out, FramesOut<T>{{}, f.r, long_s, {}}), Catch::Contains("frames.scales"));
+  CHECK_THROWS_WITH(d.deform(moved, out, FramesOut<T>{{}, f.r, long_s, {}}),
+                    Catch::Matchers::ContainsSubstring("frames.scales"));
   CHECK(untouched());
   Options affine;
   affine.transform = Transform::affine;
@@ -353,7 +355,7 @@ TEMPLATE_TEST_CASE("frames: bad outputs are refused before anything is written",
                               : k == 1 ? std::span<T>(f.r)
                               : k == 2 ? std::span<T>(f.s)
                                        : std::span<T>(f.l);
-    CHECK_THROWS_WITH(da.deform(moved, out, one), Catch::Contains("Transform::affine"));
+    CHECK_THROWS_WITH(da.deform(moved, out, one), Catch::Matchers::ContainsSubstring("Transform::affine"));
     CHECK(untouched());
   }
 }

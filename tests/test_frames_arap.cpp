@@ -7,7 +7,7 @@
 
 #include <mlsdeform/mlsdeform.hpp>
 
-#include <catch2/catch.hpp>
+#include "tests/support/catch.hpp"
 
 #include <Eigen/Eigenvalues>
 #include <Eigen/Geometry>

@@ -4,12 +4,11 @@
 // handle spacing from a point or a segment handle, in float and double, on every ISA. The oracle is the motion
 // itself (every vertex must get it); the tolerances are the fit's bound with the conditioning of each vertex's own
 // limit, computed here in long double from the rest geometry (not from the library's coefficients).
+#include "tests/support/catch.hpp"
 #include "tests/support/deform_cases.hpp"
 #include "tests/support/isa_guard.hpp"
 
 #include <mlsdeform/mlsdeform.hpp>
-
-#include <catch2/catch.hpp>
 
 #include <Eigen/Eigenvalues>
 #include <Eigen/Geometry>

@@ -7,7 +7,7 @@
 
 #include <Eigen/SparseCore>
 
-#include <catch2/catch.hpp>
+#include "tests/support/catch.hpp"
 
 #include <algorithm>
 #include <cstddef>

@@ -5,7 +5,7 @@
 // MLSDEFORM_SANITIZE is on).
 #include <mlsdeform/mlsdeform.hpp>
 
-#include <catch2/catch.hpp>
+#include "tests/support/catch.hpp"
 
 #include <atomic>
 #include <cerrno>

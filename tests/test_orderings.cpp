@@ -6,7 +6,7 @@
 
 #include <Eigen/OrderingMethods>
 #include <Eigen/SparseCholesky>
-#include <catch2/catch.hpp>
+#include "tests/support/catch.hpp"
 
 #include <vector>
 

@@ -5,12 +5,11 @@
 // positions and frames alike. Before, the frame was centred on the whole scene's box: the stray moved the origin
 // thousands of diagonals away, and the on-the-fly storages, which keep the rest coordinates in T, rounded the
 // model to T's spacing there (1e-4 of the diagonal at 3,000 diagonals in float).
+#include "tests/support/catch.hpp"
 #include "tests/support/deform_cases.hpp"
 #include "tests/support/isa_guard.hpp"
 
 #include <mlsdeform/mlsdeform.hpp>
-
-#include <catch2/catch.hpp>
 
 #include <Eigen/Eigenvalues>
 #include <Eigen/Geometry>

@@ -3,7 +3,7 @@
 #include "tests/support/meshes.hpp"
 #include "tests/support/quality.hpp"
 
-#include <catch2/catch.hpp>
+#include "tests/support/catch.hpp"
 
 #include <Eigen/Geometry>
 
@@ -101,11 +101,11 @@ TEST_CASE("read_ply_vertices reads the faces, fanning polygons, and refuses bad 
   CHECK(t.row(2) == Eigen::RowVector3i(0, 1, 3));
   CHECK(read_ply_vertices(good.path).rows() == 4);  // without faces: the face element is not read
   const TempFile bad(ply(4));
-  CHECK_THROWS_WITH(read_ply_vertices(bad.path, &t), Catch::Contains("index out of range"));
+  CHECK_THROWS_WITH(read_ply_vertices(bad.path, &t), Catch::Matchers::ContainsSubstring("index out of range"));
   std::string cut = ply(3);
   cut.resize(cut.size() - 2);
   const TempFile truncated(cut);
-  CHECK_THROWS_WITH(read_ply_vertices(truncated.path, &t), Catch::Contains("truncated face data"));
+  CHECK_THROWS_WITH(read_ply_vertices(truncated.path, &t), Catch::Matchers::ContainsSubstring("truncated face data"));
 }
 
 TEST_CASE("box_surface_triangles is a closed surface with outward normals", "[quality]") {
@@ -149,18 +149,18 @@ TEST_CASE("shape_quality of rigid motions, scalings and a fold", "[quality]") {
     // Coordinates up to ~10, so the rotated edges carry errors of a few eps times 10 and the fitted R a few
     // eps: relative residuals far below 1e-12.
     CHECK(quantile(q.rigidity, 1.0) < 1e-12);
-    CHECK(quantile(q.edge_ratio, 0.0) == Approx(1).margin(1e-12));
-    CHECK(quantile(q.edge_ratio, 1.0) == Approx(1).margin(1e-12));
+    CHECK(quantile(q.edge_ratio, 0.0) == Catch::Approx(1).margin(1e-12));
+    CHECK(quantile(q.edge_ratio, 1.0) == Catch::Approx(1).margin(1e-12));
     CHECK(q.flipped == 0);
     CHECK(q.triangles == t.rows());
   }
   SECTION("a uniform scale by s has rigidity |s - 1| everywhere and edge ratio s") {
     const PointsD x = 1.5 * p * R.transpose();
     const ShapeQuality q = shape_quality(p, x, t);
-    CHECK(quantile(q.rigidity, 0.0) == Approx(0.5).epsilon(1e-12));
-    CHECK(quantile(q.rigidity, 1.0) == Approx(0.5).epsilon(1e-12));
-    CHECK(quantile(q.edge_ratio, 0.0) == Approx(1.5).epsilon(1e-12));
-    CHECK(quantile(q.edge_ratio, 1.0) == Approx(1.5).epsilon(1e-12));
+    CHECK(quantile(q.rigidity, 0.0) == Catch::Approx(0.5).epsilon(1e-12));
+    CHECK(quantile(q.rigidity, 1.0) == Catch::Approx(0.5).epsilon(1e-12));
+    CHECK(quantile(q.edge_ratio, 0.0) == Catch::Approx(1.5).epsilon(1e-12));
+    CHECK(quantile(q.edge_ratio, 1.0) == Catch::Approx(1.5).epsilon(1e-12));
     CHECK(q.flipped == 0);
   }
   SECTION("turning the surface inside out (x -> -x at every vertex) flips triangles at the box's edges") {

@@ -92,6 +92,7 @@ TEMPLATE_TEST_CASE("RBF centroids: a rigid motion or similarity of the whole sce
   const mlsdeform::detail::ScopedRbfKernel scoped(kernel);
   INFO("kernel " << kernel_name(kernel));
   double worst = 0, worst_on_handles = 0;
+  long checked = 0, ill_posed = 0;
   for (int trial = 0; trial < 4; ++trial) {
     // Scene a: point handles (even trials) or points and segments (odd trials, paper_constant weights),
     // moved by a rigid motion plus noise, so that q* = g(p*) is not an affine map of p*; every coordinate on
@@ -138,11 +139,16 @@ TEMPLATE_TEST_CASE("RBF centroids: a rigid motion or similarity of the whole sce
           const DirectVertex db = direct_vertex(vb, b.rest, b.moved, o, lb);
           REQUIRE(da.snapped == db.snapped);
           // A vertex on a point handle is interpolated: both results are the targets, exactly each other's image.
-          if (!da.snapped) {  // the bound is first order: the fits must be well-posed at T's rounding
-            REQUIRE((da.well_posed && db.well_posed));
-            if (tr != Transform::affine)
-              REQUIRE(((eps_t + eps_d) * da.dH_unit < da.gap / 2 && (eps_t + eps_d) * db.dH_unit < db.gap / 2));
+          // Elsewhere the bound is first order: a vertex whose fit is ill-posed at T's rounding (no unique
+          // rotation, or one that the rounding of H may already change at first order) is outside it, and is
+          // counted and skipped as compare_with_direct does; a random scene has one now and then.
+          if (!da.snapped && (!da.well_posed || !db.well_posed ||
+                              (tr != Transform::affine && ((eps_t + eps_d) * da.dH_unit >= da.gap / 2 ||
+                                                           (eps_t + eps_d) * db.dH_unit >= db.gap / 2)))) {
+            ++ill_posed;
+            continue;
           }
+          ++checked;
           const Vec3d ya = out_a.row(i).transpose().template cast<double>();
           const Vec3d yb = out_b.row(i).transpose().template cast<double>();
           const double fit = da.snapped ? 0.0 : s * (eps_t * da.bound_unit + extra_a) + eps_t * db.bound_unit + extra_b;
@@ -156,6 +162,9 @@ TEMPLATE_TEST_CASE("RBF centroids: a rigid motion or similarity of the whole sce
       }
     }
   }
-  std::printf("[rbf] %s, kernel %s: whole-scene motion, max deviation / tolerance %.3g (vertices on handles %.3g)\n",
-              type_name<T>(), kernel_name(kernel), worst, worst_on_handles);
+  std::printf(
+      "[rbf] %s, kernel %s: whole-scene motion, max deviation / tolerance %.3g (vertices on handles %.3g), "
+      "%ld of %ld vertex fits skipped as ill-posed\n",
+      type_name<T>(), kernel_name(kernel), worst, worst_on_handles, ill_posed, checked + ill_posed);
+  CHECK(ill_posed * 10 <= checked);  // the skipped are rare: the test still checks the scenes
 }

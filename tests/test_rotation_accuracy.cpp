@@ -16,7 +16,7 @@
 
 #include <mlsdeform/mlsdeform.hpp>
 
-#include <catch2/catch.hpp>
+#include "tests/support/catch.hpp"
 
 #include <cmath>
 #include <cstdint>

@@ -10,7 +10,7 @@
 
 #include <mlsdeform/mlsdeform.hpp>
 
-#include <catch2/catch.hpp>
+#include "tests/support/catch.hpp"
 
 #include <cmath>
 #include <cstdio>
@@ -28,7 +28,7 @@ struct Rank1 {
 };
 
 std::vector<Rank1> rank1_cases(bool single, std::size_t random_count) {
-  std::mt19937_64 g(Catch::rngSeed() != 0 ? Catch::rngSeed() : 20261123u);
+  std::mt19937_64 g(Catch::getSeed() != 0 ? Catch::getSeed() : 20261123u);
   std::normal_distribution<double> n;
   auto unit = [&] { return Eigen::Vector3d(n(g), n(g), n(g)).normalized(); };
   std::vector<Rank1> cases;
@@ -65,7 +65,7 @@ TEMPLATE_TEST_CASE("rank-1 H: the fitted rotation maps p to q to 16 eps, scalar 
   using T = TestType;
   const std::vector<Rank1> cases = rank1_cases(sizeof(T) == 4, 20000);
   const std::size_t n = cases.size();
-  INFO("seed " << (Catch::rngSeed() != 0 ? Catch::rngSeed() : 20261123u));
+  INFO("seed " << (Catch::getSeed() != 0 ? Catch::getSeed() : 20261123u));
   double worst = 0;
   for (std::size_t i = 0; i < n; ++i) {
     const double r = residual(fit_rotation(rank1_matrix<T>(cases[i])), cases[i]);

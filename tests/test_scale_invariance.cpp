@@ -27,7 +27,7 @@
 #include <mlsdeform/mlsdeform.hpp>
 
 #include <Eigen/Geometry>
-#include <catch2/catch.hpp>
+#include "tests/support/catch.hpp"
 
 #include <cmath>
 #include <limits>
@@ -348,7 +348,7 @@ TEMPLATE_TEST_CASE("scale: what T cannot represent is refused with the reason, n
     // Its local frame would need the factor 2^-e beyond T's range. The scene's diagonal is below 3.5.
     const T s = tiny / 8;
     REQUIRE_THROWS_WITH((Deformer<T>(sc.vertices * s, {sc.rest.points * s, {}, {}})),
-                        Catch::Contains("too small for the precision"));
+                        Catch::Matchers::ContainsSubstring("too small for the precision"));
   }
   SECTION("targets further from the scene than its local frame holds") {
     // A scene of diagonal about 2^-99 (local frame 2^e, e = -99) and a target 2^-100 max(T) / 8 from the
@@ -358,8 +358,9 @@ TEMPLATE_TEST_CASE("scale: what T cannot represent is refused with the reason, n
     Handles<T> m{sc.moved.points * s, {}, {}};
     m.points(0, 0) = std::numeric_limits<T>::max() / 8 * s;
     Points<T> out;
-    REQUIRE_THROWS_WITH(d.deform(m, out), Catch::Contains("coordinate too large in moved handles points") &&
-                                              Catch::Contains("times the scene's size"));
+    REQUIRE_THROWS_WITH(d.deform(m, out),
+                        Catch::Matchers::ContainsSubstring("coordinate too large in moved handles points") &&
+                            Catch::Matchers::ContainsSubstring("times the scene's size"));
   }
   SECTION("a deformed position beyond the range of T") {
     // Similarity: two handles 2^-10 apart pulled max(T) / 256 apart scale the scene by 2^10 max(T) / 256;
@@ -378,7 +379,8 @@ TEMPLATE_TEST_CASE("scale: what T cannot represent is refused with the reason, n
       Handles<T> m = rest;
       m.points(1, 0) = big;
       Points<T> out = Points<T>::Constant(3, 3, T(7));
-      REQUIRE_THROWS_WITH(d.deform(m, out), Catch::Contains("vertex 2") && Catch::Contains("overflows"));
+      REQUIRE_THROWS_WITH(d.deform(m, out), Catch::Matchers::ContainsSubstring("vertex 2") &&
+                                                Catch::Matchers::ContainsSubstring("overflows"));
       if (arap > 0) CHECK(out == Points<T>::Constant(3, 3, T(7)));  // untouched
     }
   }
@@ -386,12 +388,13 @@ TEMPLATE_TEST_CASE("scale: what T cannot represent is refused with the reason, n
     const Points<T> p = sc.vertices, q = scaled(sc.vertices, kMaxExponent<T> + 5);
     const Points<T> p_small = scaled(p, -kMaxExponent<T> - 5);
     const Eigen::Matrix<T, Eigen::Dynamic, 1> w;
-    REQUIRE_THROWS_WITH(fit_similarity<T>(p_small, q, w), Catch::StartsWith("fit_similarity: the scale overflows"));
+    REQUIRE_THROWS_WITH(fit_similarity<T>(p_small, q, w),
+                        Catch::Matchers::StartsWith("fit_similarity: the scale overflows"));
     CHECK_NOTHROW(fit_rigid<T>(p_small, q, w));  // no scale: R and t are representable
     // All p at x = 3/4 max(T), all q at -3/4 max(T): R = I and t = -3/2 max(T).
     Points<T> far = Points<T>::Zero(4, 3), far_q = Points<T>::Zero(4, 3);
     far.col(0).setConstant(std::numeric_limits<T>::max() / 4 * 3);
     far_q.col(0).setConstant(-std::numeric_limits<T>::max() / 4 * 3);
-    REQUIRE_THROWS_WITH(fit_rigid<T>(far, far_q, w), Catch::StartsWith("fit_rigid: the translation"));
+    REQUIRE_THROWS_WITH(fit_rigid<T>(far, far_q, w), Catch::Matchers::StartsWith("fit_rigid: the translation"));
   }
 }

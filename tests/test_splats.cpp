@@ -7,7 +7,7 @@
 
 #include <mlsdeform/splats.hpp>
 
-#include <catch2/catch.hpp>
+#include "tests/support/catch.hpp"
 
 #include <cfloat>
 #include <cstring>

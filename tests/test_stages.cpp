@@ -21,7 +21,7 @@
 #include <mlsdeform/dispatch.hpp>
 
 #include <Eigen/Geometry>
-#include <catch2/catch.hpp>
+#include "tests/support/catch.hpp"
 
 #include <algorithm>
 #include <cmath>

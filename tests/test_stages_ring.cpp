@@ -11,7 +11,7 @@
 
 #include "kernels/contract.hpp"
 
-#include <catch2/catch.hpp>
+#include "tests/support/catch.hpp"
 
 #include <algorithm>
 #include <cmath>

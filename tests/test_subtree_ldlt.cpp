@@ -21,7 +21,7 @@
 
 #include <Eigen/Eigenvalues>
 #include <Eigen/SparseCholesky>
-#include <catch2/catch.hpp>
+#include "tests/support/catch.hpp"
 
 #include <algorithm>
 #include <cmath>

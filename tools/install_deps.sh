@@ -1,9 +1,29 @@
 #!/usr/bin/env bash
-# Installs mlsdeform's build and test dependencies from Debian 12 packages. Idempotent, and quiet when
-# everything is already there. Uses sudo when not root. Arguments add optional parts: `bench` (CGAL, for
-# bench_quality's reference ARAP), `blender` (Blender), `web` (emscripten and Chromium from Debian, and the
-# page's npm packages into web/node_modules from web/package-lock.json: docs/web.md).
+# Installs mlsdeform's build and test dependencies from Debian 12 (bookworm) or Debian 13 (trixie) packages,
+# chosen by /etc/os-release. Idempotent, and quiet when everything is already there. Uses sudo when not root.
+# Arguments add optional parts: `bench` (CGAL, for bench_quality's reference ARAP), `blender` (Blender), `web`
+# (emscripten and Chromium from Debian, and the page's npm packages into web/node_modules from
+# web/package-lock.json: docs/web.md), `clang19` (Debian 12: clang 19 beside the default clang 14, for a clang
+# build: CXX=clang++-19; Debian 13's default clang is 19 already).
 set -euo pipefail
+codename=$(. /etc/os-release 2>/dev/null && echo "${VERSION_CODENAME:-}")
+case "$codename" in
+  bookworm) ;;
+  trixie) ;;
+  *)
+    echo "install_deps: Debian 12 (bookworm) or 13 (trixie) expected; /etc/os-release says '${codename:-nothing}'." \
+      "Installing the Debian 13 names." >&2
+    codename=trixie
+    ;;
+esac
+# What differs by release: the clang runtime that the libFuzzer targets link (clang's own version), and
+# clang-format. The format test runs with clang-format 14 only (tests/format.cmake: other versions lay out
+# differently), which Debian 13 no longer has: there it is skipped, saying so, and the rest runs.
+if [ "$codename" = bookworm ]; then
+  by_release=(libclang-rt-14-dev clang-format-14)
+else
+  by_release=(libclang-rt-19-dev clang-format)
+fi
 packages=(cmake g++ make pkg-config
   libtbb-dev libxsimd-dev libeigen3-dev libbenchmark-dev catch2            # the library, tests, benchmarks
   libsuitesparse-dev libopenblas0-pthread                                 # CHOLMOD, its BLAS (MLSDEFORM_CHOLMOD)
@@ -12,26 +32,27 @@ packages=(cmake g++ make pkg-config
   python3-dev python3-numpy python3-pytest pybind11-dev python3-pybind11  # the Python package (python/)
   python3-pip python3-venv python3-setuptools python3-wheel python3-build  # ... as a wheel (pyproject.toml)
   python3-dask python3-distributed                                        # mlsdeform.dask and its tests
-  clang libclang-rt-14-dev                                                # the libFuzzer targets
-  clang-format                                                            # the format check (tests/format.cmake)
+  clang "${by_release[@]}"                         # the libFuzzer targets, the format check (tests/format.cmake)
   black flake8)                                                           # the Python checks (tests/python_style.cmake)
 # `install_deps.sh bench` adds CGAL 5.5 (header-only, GPL), which bench/CMakeLists.txt compiles into
 # bench_quality alone for its reference ARAP rows (tools/bench_report.sh asks for it; without it those rows are
 # skipped). Nothing else links it.
-# `install_deps.sh blender` adds Debian's Blender 3.4 for the add-on's headless test (tools/blender/).
+# `install_deps.sh blender` adds Debian's Blender (3.4 on Debian 12, 4.3 on 13) for the add-on's headless test
+# (tools/blender/).
 # `install_deps.sh web` adds emscripten (emcc 3.1.6; node-acorn for its link step) and Chromium (the browser
 # tests drive it headless), and Node with npm where there is none.
 web=0
 for arg in "$@"; do
   case "$arg" in
     bench) packages+=(libcgal-dev) ;;
+    clang19) [ "$codename" = trixie ] || packages+=(clang-19 libclang-rt-19-dev) ;;
     blender) packages+=(blender) ;;
     web)
       web=1
       packages+=(emscripten node-acorn chromium)
       command -v npm >/dev/null || packages+=(nodejs npm)
       ;;
-    *) echo "install_deps: unknown part '$arg' (bench, blender, web)" >&2; exit 2 ;;
+    *) echo "install_deps: unknown part '$arg' (bench, blender, web, clang19)" >&2; exit 2 ;;
   esac
 done
 # The page's packages (three; puppeteer-core, which drives the Debian Chromium and downloads no browser),

@@ -98,8 +98,9 @@ struct DeformKernel {
 
   /// Affine: v' = sum_j alpha_j q_j for the W vertices from lane g of block b; where `linear` is wanted also
   /// the fit's matrix L = H G^-1 = sum_j (q_j - c) B_j^T (correlation_matrix with B_j = G^-1 A_j in A_j's
-  /// place, data.hpp) into res.r, with res.mu = 1 so that store_frames writes mu R = L. The position's sum is
-  /// the same whether or not L is wanted.
+  /// place, data.hpp) into res.r, with res.mu = 1 so that store_frames writes mu R = L; where it is not, the
+  /// identity, so that res is whole on every path (run stores frames on a condition that the compiler cannot
+  /// tie to fr.linear). The position's sum is the same whether or not L is wanted.
   MLSDEFORM_KERNEL_INLINE static void affine(const DeformFrame<T>& fr, std::size_t b, std::size_t g, Result& res) {
     const std::size_t J = fr.k + 2 * fr.s;
     for (V& x : res.out) x = V(T(0));
@@ -107,7 +108,7 @@ struct DeformKernel {
       weighted_centroid(res.out, L::load(fr.table + table_offset(b, j, J, fr.transform) + g),
                         {V(t.q[0]), V(t.q[1]), V(t.q[2])});
     });
-    if (!fr.linear) return;
+    if (!fr.linear) return identity_frame(res);
     for (V& e : res.r) e = V(T(0));
     for_each_target(fr, [&](std::size_t j, const Target<T>& t) {
       const T* bj = fr.linear_table + linear_table_offset(b, j, J) + g;

@@ -5,7 +5,7 @@
 
 #include "tests/cli/cli_test_util.hpp"
 
-#include <catch2/catch.hpp>
+#include "tests/support/catch.hpp"
 
 #include <algorithm>
 #include <filesystem>

@@ -7,7 +7,7 @@
 #include "tools/cli/mesh.hpp"
 #include "tools/cli/primitives.hpp"
 
-#include <catch2/catch.hpp>
+#include "tests/support/catch.hpp"
 
 #include <cmath>
 #include <csignal>

@@ -8,7 +8,7 @@
 #include "tools/cli/file_io.hpp"
 #include "tools/cli/mesh.hpp"
 
-#include <catch2/catch.hpp>
+#include "tests/support/catch.hpp"
 
 #include <bit>
 #include <charconv>

@@ -5,9 +5,9 @@
 
 #include "tools/cli/mesh.hpp"
 
-#include <mlsdeform/deformer.hpp>
+#include "tests/support/catch.hpp"
 
-#include <catch2/catch.hpp>
+#include <mlsdeform/deformer.hpp>
 
 #include <filesystem>
 #include <string>

@@ -4,10 +4,9 @@
 // --weight-budget 0, which serve point handles only), the backend, the precision and the segment weight. The oracle is
 // the motion itself: R n, or A^-T n renormalised, at every vertex.
 #include "tests/cli/cli_test_util.hpp"
+#include "tests/support/catch.hpp"
 
 #include "tools/cli/mesh.hpp"
-
-#include <catch2/catch.hpp>
 
 #include <Eigen/Geometry>
 

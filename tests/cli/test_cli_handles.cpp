@@ -2,7 +2,7 @@
 // and a one-line error with the JSON path for each kind of mistake.
 #include "tools/cli/handles_file.hpp"
 
-#include <catch2/catch.hpp>
+#include "tests/support/catch.hpp"
 
 using namespace mlsdeform;
 using namespace mlsdeform::cli;
@@ -85,9 +85,7 @@ TEST_CASE("bad handles files: one line with the file, the JSON path and the prob
   require_error("{\"points\": [\n  {\"vertex\": 1,}\n]}",
                 "h.json: line 2, column 16: invalid JSON: syntax error while parsing object key - unexpected '}'; "
                 "expected string literal");
-  require_error("",
-                "h.json: line 1, column 1: invalid JSON: syntax error while parsing value - unexpected end of input; "
-                "expected '[', '{', or a literal");
+  require_error("", "h.json: line 1, column 1: invalid JSON: the file is empty");
   require_error("{\"points\": [{\"rest\": [NaN, 0, 0]}]}",
                 "h.json: line 1, column 23: invalid JSON: syntax error while parsing value - invalid literal; last "
                 "read: '\"rest\": [N'");

@@ -8,7 +8,7 @@
 #include "tools/cli/file_io.hpp"
 #include "tools/cli/mesh.hpp"
 
-#include <catch2/catch.hpp>
+#include "tests/support/catch.hpp"
 
 #include <array>
 #include <cmath>
@@ -122,7 +122,7 @@ TEST_CASE("double meshes round-trip in every format bit for bit", "[cli][mesh][p
       CHECK(std::memcmp(back.vertices.data(), m.vertices.data(), std::size_t(m.vertices.size()) * sizeof(double)) == 0);
       if (std::strncmp(f, "ply", 3) == 0) CHECK(back.stored_type == CoordinateType::float64);
       // Read as float, the same file is refused where a coordinate is beyond float's range, saying so.
-      CHECK_THROWS_WITH(read_mesh<float>(path), Catch::Contains("range of"));
+      CHECK_THROWS_WITH(read_mesh<float>(path), Catch::Matchers::ContainsSubstring("range of"));
     }
 }
 
@@ -321,9 +321,10 @@ TEST_CASE("writing is all or nothing and does not overwrite without force", "[cl
   for (const std::string& bad : {dir / "no/such/folder/b.obj", dir / "a.obj/b.obj"}) {
     INFO(bad);
     CHECK_THROWS_AS(check_output_path(bad, false), InputError);
-    CHECK_THROWS_WITH(write_mesh(m, bad, {}), Catch::StartsWith(bad + ": cannot write"));
+    CHECK_THROWS_WITH(write_mesh(m, bad, {}), Catch::Matchers::StartsWith(bad + ": cannot write"));
   }
-  CHECK_THROWS_WITH(write_mesh(m, dir / "c.stl", {}), Catch::Contains("unknown output format '.stl'"));
+  CHECK_THROWS_WITH(write_mesh(m, dir / "c.stl", {}),
+                    Catch::Matchers::ContainsSubstring("unknown output format '.stl'"));
   CHECK(dir.files() == std::vector<std::string>{"a.obj"});
 }
 

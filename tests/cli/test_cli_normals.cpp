@@ -8,7 +8,7 @@
 #include "tools/cli/mesh.hpp"
 
 #include <Eigen/Dense>
-#include <catch2/catch.hpp>
+#include "tests/support/catch.hpp"
 
 #include <cmath>
 #include <cstring>

@@ -5,7 +5,7 @@
 // formatter's text equal to std::to_chars's and read back bit for bit.
 #include "tools/cli/formats/numbers.hpp"
 
-#include <catch2/catch.hpp>
+#include "tests/support/catch.hpp"
 
 #include <bit>
 #include <charconv>

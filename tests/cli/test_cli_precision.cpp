@@ -11,7 +11,7 @@
 
 #include "tools/cli/mesh.hpp"
 
-#include <catch2/catch.hpp>
+#include "tests/support/catch.hpp"
 
 #include <sys/stat.h>
 #include <cmath>

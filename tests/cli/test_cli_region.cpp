@@ -6,7 +6,7 @@
 #include "tools/cli/mesh.hpp"
 #include "tools/cli/primitives.hpp"
 
-#include <catch2/catch.hpp>
+#include "tests/support/catch.hpp"
 
 #include <filesystem>
 #include <string>

@@ -14,7 +14,7 @@
 
 #include <mlsdeform/dispatch.hpp>
 
-#include <catch2/catch.hpp>
+#include "tests/support/catch.hpp"
 
 #include <cinttypes>
 #include <cstdio>

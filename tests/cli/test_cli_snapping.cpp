@@ -5,7 +5,7 @@
 
 #include "tools/cli/mesh.hpp"
 
-#include <catch2/catch.hpp>
+#include "tests/support/catch.hpp"
 
 #include <algorithm>
 #include <array>

@@ -12,7 +12,7 @@
 
 #include <mlsdeform/splats.hpp>
 
-#include <catch2/catch.hpp>
+#include "tests/support/catch.hpp"
 
 #include <Eigen/Geometry>
 

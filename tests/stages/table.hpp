@@ -7,7 +7,7 @@
 
 #include <mlsdeform/dispatch.hpp>
 
-#include <catch2/catch.hpp>
+#include "tests/support/catch.hpp"
 
 #include <limits>
 #include <string>

@@ -8,6 +8,7 @@
 #include <cstdio>
 #include <iterator>
 #include <stdexcept>
+#include <utility>
 
 namespace mlsdeform::detail {
 
@@ -110,7 +111,10 @@ CoincidentPairs coincident_points(const Points<T>& p) {
   std::vector<Eigen::Index> order(static_cast<std::size_t>(p.rows()));
   for (std::size_t i = 0; i < order.size(); ++i) order[i] = static_cast<Eigen::Index>(i);
   const auto key = [&p](Eigen::Index i) { return std::array<T, 3>{p(i, 0), p(i, 1), p(i, 2)}; };
-  std::stable_sort(order.begin(), order.end(), [&](Eigen::Index a, Eigen::Index b) { return key(a) < key(b); });
+  // Ties broken by index: std::stable_sort's order, without its temporary buffer (std::get_temporary_buffer,
+  // deprecated: clang warns inside Debian 12's libstdc++).
+  std::sort(order.begin(), order.end(),
+            [&](Eigen::Index a, Eigen::Index b) { return std::pair(key(a), a) < std::pair(key(b), b); });
   CoincidentPairs pairs;
   for (std::size_t a = 0; a < order.size();) {
     std::size_t b = a + 1;

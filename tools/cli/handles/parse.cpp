@@ -199,6 +199,9 @@ HandlesFile parse_handles(std::string_view text, const std::string& file) {
       duplicate = parsed.get<std::string>();
     return true;
   };
+  // nlohmann's words for an empty input differ between versions (3.11.3, Debian 13: "attempting to parse an
+  // empty input"): ours, the same everywhere.
+  if (text.empty()) throw InputError(file, "invalid JSON: the file is empty", "line 1, column 1");
   try {
     doc = json::parse(text.begin(), text.end(), unique_keys, /*allow_exceptions=*/true, /*ignore_comments=*/true);
   } catch (const json::parse_error& e) {
