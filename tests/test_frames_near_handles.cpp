@@ -27,6 +27,14 @@ using LD = long double;
 using Vec3L = Eigen::Matrix<LD, 3, 1>;
 using Mat3L = Eigen::Matrix<LD, 3, 3>;
 
+/// a b^T, by loops (Eigen's product assignment with long double draws gcc's -Wmaybe-uninitialized at -O1).
+Mat3L outer(const Vec3L& a, const Vec3L& b) {
+  Mat3L m;
+  for (int r = 0; r < 3; ++r)
+    for (int c = 0; c < 3; ++c) m(r, c) = a[r] * b[c];
+  return m;
+}
+
 /// Every frame output for n vertices, filled with a sentinel.
 template <class T>
 struct AllFrames {
@@ -61,7 +69,7 @@ Conditioning conditioning(const Handles<T>& rest, const Vec3L& p_ref, Eigen::Ind
     if (j == own) continue;
     const Vec3L d = rest.points.row(j).transpose().template cast<LD>() - p_ref;
     const LD w = std::pow(d.norm(), -LD(u));
-    c.C += w * d * d.transpose();
+    c.C += w * outer(d, d);
     c.a += w * d.norm();
   }
   for (Eigen::Index q = 0; q < rest.segment_count(); ++q) {
@@ -76,7 +84,7 @@ Conditioning conditioning(const Handles<T>& rest, const Vec3L& p_ref, Eigen::Ind
       const LD t = LD(i) / N, sw = (i == 0 || i == N ? 1 : i % 2 ? 4 : 2) / (3 * LD(N));
       const Vec3L d = a + t * (b - a) - p_ref;
       const LD w = sw * std::pow(constant ? dmin : d.norm(), -LD(u));
-      c.C += w * d * d.transpose();
+      c.C += w * outer(d, d);
       c.a += w * d.norm();
     }
   }
@@ -240,7 +248,7 @@ Direct direct(const Handles<T>& rest, const Vec3L& v, double u, bool constant, E
   for (const Node& n : nodes) r.p_star += n.w / S * n.p;
   for (const Node& n : nodes) {
     const Vec3L ph = n.p - r.p_star;
-    r.M += n.w / S * ph * ph.transpose();
+    r.M += n.w / S * outer(ph, ph);
     r.a += n.w / S * ph.norm();
   }
   if (!own_nodes.empty()) {
@@ -251,7 +259,7 @@ Direct direct(const Handles<T>& rest, const Vec3L& v, double u, bool constant, E
       m += nodes[i].w / S * dt * dt;
     }
     r.own_second = m * own_e.squaredNorm();
-    const Mat3L Mp = r.M - m * own_e * own_e.transpose();
+    const Mat3L Mp = r.M - m * outer(own_e, own_e);
     const Vec3L un = own_e.normalized();
     r.own_across = Mp.trace() - un.dot(Mp * un);
   }
@@ -343,7 +351,7 @@ TEMPLATE_TEST_CASE("near handles: a vertex on a segment handle gets the motion's
                 } else {
                   const LD m = std::pow(LD(len), -LD(u)) *
                                (std::pow(LD(ts[i]), 3 - LD(u)) + std::pow(1 - LD(ts[i]), 3 - LD(u))) / (3 - LD(u));
-                  const Mat3L G = cd.C + m * e * e.transpose();
+                  const Mat3L G = cd.C + m * outer(e, e);
                   const Eigen::SelfAdjointEigenSolver<Mat3L> es(G);
                   const double dH = dHp + double(m) * len * 2 * eps * Q;
                   const double gap = s * double(es.eigenvalues()(0) + es.eigenvalues()(1));
