@@ -1,6 +1,6 @@
 // Vertices on and beside handles: their frames (and, beside a dominant segment, their positions) computed
 // apart from the kernels, in double, for every weight storage and ISA alike (one scalar stage that every kernel
-// table's frame passes through, after its blocks). Two kinds of vertex need it:
+// table's frame passes through, after its blocks). Three kinds of vertex need it:
 //
 // On a handle (snapped, snap.hpp). The map interpolates there (its position is the handle's target, as the
 // kernels already write it), but the weights relative to the nearest handle are 0 / 0, so the fit has to be taken
@@ -22,17 +22,17 @@
 // A rigid, similarity or affine motion of every handle gives that motion's R, mu or L from either form: H' and
 // G' are then R (or A) times the same symmetric G', f = R e (or A e).
 // Where m is finite the fit is taken of H' + m f e^T; it is also taken as dominated where the others' spread
-// across the segment is below sqrt(eps_double) of the segment's own term (the rounding of the sum would then
-// decide the twist). No limit is defined where d_2 is 0 or infinite (another handle at the same point: the
+// across the segment is below 2^-26 = sqrt(eps_double) of the segment's own term (kDominatedRatio: the rounding
+// of the sum would then decide the twist). No limit is defined where d_2 is 0 or infinite (another handle at the same point: the
 // weights are infinite there too; or a single handle, whose map is one transform everywhere): such a vertex keeps
 // the kernels' frame (the identity, or a single segment's own fit).
 //
-// Beside a dominant segment (table storage; rigid and similarity). A vertex at distance delta from a segment
+// Beside a dominant segment (table storage: segments need it). A vertex at distance delta from a segment
 // handle, not snapped, has H = H' + m f e^T with the segment's term m f e^T (m = J2 / S, its second moment)
 // larger than the others' by about delta^-u (paper_constant): formed in T, the others' share, which alone decides
 // the rotation about the segment, drowns in the rounding of the segment's term, and the fit turns the vertex
 // about the segment at random (eps(T) / rho radians, rho = tr(Z^T G' Z) / (m |e|^2)). Where rho < kBandRatio<T>
-// (float 2^-10, double 2^-26) the vertex is a record too: its H' and m f e^T are summed apart, in double, centred
+// (float 2^-10, double 2^-26) the vertex is a record too: its H' and m f e^T are formed apart, in double, centred
 // on the segment's closest point so that nothing of the segment's size is subtracted from H' (precompute_table.cpp,
 // band_sums, derives the split: m is then the variance of t along the segment under the weights), and
 // fitted in double (rho >= 2^-26: error <= eps_double / rho <= 2^-26), or by the dominated limit above (rho <
