@@ -23,9 +23,9 @@
 // G' are then R (or A) times the same symmetric G', f = R e (or A e).
 // Where m is finite the fit is taken of H' + m f e^T; it is also taken as dominated where the others' spread
 // across the segment is below 2^-26 = sqrt(eps_double) of the segment's own term (kDominatedRatio: the rounding
-// of the sum would then decide the twist). No limit is defined where d_2 is 0 or infinite (another handle at the same point: the
-// weights are infinite there too; or a single handle, whose map is one transform everywhere): such a vertex keeps
-// the kernels' frame (the identity, or a single segment's own fit).
+// of the sum would then decide the twist). No limit is defined where d_2 is 0 or infinite (another handle at the same
+// point: the weights are infinite there too; or a single handle, whose map is one transform everywhere): such a vertex
+// keeps the kernels' frame (the identity, or a single segment's own fit).
 //
 // Beside a dominant segment (table storage: segments need it). A vertex at distance delta from a segment
 // handle, not snapped, has H = H' + m f e^T with the segment's term m f e^T (m = J2 / S, its second moment)
