@@ -1,5 +1,5 @@
-# Tests of the mlsdeform command-line tool (tools/cli/, tests/cli/) and the libFuzzer targets for its
-# handles-file and mesh readers (tests/fuzz/). Included by tests/CMakeLists.txt; only when the tools are built.
+# Tests of the files library (core/files/) and the mlsdeform command-line tool (tools/cli/) in tests/cli/, and
+# the libFuzzer targets for the handles-file and mesh readers (tests/fuzz/). Included by tests/CMakeLists.txt; only when the tools are built.
 if(NOT MLSDEFORM_BUILD_TOOLS)
   return()
 endif()
@@ -11,7 +11,13 @@ file(GLOB _cli_tests CONFIGURE_DEPENDS ${CMAKE_CURRENT_SOURCE_DIR}/cli/test_*.cp
 foreach(src ${_cli_tests})
   get_filename_component(name ${src} NAME_WE)
   add_executable(${name} ${src})
-  target_link_libraries(${name} PRIVATE mlsdeform_cli Catch2::Catch2WithMain mlsdeform_warnings)
+  # A test that includes none of the program's headers is a test of the files library on its own.
+  file(READ ${src} _text)
+  if(_text MATCHES "#include \"tools/cli/")
+    target_link_libraries(${name} PRIVATE mlsdeform_cli Catch2::Catch2WithMain mlsdeform_warnings)
+  else()
+    target_link_libraries(${name} PRIVATE mlsdeform::files Catch2::Catch2WithMain mlsdeform_warnings)
+  endif()
   target_include_directories(${name} PRIVATE ${PROJECT_SOURCE_DIR})
   target_compile_definitions(${name} PRIVATE MLSDEFORM_SOURCE_DIR="${PROJECT_SOURCE_DIR}"
                                              MLSDEFORM_CLI="$<TARGET_FILE:mlsdeform>")
@@ -49,11 +55,12 @@ if(NOT MLSDEFORM_SANITIZE)
     get_target_property(_eigen_inc Eigen3::Eigen INTERFACE_INCLUDE_DIRECTORIES)
     get_target_property(_json_inc nlohmann_json::nlohmann_json INTERFACE_INCLUDE_DIRECTORIES)
     set(_fuzz_includes)
-    foreach(d ${PROJECT_SOURCE_DIR} ${PROJECT_SOURCE_DIR}/core/include ${_eigen_inc} ${_json_inc})
+    foreach(d ${PROJECT_SOURCE_DIR} ${PROJECT_SOURCE_DIR}/core/include ${PROJECT_SOURCE_DIR}/core/files/include
+              ${_eigen_inc} ${_json_inc})
       list(APPEND _fuzz_includes -I${d})
     endforeach()
     list(REMOVE_DUPLICATES _fuzz_includes)
-    set(_cli_dir ${PROJECT_SOURCE_DIR}/tools/cli)
+    set(_cli_dir ${PROJECT_SOURCE_DIR}/core/files)
     file(GLOB_RECURSE _cli_headers ${_cli_dir}/*.hpp)
     # mlsdeform_fuzz_binary(NAME SOURCES...): builds NAME from the sources.
     function(mlsdeform_fuzz_binary name)
@@ -85,7 +92,7 @@ if(NOT MLSDEFORM_SANITIZE)
     # The mesh readers and writers, one per format, and what they share.
     set(_cli_formats ${_cli_dir}/attributes.cpp ${_cli_dir}/attributes_ops.cpp ${_cli_dir}/formats/reader.cpp ${_cli_dir}/formats/numbers.cpp ${_cli_dir}/formats/obj_read.cpp ${_cli_dir}/formats/off_read.cpp
                      ${_cli_dir}/formats/ply_read.cpp ${_cli_dir}/formats/obj_write.cpp
-                     ${_cli_dir}/formats/off_write.cpp ${_cli_dir}/formats/ply_write.cpp)
+                     ${_cli_dir}/formats/off_write.cpp ${_cli_dir}/formats/ply_write.cpp ${_cli_dir}/formats/npy_write.cpp)
     # One target per mesh reader, and one for gzip input (FUZZ_MESH_FORMAT picks it); each round-trips what it
     # reads through the writer.
     mlsdeform_fuzz_binary(fuzz_mesh ${_fuzz_dir}/fuzz_mesh.cpp ${_cli_dir}/mesh_read.cpp ${_cli_formats}

@@ -1,32 +1,15 @@
-# The mlsdeform command-line tool (tools/cli/): `deform`, `demo` and `figures`. Its dependencies (nlohmann-json,
-# CLI11, zlib) are linked to the tool's own targets only, never to the library, so the installed package and its
-# consumers never see them.
-find_package(nlohmann_json 3 CONFIG REQUIRED)  # nlohmann_json::nlohmann_json (nlohmann-json3-dev)
+# The mlsdeform command-line tool (tools/cli/): `deform`, `demo` and `figures`, a command layer (options,
+# messages, progress) over the files library (core/files/: every reader, writer and attribute rule). Its
+# dependencies (CLI11, and the files library's nlohmann-json and zlib) are linked to the tool's own targets only,
+# never to the library, so the installed package and its consumers never see them.
 find_package(CLI11 2 CONFIG REQUIRED)          # CLI11::CLI11 (libcli11-dev)
-find_package(ZLIB REQUIRED)                    # ZLIB::ZLIB (zlib1g-dev)
+find_package(nlohmann_json 3 CONFIG REQUIRED)  # the figures' specifications (render.cpp)
 
 set(_cli ${CMAKE_CURRENT_SOURCE_DIR}/cli)
 
 # Everything but main(): linked by the program and by the CLI tests (tests/cli.cmake). CLI11 is compiled into
 # one translation unit (main.cpp): it is slow to compile.
 add_library(mlsdeform_cli STATIC
-  ${_cli}/file_read.cpp
-  ${_cli}/memory_source.cpp
-  ${_cli}/file_write.cpp
-  ${_cli}/mesh_read.cpp
-  ${_cli}/attributes.cpp
-  ${_cli}/attributes_ops.cpp
-  ${_cli}/formats/reader.cpp
-  ${_cli}/formats/numbers.cpp
-  ${_cli}/formats/obj_read.cpp
-  ${_cli}/formats/off_read.cpp
-  ${_cli}/formats/ply_read.cpp
-  ${_cli}/mesh_write.cpp
-  ${_cli}/formats/obj_write.cpp
-  ${_cli}/formats/off_write.cpp
-  ${_cli}/formats/ply_write.cpp
-  ${_cli}/handles/parse.cpp
-  ${_cli}/handles/resolve.cpp
   ${_cli}/render.cpp
   ${_cli}/primitives.cpp
   ${_cli}/scenes.cpp
@@ -35,14 +18,13 @@ add_library(mlsdeform_cli STATIC
   ${_cli}/figures/centroids.cpp
   ${_cli}/figures/figures.cpp
   ${_cli}/figures/measures.cpp
-  ${_cli}/splats.cpp
   ${_cli}/cmd_deform.cpp
   ${_cli}/cmd_demo.cpp
   ${_cli}/cmd_figures.cpp)
 target_include_directories(mlsdeform_cli PUBLIC ${PROJECT_SOURCE_DIR})
 target_link_libraries(mlsdeform_cli
-  PUBLIC mlsdeform::mlsdeform
-  PRIVATE nlohmann_json::nlohmann_json ZLIB::ZLIB mlsdeform_warnings)
+  PUBLIC mlsdeform::files mlsdeform::mlsdeform
+  PRIVATE nlohmann_json::nlohmann_json mlsdeform_warnings)
 # Where the program finds its bundled data, the shared meshes (fig. 2's fish; optional) and the figure script
 # when run from the build tree (each can be overridden at run time: MLSDEFORM_DATA_DIR, MLSDEFORM_MESHES,
 # MLSDEFORM_FIGURES_SCRIPT).

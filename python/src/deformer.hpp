@@ -54,6 +54,38 @@ Handles<T> make_handles(const py::object& points, const py::object& segments) {
   return h;
 }
 
+/// The session's options from Deformer's keyword arguments (also those of mlsdeform.files.DeformJob), each
+/// checked; the region is the caller's.
+inline Options parse_options(const std::string& transform, double exponent, const std::string& method,
+                             const std::string& segment_weight, int threads, const std::string& weight_storage,
+                             const std::string& backend, std::size_t budget_bytes, int arap_iterations,
+                             const std::string& centroids, const std::string& arap_acceleration, bool arap_warm_start,
+                             bool affine_frames) {
+  Options o;
+  o.transform = parse_transform(transform);
+  o.weight_exponent = exponent;
+  o.method = parse_method(method);
+  o.segment_weight = parse_enum<SegmentWeight>(
+      segment_weight, "segment_weight",
+      {{"paper_constant", SegmentWeight::paper_constant}, {"exact_integral", SegmentWeight::exact_integral}});
+  o.threads = checked_threads(threads);
+  o.weight_storage = parse_enum<WeightStorage>(weight_storage, "weight_storage",
+                                               {{"automatic", WeightStorage::automatic},
+                                                {"precomputed", WeightStorage::precomputed},
+                                                {"on_the_fly", WeightStorage::on_the_fly},
+                                                {"precomputed_weights", WeightStorage::precomputed_weights}});
+  o.isa = parse_enum<std::optional<Isa>>(backend, "backend", {{"simd", std::nullopt}, {"scalar", Isa::scalar}});
+  o.precompute_budget_bytes = budget_bytes;
+  o.arap_iterations = arap_iterations;
+  o.arap_acceleration =
+      parse_enum<ArapAcceleration>(arap_acceleration, "arap_acceleration",
+                                   {{"none", ArapAcceleration::none}, {"anderson", ArapAcceleration::anderson}});
+  o.arap_warm_start = arap_warm_start;
+  o.affine_frames = affine_frames;
+  o.centroids = parse_enum<Centroids>(centroids, "centroids", {{"mls", Centroids::mls}, {"rbf", Centroids::rbf}});
+  return o;
+}
+
 /// A session in float or double, chosen by the dtype of the rest vertices.
 class PyDeformer {
   // Exactly one is set, by the constructor.
@@ -79,28 +111,9 @@ class PyDeformer {
              const std::string& backend, std::size_t budget_bytes, const py::object& dtype, const py::object& faces,
              int arap_iterations, const std::string& centroids, const py::object& region,
              const std::string& arap_acceleration, bool arap_warm_start, bool affine_frames) {
-    Options o;
-    o.transform = parse_transform(transform);
-    o.weight_exponent = exponent;
-    o.method = parse_method(method);
-    o.segment_weight = parse_enum<SegmentWeight>(
-        segment_weight, "segment_weight",
-        {{"paper_constant", SegmentWeight::paper_constant}, {"exact_integral", SegmentWeight::exact_integral}});
-    o.threads = checked_threads(threads);
-    o.weight_storage = parse_enum<WeightStorage>(weight_storage, "weight_storage",
-                                                 {{"automatic", WeightStorage::automatic},
-                                                  {"precomputed", WeightStorage::precomputed},
-                                                  {"on_the_fly", WeightStorage::on_the_fly},
-                                                  {"precomputed_weights", WeightStorage::precomputed_weights}});
-    o.isa = parse_enum<std::optional<Isa>>(backend, "backend", {{"simd", std::nullopt}, {"scalar", Isa::scalar}});
-    o.precompute_budget_bytes = budget_bytes;
-    o.arap_iterations = arap_iterations;
-    o.arap_acceleration =
-        parse_enum<ArapAcceleration>(arap_acceleration, "arap_acceleration",
-                                     {{"none", ArapAcceleration::none}, {"anderson", ArapAcceleration::anderson}});
-    o.arap_warm_start = arap_warm_start;
-    o.affine_frames = affine_frames;
-    o.centroids = parse_enum<Centroids>(centroids, "centroids", {{"mls", Centroids::mls}, {"rbf", Centroids::rbf}});
+    Options o =
+        parse_options(transform, exponent, method, segment_weight, threads, weight_storage, backend, budget_bytes,
+                      arap_iterations, centroids, arap_acceleration, arap_warm_start, affine_frames);
     if (!region.is_none()) {
       o.region = to_indices(region, "region");
       if (o.region.empty()) throw py::value_error("region: no vertices (pass None to deform the whole model)");

@@ -6,7 +6,8 @@
 // set-up, ARAP frames, large batches of fits) check for signals while they work (SignalWatch): Ctrl-C raises
 // KeyboardInterrupt promptly, leaving outputs untouched.
 // The parts by API area: bind_deformer.cpp (Deformer; the session itself in deformer.hpp), bind_fits.cpp (the
-// rotation fits), bind_frames.cpp (normals and tangents through the frames), bind_splats.cpp (the splats);
+// rotation fits), bind_frames.cpp (normals and tangents through the frames), bind_splats.cpp (the splats),
+// bind_files.cpp and mesh_file.cpp (the files library's meshes and handles files), bind_jobs.cpp (its DeformJob);
 // arrays.hpp converts arguments, signals.hpp watches for Ctrl-C; this file the module, its error translation and
 // the instruction-set functions.
 #include "python/src/bindings.hpp"
@@ -46,6 +47,8 @@ PYBIND11_MODULE(_mlsdeform, m) {
   python::bind_fits(m);
   python::bind_frames(m);
   python::bind_splats(m);
+  python::bind_files(m);
+  python::bind_jobs(m);
 
   m.def(
       "active_isa", [] { return std::string(to_string(active_isa())); },

@@ -7,6 +7,7 @@ import os
 import shutil
 import subprocess
 import sys
+import uuid
 
 import numpy as np
 import pytest
@@ -71,7 +72,7 @@ def check_frames(folder, stem, ext, want):
     assert names == [f"{stem}_{i:04d}{ext}" for i in range(len(want))], names
     for i, X in enumerate(want):
         path = os.path.join(folder, names[i])
-        got = np.load(path) if ext == ".npy" else files.read_mesh(path)[0]
+        got = np.load(path) if ext == ".npy" else files.read_mesh(path).vertices
         assert np.array_equal(got, X), f"frame {i}"
 
 
@@ -90,31 +91,36 @@ def test_render_animation(client, tmp_path):
     check_frames(out, "bent", ".ply", direct(HUMAN, BEND))
 
 
+def half_written(path, tag, head):
+    """A temporary file as write_atomically names it (`.NAME.TAG.*.tmp`), holding `head`: the part of a frame a
+    writer that died or failed had written."""
+    folder, name = os.path.split(os.path.abspath(path))
+    f = open(os.path.join(folder, f".{name}.{tag}.{uuid.uuid4().hex}.tmp"), "wb")
+    f.write(head)
+    f.flush()
+    return f
+
+
 def die_in_second_write(marker):
     """On a worker: the first worker to write its second frame dies in the middle of that write (os._exit: no
     clean-up, a temporary file half written, its task unfinished); the marker file names the frame."""
-    real = files.write_mesh
+    real = files.write_atomically
     count = [0]
 
-    def write_mesh(path, vertices, faces=None, tag=""):
+    def write_atomically(path, data, tag=""):
         count[0] += 1
         if count[0] == 2:
             try:
                 fd = os.open(marker, os.O_CREAT | os.O_EXCL | os.O_WRONLY)
             except FileExistsError:
-                return real(path, vertices, faces, tag)
+                return real(path, data, tag)
             os.write(fd, path.encode())
             os.close(fd)
+            half_written(path, tag, data[: len(data) // 2])
+            os._exit(1)
+        return real(path, data, tag)
 
-            def half_then_die(f):
-                f.write(b"\x93NUMPY half a frame")
-                f.flush()
-                os._exit(1)
-
-            files.write_atomically(path, half_then_die, tag)
-        return real(path, vertices, faces, tag)
-
-    files.write_mesh = write_mesh
+    files.write_atomically = write_atomically
 
 
 def test_worker_killed_mid_run(client, tmp_path):
@@ -132,25 +138,24 @@ def test_worker_killed_mid_run(client, tmp_path):
 
 def flaky_writes(marker_dir):
     """On a worker: the first write of a_0001.ply (after a_0000.ply, which the failed attempt must remove) and of
-    b.ply fails half-way: a temporary file half written, then OSError."""
-    real = files.write_mesh
+    b.ply fails half-way: a temporary file half written (removed by the writer, as write_atomically does), then
+    OSError."""
+    real = files.write_atomically
 
-    def write_mesh(path, vertices, faces=None, tag=""):
+    def write_atomically(path, data, tag=""):
         if os.path.basename(path) not in ("a_0001.ply", "b.ply"):
-            return real(path, vertices, faces, tag)
+            return real(path, data, tag)
         try:
             fd = os.open(os.path.join(marker_dir, os.path.basename(path)), os.O_CREAT | os.O_EXCL | os.O_WRONLY)
         except FileExistsError:
-            return real(path, vertices, faces, tag)
+            return real(path, data, tag)
         os.close(fd)
+        f = half_written(path, tag, data[:40])
+        f.close()
+        os.unlink(f.name)
+        raise OSError("simulated: the disk went away")
 
-        def half(f):
-            f.write(b"ply\nformat binary_little_endian 1.0\n")
-            raise OSError("simulated: the disk went away")
-
-        files.write_atomically(path, half, tag)
-
-    files.write_mesh = write_mesh
+    files.write_atomically = write_atomically
 
 
 def test_deform_meshes(client, tmp_path):
@@ -178,8 +183,10 @@ def test_deform_meshes(client, tmp_path):
     assert sorted(os.listdir(out)) == ["a_0000.ply", "a_0001.ply", "a_0002.ply", "b.ply"]
     assert sorted(os.listdir(markers)) == ["a_0001.ply", "b.ply"], "the two writes failed once, then retried"
     for i, X in enumerate(direct(str(src / "a.ply"), str(src / "a.json"))):
-        assert np.array_equal(files.read_mesh(str(out / f"a_{i:04d}.ply"))[0], X)
-    assert np.array_equal(files.read_mesh(str(out / "b.ply"))[0], direct(str(src / "b.obj"), str(src / "b.json"))[0])
+        assert np.array_equal(files.read_mesh(str(out / f"a_{i:04d}.ply")).vertices, X)
+    assert np.array_equal(
+        files.read_mesh(str(out / "b.ply")).vertices, direct(str(src / "b.obj"), str(src / "b.json"))[0]
+    )
     assert s.frames == 4 and s.sessions_built == 2 and len(s.written) == 4
     with pytest.raises(ValueError, match="already exists"):
         mdask.deform_meshes(client, str(src), str(out))
@@ -253,13 +260,13 @@ def slow_writes(seconds):
     """On a worker: every write takes `seconds` longer."""
     import time
 
-    real = files.write_mesh
+    real = files.write_atomically
 
-    def write_mesh(path, vertices, faces=None, tag=""):
+    def write_atomically(path, data, tag=""):
         time.sleep(seconds)
-        return real(path, vertices, faces, tag)
+        return real(path, data, tag)
 
-    files.write_mesh = write_mesh
+    files.write_atomically = write_atomically
 
 
 def interrupt_when(folder, count):

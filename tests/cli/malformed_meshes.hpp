@@ -3,8 +3,8 @@
 // (test_cli_bad_input.cpp), so that every case is refused both by read_mesh and through `mlsdeform deform`.
 #pragma once
 
-#include "tools/cli/file_io.hpp"
-#include "tools/cli/mesh.hpp"
+#include "core/files/file_io.hpp"
+#include "core/files/mesh.hpp"
 
 #include <array>
 #include <cstdint>
@@ -20,8 +20,8 @@ struct MalformedMesh {
 };
 
 /// The unit cube, 8 vertices and 6 quads, as the tests' meshes are written.
-inline mlsdeform::cli::Mesh cube_mesh() {
-  mlsdeform::cli::Mesh cube;
+inline mlsdeform::files::Mesh cube_mesh() {
+  mlsdeform::files::Mesh cube;
   cube.vertices.resize(8, 3);
   cube.vertices << 0, 0, 0, 1, 0, 0, 1, 1, 0, 0, 1, 0, 0, 0, 1, 1, 0, 1, 1, 1, 1, 0, 1, 1;
   for (auto f :
@@ -31,8 +31,8 @@ inline mlsdeform::cli::Mesh cube_mesh() {
 }
 
 inline std::vector<MalformedMesh> malformed_meshes() {
-  using mlsdeform::cli::encode_mesh;
-  using mlsdeform::cli::gzip;
+  using mlsdeform::files::encode_mesh;
+  using mlsdeform::files::gzip;
   const std::string cube_v = "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nv 0 0 1\nv 1 0 1\nv 1 1 1\nv 0 1 1\n";
   const std::string off_head = "OFF\n8 6 0\n0 0 0\n1 0 0\n1 1 0\n0 1 0\n0 0 1\n1 0 1\n1 1 1\n0 1 1\n";
   const std::string off_faces = "4 1 2 6 5\n4 2 3 7 6\n4 3 0 4 7\n4 0 3 2 1\n4 4 5 6 7\n";

@@ -4,7 +4,7 @@
 
 #include "tests/cli/cli_test_util.hpp"
 
-#include "tools/cli/mesh.hpp"
+#include "core/files/mesh.hpp"
 
 #include "tests/support/catch.hpp"
 

@@ -4,7 +4,7 @@
 // 2, one line naming the file, nothing written), and N must be a whole number >= 0.
 #include "tests/cli/cli_test_util.hpp"
 
-#include "tools/cli/mesh.hpp"
+#include "core/files/mesh.hpp"
 #include "tools/cli/primitives.hpp"
 
 #include "tests/support/catch.hpp"
@@ -18,6 +18,7 @@
 #include <utility>
 
 using namespace mlsdeform;
+using namespace mlsdeform::files;
 using namespace mlsdeform::cli;
 using cli_test::program;
 using cli_test::ScratchDir;

@@ -1,12 +1,12 @@
-// The program keeps what a mesh file carries besides positions and faces (tools/cli/attributes.hpp): every
+// The program keeps what a mesh file carries besides positions and faces (core/files/attributes.hpp): every
 // attribute read and written again holds the same value bit for bit, in every format and encoding (OBJ, OFF,
 // PLY ASCII, binary little- and big-endian, each also gzip-compressed). The input files are built here, by a
 // writer of the test's own (not the program's), with values of every PLY type drawn at random: for binary
 // files any bit pattern (NaN payloads, subnormals, infinities) of the non-coordinate properties.
 #include "tests/cli/cli_test_util.hpp"
 
-#include "tools/cli/file_io.hpp"
-#include "tools/cli/mesh.hpp"
+#include "core/files/file_io.hpp"
+#include "core/files/mesh.hpp"
 
 #include "tests/support/catch.hpp"
 
@@ -17,7 +17,7 @@
 #include <random>
 
 using namespace mlsdeform;
-using namespace mlsdeform::cli;
+using namespace mlsdeform::files;
 using cli_test::ScratchDir;
 using cli_test::write_text;
 

@@ -4,7 +4,7 @@
 #include "tests/cli/cube_fixture.hpp"
 #include "tests/cli/malformed_meshes.hpp"
 
-#include "tools/cli/mesh.hpp"
+#include "core/files/mesh.hpp"
 
 #include "tests/support/catch.hpp"
 
@@ -12,7 +12,7 @@
 #include <string>
 
 using namespace mlsdeform;
-using namespace mlsdeform::cli;
+using namespace mlsdeform::files;
 using cli_test::cube_obj;
 using cli_test::Fixture;
 using cli_test::program;

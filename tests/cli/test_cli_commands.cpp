@@ -3,7 +3,7 @@
 #include "tests/cli/cli_test_util.hpp"
 #include "tests/cli/cube_fixture.hpp"
 
-#include "tools/cli/mesh.hpp"
+#include "core/files/mesh.hpp"
 
 #include "tests/support/catch.hpp"
 
@@ -14,7 +14,7 @@
 #include <utility>
 
 using namespace mlsdeform;
-using namespace mlsdeform::cli;
+using namespace mlsdeform::files;
 using cli_test::Fixture;
 using cli_test::program;
 using cli_test::ScratchDir;

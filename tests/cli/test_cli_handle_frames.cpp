@@ -6,7 +6,7 @@
 #include "tests/cli/cli_test_util.hpp"
 #include "tests/support/catch.hpp"
 
-#include "tools/cli/mesh.hpp"
+#include "core/files/mesh.hpp"
 
 #include <Eigen/Geometry>
 
@@ -19,7 +19,7 @@
 #include <vector>
 
 using namespace mlsdeform;
-using namespace mlsdeform::cli;
+using namespace mlsdeform::files;
 using cli_test::ScratchDir;
 using cli_test::write_text;
 

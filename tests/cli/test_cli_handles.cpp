@@ -1,11 +1,11 @@
-// The handles file of the command-line tool (tools/cli/handles/): what it accepts, what it resolves to,
+// The handles file of the command-line tool (core/files/handles/): what it accepts, what it resolves to,
 // and a one-line error with the JSON path for each kind of mistake.
-#include "tools/cli/handles_file.hpp"
+#include "core/files/handles_file.hpp"
 
 #include "tests/support/catch.hpp"
 
 using namespace mlsdeform;
-using namespace mlsdeform::cli;
+using namespace mlsdeform::files;
 
 namespace {
 

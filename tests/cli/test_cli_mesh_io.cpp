@@ -1,12 +1,12 @@
-// Mesh reading and writing of the command-line tool (tools/cli/mesh_*.cpp): every format round-trips vertex
+// Mesh reading and writing of the command-line tool (core/files/mesh_*.cpp): every format round-trips vertex
 // count, faces and coordinates, the file's vertex order is kept, and malformed files fail with a message
 // naming the file.
 #include "tests/cli/cli_test_util.hpp"
 #include "tests/cli/malformed_meshes.hpp"
 
-#include "tools/cli/error.hpp"
-#include "tools/cli/file_io.hpp"
-#include "tools/cli/mesh.hpp"
+#include <mlsdeform/files_error.hpp>
+#include "core/files/file_io.hpp"
+#include "core/files/mesh.hpp"
 
 #include "tests/support/catch.hpp"
 
@@ -17,7 +17,7 @@
 #include <random>
 
 using namespace mlsdeform;
-using namespace mlsdeform::cli;
+using namespace mlsdeform::files;
 using cli_test::ScratchDir;
 using cli_test::write_text;
 
@@ -44,7 +44,7 @@ Mesh sample_mesh() {
 }
 
 // Random coordinates in [-1000, 1000] with 1e-4 <= |x| (the writers' shortest texts read back exactly, see
-// TextOut in tools/cli/formats/writer.hpp), on a triangle strip.
+// TextOut in core/files/formats/writer.hpp), on a triangle strip.
 Mesh random_mesh(std::uint32_t seed, int n) {
   std::mt19937 rng(seed);
   std::uniform_real_distribution<float> mag(-4.0f, 3.0f);

@@ -1,11 +1,11 @@
-// Input normals carried through each vertex's linear part (transform_normals, tools/cli/attributes_ops.cpp):
+// Input normals carried through each vertex's linear part (transform_normals, core/files/attributes_ops.cpp):
 // n' = L^-T n renormalised, against a long-double reference; OBJ normals split per vertex where corners of
 // vertices with different linear parts share one; what the program drops is named, and --strict-attributes
 // refuses it.
 #include "tests/cli/cube_fixture.hpp"
 
-#include "tools/cli/file_io.hpp"
-#include "tools/cli/mesh.hpp"
+#include "core/files/file_io.hpp"
+#include "core/files/mesh.hpp"
 
 #include <Eigen/Dense>
 #include "tests/support/catch.hpp"
@@ -15,7 +15,7 @@
 #include <random>
 
 using namespace mlsdeform;
-using namespace mlsdeform::cli;
+using namespace mlsdeform::files;
 using cli_test::ScratchDir;
 using cli_test::write_text;
 

@@ -6,7 +6,7 @@
 #include "tests/support/deform_cases.hpp"
 #include "tests/support/mls_reference.hpp"
 
-#include "tools/cli/mesh.hpp"
+#include "core/files/mesh.hpp"
 
 #include "tests/support/catch.hpp"
 
@@ -15,7 +15,7 @@
 #include <random>
 
 using namespace mlsdeform;
-using namespace mlsdeform::cli;
+using namespace mlsdeform::files;
 using cli_test::ScratchDir;
 using cli_test::write_text;
 

@@ -1,9 +1,9 @@
-// The portable twins of the floating-point std::from_chars / std::to_chars (tools/cli/formats/numbers.hpp),
+// The portable twins of the floating-point std::from_chars / std::to_chars (core/files/formats/numbers.hpp),
 // which the mesh readers and writers use where the standard library lacks them (the web page's module), held
 // against the standard library's own on this build: the same consumed prefix, the same errc and bitwise the
 // same value for every string (no tolerance: both are correctly rounded, so any difference is a bug), and the
 // formatter's text equal to std::to_chars's and read back bit for bit.
-#include "tools/cli/formats/numbers.hpp"
+#include "core/files/formats/numbers.hpp"
 
 #include "tests/support/catch.hpp"
 
@@ -19,8 +19,8 @@
 
 namespace {
 
-using mlsdeform::cli::formats::portable_from_chars;
-using mlsdeform::cli::formats::portable_to_chars;
+using mlsdeform::files::formats::portable_from_chars;
+using mlsdeform::files::formats::portable_to_chars;
 
 template <class R>
 using Bits = std::conditional_t<sizeof(R) == 4, std::uint32_t, std::uint64_t>;

@@ -9,7 +9,7 @@
 #include "tests/cli/cli_test_util.hpp"
 #include "tests/cli/precision_files.hpp"
 
-#include "tools/cli/mesh.hpp"
+#include "core/files/mesh.hpp"
 
 #include "tests/support/catch.hpp"
 
@@ -20,7 +20,7 @@
 #include <random>
 
 using namespace mlsdeform;
-using namespace mlsdeform::cli;
+using namespace mlsdeform::files;
 using namespace precision_test;
 using cli_test::ScratchDir;
 using cli_test::write_text;

@@ -5,7 +5,7 @@
 #include "tests/cli/precision_files.hpp"
 #include "tests/support/accuracy_bounds.hpp"
 
-#include "tools/cli/mesh.hpp"
+#include "core/files/mesh.hpp"
 
 #include "tests/support/catch.hpp"
 
@@ -15,7 +15,7 @@
 #include <limits>
 
 using namespace mlsdeform;
-using namespace mlsdeform::cli;
+using namespace mlsdeform::files;
 using namespace precision_test;
 using cli_test::ScratchDir;
 using cli_test::write_text;

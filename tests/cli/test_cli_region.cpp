@@ -3,7 +3,7 @@
 // and bad regions end with exit code 2, one line naming the file and the JSON path, and nothing written.
 #include "tests/cli/cli_test_util.hpp"
 
-#include "tools/cli/mesh.hpp"
+#include "core/files/mesh.hpp"
 #include "tools/cli/primitives.hpp"
 
 #include "tests/support/catch.hpp"
@@ -13,6 +13,7 @@
 #include <vector>
 
 using namespace mlsdeform;
+using namespace mlsdeform::files;
 using namespace mlsdeform::cli;
 using cli_test::program;
 using cli_test::ScratchDir;

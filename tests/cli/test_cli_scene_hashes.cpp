@@ -22,6 +22,7 @@
 #include <string>
 
 using namespace mlsdeform;
+using namespace mlsdeform::files;
 using namespace mlsdeform::cli;
 
 namespace {

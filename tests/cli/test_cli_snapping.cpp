@@ -3,7 +3,7 @@
 // and no two distinct vertices come out at one point.
 #include "tests/cli/cli_test_util.hpp"
 
-#include "tools/cli/mesh.hpp"
+#include "core/files/mesh.hpp"
 
 #include "tests/support/catch.hpp"
 
@@ -11,7 +11,7 @@
 #include <array>
 #include <set>
 
-using namespace mlsdeform::cli;
+using namespace mlsdeform::files;
 using cli_test::program;
 using cli_test::ScratchDir;
 

@@ -1,4 +1,4 @@
-// The program on 3D Gaussian splat files (tools/cli/splats.cpp, docs/splats.md): a rigid or similarity motion of
+// The program on 3D Gaussian splat files (core/files/splats.cpp, docs/splats.md): a rigid or similarity motion of
 // every handle turns each splat's rot_* by that rotation and shifts its scale_* by log(s), to the fit's bound,
 // rotates its f_rest_*, and passes every other property through bit for bit; a region leaves the splats outside
 // it bit for bit; an affine fit maps each splat by its centre's matrix; splats on point and segment handles turn

@@ -1,4 +1,4 @@
-// libFuzzer target for the handles-file reader of the command-line tool (tools/cli/handles/).
+// libFuzzer target for the handles-file reader of the command-line tool (core/files/handles/).
 //
 // Any input must either parse, and then resolve or fail to resolve against a small mesh, or be rejected with
 // InputError: a one-line message that names the file. Anything else (another exception, a crash, a sanitizer
@@ -6,7 +6,7 @@
 // -fsanitize=fuzzer,address,undefined by tests/cli.cmake; the test suite runs it for 20000 inputs.
 //
 //   build/tests/fuzz_handles -dict=tests/fuzz/handles.dict NEW_CORPUS_DIR tests/fuzz/corpus
-#include "tools/cli/handles_file.hpp"
+#include "core/files/handles_file.hpp"
 
 #include <cmath>
 #include <cstdint>
@@ -17,7 +17,7 @@
 namespace {
 
 using namespace mlsdeform;
-using namespace mlsdeform::cli;
+using namespace mlsdeform::files;
 
 [[noreturn]] void bug(const char* what, const std::string& detail = {}) {
   std::fprintf(stderr, "fuzz_handles: %s %s\n", what, detail.c_str());

@@ -1,18 +1,18 @@
-// libFuzzer targets for the mesh readers of the command-line tool (tools/cli/formats/): one binary, four
+// libFuzzer targets for the mesh readers of the command-line tool (core/files/formats/): one binary, four
 // targets chosen by the environment variable FUZZ_MESH_FORMAT: "obj", "off" or "ply" (the input is the file's
 // bytes), or "gz" (the input is gzip data; its decompressed bytes are read as PLY, OFF or OBJ by their first
 // bytes). One binary because each build of it takes CI half a minute.
 //
 // Any input must either be read, and then give a mesh that keeps the documented invariants and writes and
-// reads back bit for bit (positions, faces and every attribute kept: tools/cli/attributes.hpp), or be refused with
+// reads back bit for bit (positions, faces and every attribute kept: core/files/attributes.hpp), or be refused with
 // InputError: a one-line message that names the file. Anything else (another exception, a crash, a sanitizer report, a
 // hang) is a bug. Built with clang++ -fsanitize=fuzzer,address,undefined by tests/cli.cmake; the test suite runs each
 // for a bounded number of inputs.
 //
 //   FUZZ_MESH_FORMAT=ply build/tests/fuzz_mesh -dict=tests/fuzz/mesh.dict NEW_CORPUS_DIR tests/fuzz/corpus_ply
-#include "tools/cli/error.hpp"
-#include "tools/cli/file_io.hpp"
-#include "tools/cli/mesh.hpp"
+#include <mlsdeform/files_error.hpp>
+#include "core/files/file_io.hpp"
+#include "core/files/mesh.hpp"
 
 #include <cmath>
 #include <cstdint>
@@ -24,7 +24,7 @@
 
 namespace {
 
-using namespace mlsdeform::cli;
+using namespace mlsdeform::files;
 
 [[noreturn]] void bug(const char* what, const std::string& detail = {}) {
   std::fprintf(stderr, "fuzz_mesh: %s %s\n", what, detail.c_str());

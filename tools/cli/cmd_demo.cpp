@@ -2,9 +2,9 @@
 // cylinder (Table 2's sizes), times Deformer::deform with the scalar and the SIMD backend, runs the human again
 // with surface-ARAP iterations after MLS, and writes the results (in several formats) and before/after images
 // into one folder.
+#include <mlsdeform/files_error.hpp>
+#include "core/files/mesh.hpp"
 #include "tools/cli/commands.hpp"
-#include "tools/cli/error.hpp"
-#include "tools/cli/mesh.hpp"
 #include "tools/cli/render.hpp"
 #include "tools/cli/scenes.hpp"
 

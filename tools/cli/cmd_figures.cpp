@@ -1,10 +1,10 @@
 // `mlsdeform figures`: the paper's Fig. 1 to 8 redrawn from our deformer, and MLS against MLS + ARAP
 // (arap.png), as PNG files (by default in the source tree's docs/figures/, which README.md shows). The figures
 // themselves are in tools/cli/figures/.
+#include <mlsdeform/files_error.hpp>
+#include "core/files/mesh.hpp"
 #include "tools/cli/commands.hpp"
-#include "tools/cli/error.hpp"
 #include "tools/cli/figures/figures.hpp"
-#include "tools/cli/mesh.hpp"
 #include "tools/cli/render.hpp"
 
 #include <algorithm>

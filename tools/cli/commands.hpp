@@ -2,7 +2,7 @@
 // Each returns the process exit code and throws InputError for bad input (exit code 2).
 #pragma once
 
-#include "tools/cli/mesh.hpp"
+#include "core/files/mesh.hpp"
 
 #include <mlsdeform/deformer.hpp>
 #include <mlsdeform/dispatch.hpp>
@@ -11,6 +11,9 @@
 #include <string>
 
 namespace mlsdeform::cli {
+
+// The program is a command layer over the files library (core/files/): its names are the program's own.
+using namespace mlsdeform::files;
 
 enum class Precision { single, double_ };
 
@@ -30,9 +33,6 @@ struct DeformArgs {
   std::size_t max_input_bytes = std::size_t(1) << 30;  ///< mesh file, or its decompressed data (kDefaultMaxInputBytes)
 };
 int run_deform(const DeformArgs& args);
-
-/// "out.ply.gz", frame 7 of 120 -> "out_0007.ply.gz" (at least 4 digits, more when there are more frames).
-std::string frame_path(const std::string& out, std::size_t frame, std::size_t frame_count);
 
 struct DemoArgs {
   std::string out_dir = "mlsdeform-demo-out";

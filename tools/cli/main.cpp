@@ -1,10 +1,10 @@
 // mlsdeform: the command-line tool. Argument parsing (CLI11) and error reporting only; the subcommands are in
 // cmd_*.cpp. Exit codes: 0 success, 2 bad input or usage (one line on stderr naming the file and the
 // problem), 1 anything else (a bug or no memory).
+#include <mlsdeform/files_error.hpp>
+#include "core/files/file_io.hpp"
+#include "core/files/mesh.hpp"
 #include "tools/cli/commands.hpp"
-#include "tools/cli/error.hpp"
-#include "tools/cli/file_io.hpp"
-#include "tools/cli/mesh.hpp"
 
 #include <mlsdeform/version.hpp>
 

@@ -2,11 +2,14 @@
 // constraint counts), and the conversions between a mesh and the library's points.
 #pragma once
 
-#include "tools/cli/mesh.hpp"
+#include "core/files/mesh.hpp"
 
 #include <mlsdeform/types.hpp>
 
 namespace mlsdeform::cli {
+
+// The program is a command layer over the files library (core/files/): its names are the program's own.
+using namespace mlsdeform::files;
 
 /// The surface of an axis-aligned box [-w/2, w/2] x [0, h] x [-w/2, w/2] on an nx x ny x nz grid of quads, y up.
 /// Vertex count 2 (nx ny + ny nz + nz nx) + 2: 16 x 88 x 16 gives Table 2's 6146-vertex bar.

@@ -1,7 +1,7 @@
 #include "tools/cli/render.hpp"
 
-#include "tools/cli/error.hpp"
-#include "tools/cli/file_io.hpp"
+#include <mlsdeform/files_error.hpp>
+#include "core/files/file_io.hpp"
 
 #include <nlohmann/json.hpp>
 

@@ -2,7 +2,7 @@
 // JSON spec, and drawn by tools/figures.py with Debian's python3-matplotlib.
 #pragma once
 
-#include "tools/cli/mesh.hpp"
+#include "core/files/mesh.hpp"
 
 #include <mlsdeform/deformer.hpp>
 
@@ -12,6 +12,9 @@
 #include <vector>
 
 namespace mlsdeform::cli {
+
+// The program is a command layer over the files library (core/files/): its names are the program's own.
+using namespace mlsdeform::files;
 
 using Color = std::array<float, 3>;  // RGB in [0, 1]
 

@@ -3,7 +3,7 @@
 // frame by frame (scenes.cpp), and a runner that times Deformer::deform per frame (scene_run.cpp).
 #pragma once
 
-#include "tools/cli/mesh.hpp"
+#include "core/files/mesh.hpp"
 #include "tools/cli/primitives.hpp"
 
 #include <mlsdeform/deformer.hpp>
@@ -13,6 +13,9 @@
 #include <vector>
 
 namespace mlsdeform::cli {
+
+// The program is a command layer over the files library (core/files/): its names are the program's own.
+using namespace mlsdeform::files;
 
 /// A scene: a mesh, handles at rest and their targets frame by frame, and the options to deform it with.
 struct Scene {

@@ -1,12 +1,12 @@
 // The files of the C API (api.hpp): meshes and handles files read by the program's own strict readers
-// (tools/cli/formats/, tools/cli/handles/), so that the page refuses what `mlsdeform deform` refuses, with the
+// (core/files/formats/, core/files/handles/), so that the page refuses what `mlsdeform deform` refuses, with the
 // same message. The page hands over the bytes (a .gz already decompressed by the browser) and the file's
 // name, which picks the format as the program's extension does and names the file in messages.
 #include "web/src/api.hpp"
 
-#include "tools/cli/file_io.hpp"
-#include "tools/cli/handles_file.hpp"
-#include "tools/cli/mesh.hpp"
+#include "core/files/file_io.hpp"
+#include "core/files/handles_file.hpp"
+#include "core/files/mesh.hpp"
 
 #include <nlohmann/json.hpp>
 
@@ -22,7 +22,7 @@ namespace mlsdeform::web {
 /// A mesh as read: its vertices (float, xyz), its polygons (face_start, face_indices as the reader gives
 /// them) and their fan triangles (for rendering and ARAP).
 struct MeshFile {
-  cli::BasicMesh<float> mesh;
+  files::BasicMesh<float> mesh;
   std::vector<std::uint32_t> triangles;
 };
 
@@ -55,10 +55,10 @@ EMSCRIPTEN_KEEPALIVE MeshFile* mls_mesh_read(const char* bytes, int size, const 
   using namespace mlsdeform;
   return guarded<MeshFile*>(nullptr, [&] {
     const std::string path = name ? name : "";
-    const std::string format = cli::mesh_format(path);
+    const std::string format = files::mesh_format(path);
     const std::string data = web::text_of(bytes, size);
-    const auto source = cli::memory_source(data);
-    auto* m = new MeshFile{cli::parse_mesh<float>(*source, format, path), {}};
+    const auto source = files::memory_source(data);
+    auto* m = new MeshFile{files::parse_mesh<float>(*source, format, path), {}};
     const auto& start = m->mesh.face_start;
     const auto& index = m->mesh.face_indices;
     for (std::size_t f = 0; f + 1 < start.size(); ++f)
@@ -89,10 +89,10 @@ EMSCRIPTEN_KEEPALIVE const char* mls_handles_read(const char* text, int size, co
   return guarded<const char*>(nullptr, [&] {
     if (n < 0 || (n > 0 && !vertices)) throw std::invalid_argument("bad vertices");
     const std::string data = web::text_of(text, size);
-    const cli::HandlesFile file = cli::parse_handles(data, name ? name : "");
+    const files::HandlesFile file = files::parse_handles(data, name ? name : "");
     PointsRowMajor<float> v(n, 3);
     if (n > 0) v = Eigen::Map<const PointsRowMajor<float>>(vertices, n, 3);
-    const auto resolved = cli::resolve_handles<float>(file, v);
+    const auto resolved = files::resolve_handles<float>(file, v);
     const Handles<float>& rest = resolved.rest;
     const Handles<float>& first = resolved.frames.front();
     nlohmann::json out = {{"points", nlohmann::json::array()},

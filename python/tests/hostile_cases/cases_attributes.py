@@ -460,7 +460,7 @@ def cube_case(program, g, precision):
             raise BadError(f"exit {r.returncode}: {r.stderr[-300:]}")
         out = open(os.path.join(tmp, "out.obj")).read().splitlines()
         X, Nout, corners = read_obj(os.path.join(tmp, "out.obj"))
-    # The program stamps its own first line (its reader drops it again: tools/cli/formats/obj_read.cpp).
+    # The program stamps its own first line (its reader drops it again: core/files/formats/obj_read.cpp).
     if out and out[0].startswith("# written by mlsdeform "):
         out = out[1:]
     kept = [x for x in out if not x.startswith(("v ", "vn ", "f "))]

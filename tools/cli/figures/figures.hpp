@@ -3,7 +3,7 @@
 // layout and the same kinds of panel (layout.cpp). cmd_figures.cpp picks the figures and renders them.
 #pragma once
 
-#include "tools/cli/mesh.hpp"
+#include "core/files/mesh.hpp"
 #include "tools/cli/render.hpp"
 #include "tools/cli/scenes.hpp"
 
@@ -11,6 +11,9 @@
 #include <vector>
 
 namespace mlsdeform::cli {
+
+// The program is a command layer over the files library (core/files/): its names are the program's own.
+using namespace mlsdeform::files;
 
 /// What every figure shares: a grid of panels of one size (inches), all seen from one direction (matplotlib's
 /// elevation and azimuth in degrees, with the model's y axis up; Panel's defaults unless a figure says).

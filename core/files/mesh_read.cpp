@@ -1,0 +1,58 @@
+// Strict mesh readers for OBJ, OFF and PLY (ASCII, binary little- and big-endian), each optionally gzip-
+// compressed; one reader per format in core/files/formats/, chosen here by the file's extension. Everything
+// malformed is refused with the file, the line (or element and index) and the problem: numbers are parsed
+// whole and correctly rounded (std::from_chars: no hex, no "1.5.5"), every index is checked, counts promised
+// by a header are checked against the size of the body before anything is allocated, and nothing may follow
+// the last element.
+#include <mlsdeform/files_error.hpp>
+#include "core/files/file_io.hpp"
+#include "core/files/formats/reader.hpp"
+#include "core/files/mesh.hpp"
+
+#include <stdexcept>
+#include <string>
+
+namespace mlsdeform::files {
+
+using formats::kBom;
+using formats::Reader;
+using formats::shown;
+
+std::string readable_formats() {
+  return "obj, off, ply (ASCII or binary), and each gzip-compressed (.obj.gz, .off.gz, .ply.gz)";
+}
+
+std::string mesh_format(const std::string& path) {
+  const std::string ext = format_extension(path);
+  if (ext != "obj" && ext != "off" && ext != "ply")
+    throw InputError(path, "unknown mesh format" + (ext.empty() ? std::string() : " " + shown("." + ext)) +
+                               " (readable: " + readable_formats() + ")");
+  return ext;
+}
+
+template <class T>
+BasicMesh<T> read_mesh(const std::string& path, std::size_t max_bytes) {
+  const std::string ext = mesh_format(path);
+  const auto source = open_input(path, max_bytes);
+  return parse_mesh<T>(*source, ext, path);
+}
+
+template <class T>
+BasicMesh<T> parse_mesh(ByteSource& source, const std::string& format, const std::string& path) {
+  if (source.size() == 0) throw InputError(path, "empty file");
+  Reader reader(source, path);
+  if (format == "ply") return formats::read_ply<T>(reader, path);
+  // Text a Windows editor saved may start with a byte-order mark: skipped (it is no statement of OBJ or OFF).
+  const bool bom = reader.skip_prefix(kBom);
+  if (bom && reader.at_end()) throw InputError(path, "empty file (only a UTF-8 byte-order mark)");
+  if (format == "obj") return formats::read_obj<T>(reader, path);
+  if (format == "off") return formats::read_off<T>(reader, path);
+  throw std::invalid_argument("parse_mesh: unknown format '" + format + "'");
+}
+
+template BasicMesh<float> read_mesh<float>(const std::string&, std::size_t);
+template BasicMesh<double> read_mesh<double>(const std::string&, std::size_t);
+template BasicMesh<float> parse_mesh<float>(ByteSource&, const std::string&, const std::string&);
+template BasicMesh<double> parse_mesh<double>(ByteSource&, const std::string&, const std::string&);
+
+}  // namespace mlsdeform::files
