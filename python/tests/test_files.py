@@ -178,3 +178,44 @@ def test_handles_resolve_as_the_program_does(tmp_path):
         for i, X in enumerate(deform_all(V, anim)):
             want, _ = files.read_mesh(str(tmp_path / f"{os.path.basename(handles)}_{i:04d}.obj"))
             assert np.array_equal(X, want), f"{handles}: frame {i}"
+
+
+# What mlsdeform.files read differently from the program when it was a Python copy of the readers (each the
+# program's rule now, through the one reader).
+def test_obj_w_coordinate_divides(tmp_path):
+    (tmp_path / "w.obj").write_text("v 4 5 6 0.5\nv 0 0 0\nv 1 0 0\nf 1 2 3\n")
+    assert files.read_mesh(str(tmp_path / "w.obj")).vertices[0].tolist() == [8, 10, 12]
+
+
+def test_obj_comment_after_a_vertex_reads(tmp_path):
+    (tmp_path / "c.obj").write_text("v 1 2 3 # apex\nv 0 0 0\nv 1 0 0\nf 1 2 3\n")
+    assert files.read_mesh(str(tmp_path / "c.obj")).vertices[0].tolist() == [1, 2, 3]
+
+
+def ply(header_extra, body, count=3):
+    return (
+        "ply\nformat ascii 1.0\n%selement vertex %d\nproperty float x\nproperty float y\nproperty float z\n"
+        "element face 1\nproperty list uchar float texcoord\nproperty list uchar int vertex_indices\nend_header\n"
+        "%s" % (header_extra, count, body)
+    )
+
+
+def test_ply_faces_are_the_vertex_indices_list(tmp_path):
+    (tmp_path / "t.ply").write_text(ply("comment no end_header here\n", "0 0 0\n1 0 0\n0 1 0\n2 0.5 0.5 3 2 1 0\n"))
+    mesh = files.read_mesh(str(tmp_path / "t.ply"))
+    assert mesh.faces.indices.tolist() == [2, 1, 0] and "face properties texcoord" in mesh.attributes("o.ply")["kept"]
+
+
+def test_ply_body_longer_than_its_header_is_refused(tmp_path):
+    (tmp_path / "l.ply").write_text(ply("", "0 0 0\n1 0 0\n0 1 0\n2 0.5 0.5 3 2 1 0\n", count=2))
+    with pytest.raises(ValueError, match="l.ply"):
+        files.read_mesh(str(tmp_path / "l.ply"))
+
+
+def test_handles_duplicate_key_refused_and_byte_order_mark_read(tmp_path):
+    V = files.read_mesh(HUMAN).vertices
+    (tmp_path / "d.json").write_text('{"points": [{"vertex": 1}], "points": [{"vertex": 2}]}')
+    with pytest.raises(ValueError, match="d.json"):
+        files.read_handles(str(tmp_path / "d.json"), V)
+    (tmp_path / "b.json").write_bytes(b'\xef\xbb\xbf{"points": [{"vertex": 1}]}')
+    assert files.read_handles(str(tmp_path / "b.json"), V).points.tolist() == [V[1].tolist()]
