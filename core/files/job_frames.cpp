@@ -32,10 +32,13 @@ void carry_frame(const BasicMesh<T>& rest, BasicMesh<T>& result, const PointsRow
   if (plan.needs_linear() && !frames.linear)
     throw std::invalid_argument("carry_frame: the mesh's " +
                                 std::string(plan.normals ? "normals need" : "splats under an affine fit need") +
-                                " each vertex's linear part (FramesOut::linear)");
+                                " each vertex's linear part (FramesOut::linear; in Python linear=, as Mesh.frames_for "
+                                "gives)");
   if (plan.needs_quaternions() && (!frames.quaternions || (plan.scales && !frames.scales)))
     throw std::invalid_argument(std::string("carry_frame: the mesh's splats need each vertex's rotation") +
-                                (plan.scales ? " and scale" : "") + " (FramesOut::quaternions, scales)");
+                                (plan.scales ? " and scale" : "") +
+                                " (FramesOut::quaternions, scales; in Python quaternions=, scales=, as Mesh.frames_for "
+                                "gives)");
   result.vertices = positions;
   if (plan.normals) {
     result.extras = rest.extras;  // each frame's normals from the input's

@@ -219,3 +219,33 @@ def test_handles_duplicate_key_refused_and_byte_order_mark_read(tmp_path):
         files.read_handles(str(tmp_path / "d.json"), V)
     (tmp_path / "b.json").write_bytes(b'\xef\xbb\xbf{"points": [{"vertex": 1}]}')
     assert files.read_handles(str(tmp_path / "b.json"), V).points.tolist() == [V[1].tolist()]
+
+
+@pytest.mark.parametrize("transform", ["rigid", "similarity", "affine"])
+def test_mesh_object_carries_splats_as_the_program(tmp_path, transform):
+    """A 3DGS splat file read, deformed by a session with Mesh.frames_for's frames and written: the program's
+    bytes for the same file, handles and transform; without its frames, a ValueError that says what to pass."""
+    g = np.random.default_rng(3)
+    names = ["x", "y", "z", "nx", "ny", "nz", "f_dc_0", "f_dc_1", "f_dc_2"] + [f"f_rest_{i}" for i in range(24)]
+    names += ["opacity", "scale_0", "scale_1", "scale_2", "rot_0", "rot_1", "rot_2", "rot_3"]
+    rec = g.normal(size=(60, len(names))).astype("<f4")
+    head = "ply\nformat binary_little_endian 1.0\nelement vertex 60\n"
+    head += "".join(f"property float {p}\n" for p in names) + "end_header\n"
+    (tmp_path / "s.ply").write_bytes(head.encode() + rec.tobytes())
+    spec = {"points": [{"vertex": 0}, {"vertex": 1, "offset": [0, 0.3, 0]}, {"vertex": 2}, {"vertex": 3}]}
+    (tmp_path / "h.json").write_text(json.dumps(spec))
+    mesh = files.read_mesh(str(tmp_path / "s.ply"))
+    assert mesh.splat_sh_degree == 2
+    anim = files.read_handles(str(tmp_path / "h.json"), mesh)
+    options = {"affine_frames": True} if transform == "affine" else {}
+    d = mlsdeform.Deformer(mesh.vertices, transform=transform, **anim.session_arguments(), **options)
+    frames = mesh.frames_for(transform)
+    X = d.deform(**anim.targets(0), **frames)
+    files.write_mesh(str(tmp_path / "py.ply"), mesh.deformed(X, **frames))
+    r = subprocess.run(
+        [program(), "deform", "-q", "-m", "s.ply", "-H", "h.json", "-o", "cli.ply", "-t", transform], cwd=tmp_path
+    )
+    assert r.returncode == 0
+    assert (tmp_path / "py.ply").read_bytes() == (tmp_path / "cli.ply").read_bytes()
+    with pytest.raises(ValueError, match="frames_for"):
+        mesh.deformed(X)

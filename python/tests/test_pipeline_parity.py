@@ -173,40 +173,47 @@ def test_program_and_python_agree_on_every_input(tmp_path):
 
 
 def test_program_and_dask_agree_on_every_input(tmp_path):
-    """deform_meshes over a folder of every input (each with its handles file), against the program's output
-    bytes or its error message per input (Summary.failed)."""
+    """deform_meshes over folders of every input (each with its handles file; one folder per variant of options
+    and output format), against the program's output bytes or its error message per input (Summary.failed)."""
     pytest.importorskip("dask")
     distributed = pytest.importorskip("distributed")
     import mlsdeform.dask as mdask
 
     exe = program()
-    src, out = tmp_path / "in", tmp_path / "out"
-    src.mkdir()
-    out.mkdir()
-    names = []
+    folders = {}  # variant -> [(file name, handles base name)]
     for k, (name, data, handles) in enumerate(inputs()):
+        v = k % len(VARIANTS)
+        src = tmp_path / f"in{v}"
+        src.mkdir(exist_ok=True)
         stem = f"i{k:04d}_" + name  # one name per input, its extension the format
         open(src / stem, "wb").write(data)
-        base = stem[:-3] if stem.endswith(".gz") else stem
-        open(src / (os.path.splitext(base)[0] + ".json"), "wb").write(handles)
-        names.append((stem, os.path.splitext(base)[0]))
+        base = os.path.splitext(stem[:-3] if stem.endswith(".gz") else stem)[0]
+        open(src / (base + ".json"), "wb").write(handles)
+        folders.setdefault(v, []).append((stem, base))
     cluster = distributed.LocalCluster(
         n_workers=2, threads_per_worker=1, processes=False, dashboard_address=None, silence_logs=logging.ERROR
     )
     client = distributed.Client(cluster)
+    compared = 0
     try:
-        s = mdask.deform_meshes(client, str(src), str(out), output_format=".ply")
+        for v, names in folders.items():
+            flags, options, ext = VARIANTS[v]
+            src, out = tmp_path / f"in{v}", tmp_path / f"out{v}"
+            out.mkdir()
+            s = mdask.deform_meshes(client, str(src), str(out), output_format=ext, **options)
+            for stem, base in names:
+                mesh = str(src / stem)
+                cli = tmp_path / f"cli{v}" / base
+                want_err, want = run_program(exe, mesh, str(src / (base + ".json")), str(cli / (base + ext)), flags)
+                where = f"{stem} ({' '.join(flags) or 'defaults'} -> {ext})"
+                if want_err is not None:
+                    assert s.failed.get(mesh) == want_err, where
+                    continue
+                assert mesh not in s.failed, f"{where}: the program wrote, Dask failed: {s.failed[mesh]}"
+                for n, data in want.items():
+                    assert open(out / n, "rb").read() == data, f"{where}: {n} differs"
+                    compared += 1
     finally:
         client.close()
         cluster.close()
-    for stem, base in names:
-        mesh = str(src / stem)
-        want_err, want = run_program(
-            exe, mesh, str(src / (base + ".json")), str(tmp_path / "cli" / base / (base + ".ply")), []
-        )
-        if want_err is not None:
-            assert s.failed.get(mesh) == want_err, stem
-            continue
-        assert mesh not in s.failed, f"{stem}: the program wrote, Dask failed: {s.failed[mesh]}"
-        for n, data in want.items():
-            assert open(out / n, "rb").read() == data, f"{stem}: {n} differs"
+    assert compared >= 10
