@@ -38,8 +38,8 @@ struct VertexFrames {
 /// `result` := `rest` with `positions` (n x 3) and the attributes of the plan carried through `frames` (the
 /// others as read, bit for bit). `result` may hold an earlier frame of the same rest mesh (its buffers are
 /// reused). Throws InputError naming `path` for what the frames cannot carry (a splat value its property's type
-/// cannot hold, a singular affine part) and std::invalid_argument for a frame array the plan needs but that is
-/// null.
+/// cannot hold, a singular affine part) and std::invalid_argument for a position that is not finite or a frame
+/// array the plan needs but that is null.
 template <class T>
 void carry_frame(const BasicMesh<T>& rest, BasicMesh<T>& result, const PointsRowMajor<T>& positions,
                  const CarryPlan& plan, const VertexFrames<T>& frames, int threads, const std::string& path);

@@ -29,6 +29,11 @@ void carry_frame(const BasicMesh<T>& rest, BasicMesh<T>& result, const PointsRow
   if (positions.rows() != rest.vertex_count())
     throw std::invalid_argument("carry_frame: " + std::to_string(positions.rows()) + " positions for " +
                                 std::to_string(rest.vertex_count()) + " vertices");
+  if (!positions.allFinite()) {  // a file never gets a NaN or infinite coordinate (the readers refuse them too)
+    Eigen::Index v = 0;
+    while (positions.row(v).allFinite()) ++v;
+    throw std::invalid_argument("carry_frame: vertex " + std::to_string(v) + "'s position is not finite");
+  }
   if (plan.needs_linear() && !frames.linear)
     throw std::invalid_argument("carry_frame: the mesh's " +
                                 std::string(plan.normals ? "normals need" : "splats under an affine fit need") +

@@ -72,6 +72,7 @@ def build_cases(args):
         cases_attributes,
         cases_cli,
         cases_dask,
+        cases_files_api,
         cases_fit_points,
         cases_fit_rotations,
         cases_frames,
@@ -108,6 +109,7 @@ def build_cases(args):
     cases_attributes.build(args)
     cases_attributes.build_splats(args)
     cases_attributes.build_cube(args)
+    cases_files_api.build(args)
     cases_dask.build(args)
     return CASES
 
