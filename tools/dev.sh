@@ -28,10 +28,10 @@ case "${1:-}" in
 esac
 # The project's own builds link CHOLMOD for the supernodal ARAP factorisation (GPL-2+: the CMake option is
 # off by default, see docs/api.md); the sanitizer build leaves it off, so CI tests both factorisations.
-build() {  # build DIR [cmake args...]
+build() {  # build DIR [cmake args...]; BUILD_TARGET=NAME builds that target (and what it needs) alone
   local dir=$1; shift
   cmake -S . -B "$dir" -DCMAKE_BUILD_TYPE=Release -DMLSDEFORM_CHOLMOD=ON "$@" >/dev/null
-  cmake --build "$dir" -j "$jobs"
+  cmake --build "$dir" -j "$jobs" ${BUILD_TARGET:+--target "$BUILD_TARGET"}
 }
 # The WebAssembly build (docs/web.md): emscripten's cmake wrapper; NODE_PATH lets emcc's link step find
 # Debian's acorn when the node on PATH is not Debian's.
@@ -52,7 +52,9 @@ case "${1:-}" in
     ;;
   demo)
     shift
-    build build
+    # The program alone (the library and tools/cli/): not the tests, benchmarks, fuzzers and Python module that
+    # `test` builds in the same folder.
+    BUILD_TARGET=mlsdeform build build
     exec build/tools/mlsdeform demo "$@"
     ;;
   python)

@@ -52,6 +52,31 @@ except ModuleNotFoundError as _e:
 
     raise _missing_module(_e) from None
 
+
+def _check_numpy(numpy_version, pybind11_version):
+    """ImportError where this build's pybind11 cannot read the installed numpy's arrays: numpy 2 changed the layout
+    of its array descriptors, which pybind11 reads with its own copy of it, and knows numpy 2's from 2.12 on (a
+    wheel built on Debian 12 has pybind11 2.10). Computing anyway could read wrong sizes: refused at import."""
+    major = int(str(numpy_version).split(".")[0])
+    if major >= 2 and tuple(pybind11_version) < (2, 12):
+        built = ".".join(map(str, pybind11_version))
+        raise ImportError(
+            f"mlsdeform: this build was compiled with pybind11 {built}, which supports numpy 1 only, and numpy "
+            f"{numpy_version} is installed; install numpy<2 in this environment (pip install 'numpy<2'), or use "
+            "a build of mlsdeform made with pybind11 2.12 or newer (Debian 13's python3-pybind11, for example)"
+        )
+
+
+def _numpy_version():
+    import numpy
+
+    return numpy.__version__
+
+
+from ._mlsdeform import _pybind11_version  # noqa: E402 - after the check that the module is there
+
+_check_numpy(_numpy_version(), _pybind11_version)
+
 __all__ = [
     "Deformer",
     "__version__",

@@ -31,6 +31,9 @@ PYBIND11_MODULE(_mlsdeform, m) {
   python::g_main_thread = py::module_::import("threading").attr("main_thread")().attr("ident").cast<unsigned long>();
   m.attr("__version__") = std::to_string(MLSDEFORM_VERSION_MAJOR) + "." + std::to_string(MLSDEFORM_VERSION_MINOR) +
                           "." + std::to_string(MLSDEFORM_VERSION_PATCH);
+  // pybind11 reads numpy's array descriptors with its own layout of them: numpy 2 changed it, and pybind11 knows
+  // the new one from 2.12 on. mlsdeform/__init__.py refuses to import where the two do not match (_check_numpy).
+  m.attr("_pybind11_version") = py::make_tuple(PYBIND11_VERSION_MAJOR, PYBIND11_VERSION_MINOR);
   py::register_exception_translator([](std::exception_ptr p) {
     try {
       if (p) std::rethrow_exception(p);

@@ -31,3 +31,15 @@ def test_import_from_the_checkouts_python_folder_says_why_it_fails():
     last = run.stderr.strip().splitlines()[-1]
     assert last.startswith("ImportError: mlsdeform: the compiled module _mlsdeform is not in " + package), last
     assert installed in last and "run from another folder" in last, last
+
+
+def test_numpy_2_with_an_old_pybind11_is_refused_at_import():
+    """A build whose pybind11 predates numpy 2 (Debian 12's 2.10) refuses numpy 2 with a clear ImportError;
+    numpy 1 with it, and numpy 2 with pybind11 2.12 or newer, import."""
+    import mlsdeform
+
+    with pytest.raises(ImportError, match=r"pybind11 2\.10.*numpy 2\.2\.4.*numpy<2"):
+        mlsdeform._check_numpy("2.2.4", (2, 10))
+    mlsdeform._check_numpy("1.24.2", (2, 10))
+    mlsdeform._check_numpy("2.2.4", (2, 13))
+    mlsdeform._check_numpy("2.0.0rc1", (2, 12))
