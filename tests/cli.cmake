@@ -62,13 +62,20 @@ if(NOT MLSDEFORM_SANITIZE)
     list(REMOVE_DUPLICATES _fuzz_includes)
     set(_cli_dir ${PROJECT_SOURCE_DIR}/core/files)
     file(GLOB_RECURSE _cli_headers ${_cli_dir}/*.hpp)
+    # SPZ version 4 (zstd) as the program reads it, where the build has zstd (core/files/CMakeLists.txt).
+    set(_fuzz_zstd)
+    find_path(MLSDEFORM_ZSTD_INCLUDE_DIR zstd.h)
+    find_library(MLSDEFORM_ZSTD_LIBRARY zstd)
+    if(MLSDEFORM_ZSTD_INCLUDE_DIR AND MLSDEFORM_ZSTD_LIBRARY)
+      set(_fuzz_zstd -DMLSDEFORM_HAVE_ZSTD=1 -I${MLSDEFORM_ZSTD_INCLUDE_DIR} ${MLSDEFORM_ZSTD_LIBRARY})
+    endif()
     # mlsdeform_fuzz_binary(NAME SOURCES...): builds NAME from the sources.
     function(mlsdeform_fuzz_binary name)
       set(bin ${CMAKE_CURRENT_BINARY_DIR}/${name})
       add_custom_command(
         OUTPUT ${bin}
         COMMAND ${MLSDEFORM_CLANGXX} -std=c++20 -g -O1 -fsanitize=fuzzer,address,undefined -fno-sanitize-recover=all
-                ${_fuzz_includes} ${ARGN} -lz -o ${bin}
+                ${_fuzz_includes} ${ARGN} -lz ${_fuzz_zstd} -o ${bin}
         DEPENDS ${ARGN} ${_cli_headers}
         COMMENT "Building the libFuzzer target ${name} with ${MLSDEFORM_CLANGXX}"
         VERBATIM)
@@ -92,7 +99,9 @@ if(NOT MLSDEFORM_SANITIZE)
     # The mesh readers and writers, one per format, and what they share.
     set(_cli_formats ${_cli_dir}/attributes.cpp ${_cli_dir}/attributes_ops.cpp ${_cli_dir}/formats/reader.cpp ${_cli_dir}/formats/numbers.cpp ${_cli_dir}/formats/obj_read.cpp ${_cli_dir}/formats/off_read.cpp
                      ${_cli_dir}/formats/ply_read.cpp ${_cli_dir}/formats/obj_write.cpp
-                     ${_cli_dir}/formats/off_write.cpp ${_cli_dir}/formats/ply_write.cpp ${_cli_dir}/formats/npy_write.cpp)
+                     ${_cli_dir}/formats/off_write.cpp ${_cli_dir}/formats/ply_write.cpp ${_cli_dir}/formats/npy_write.cpp
+                     ${_cli_dir}/splat_io.cpp ${_cli_dir}/formats/splat_common.cpp ${_cli_dir}/formats/spz.cpp
+                     ${_cli_dir}/formats/compressed_ply.cpp ${_cli_dir}/formats/splat_file.cpp)
     # One target per mesh reader, and one for gzip input (FUZZ_MESH_FORMAT picks it); each round-trips what it
     # reads through the writer.
     mlsdeform_fuzz_binary(fuzz_mesh ${_fuzz_dir}/fuzz_mesh.cpp ${_cli_dir}/mesh_read.cpp ${_cli_formats}

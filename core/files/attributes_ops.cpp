@@ -3,6 +3,7 @@
 #include <mlsdeform/files_error.hpp>
 #include "core/files/file_io.hpp"
 #include "core/files/mesh.hpp"
+#include "core/files/splat_io.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -144,7 +145,11 @@ AttributeReport attribute_report(const BasicMesh<T>& mesh, const std::string& ou
     else
       r.kept.push_back(what);
   };
-  if (x.ply) {
+  if (x.ply && files::splat_format(out_path) != files::SplatFormat::none) {  // SPZ, compressed PLY: splat_io.hpp
+    r.dropped = files::splat_output_drops(*x.ply);
+    if (x.ply->vertex_element >= 0 && x.ply->vertices().find("rot_0") >= 0)
+      r.transformed.push_back("Gaussian splats (rot_*, scale_*, f_rest_*)");
+  } else if (x.ply) {
     const auto n = ply_normals(*x.ply);
     // A Gaussian splat file's rot_*, scale_* and f_rest_* turn with the splats (splats.hpp), named as such.
     const bool splats = x.ply->vertex_element >= 0 && x.ply->vertices().find("rot_0") >= 0;

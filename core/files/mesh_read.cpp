@@ -8,6 +8,7 @@
 #include "core/files/file_io.hpp"
 #include "core/files/formats/reader.hpp"
 #include "core/files/mesh.hpp"
+#include "core/files/splat_io.hpp"
 
 #include <stdexcept>
 #include <string>
@@ -19,10 +20,12 @@ using formats::Reader;
 using formats::shown;
 
 std::string readable_formats() {
-  return "obj, off, ply (ASCII or binary), and each gzip-compressed (.obj.gz, .off.gz, .ply.gz)";
+  return "obj, off, ply (ASCII or binary), and each gzip-compressed (.obj.gz, .off.gz, .ply.gz); Gaussian splats "
+         "as 3DGS ply, compressed.ply, spz and splat";
 }
 
 std::string mesh_format(const std::string& path) {
+  if (files::splat_format(path) != files::SplatFormat::none) return "splat";  // splat_io.hpp
   const std::string ext = format_extension(path);
   if (ext != "obj" && ext != "off" && ext != "ply")
     throw InputError(path, "unknown mesh format" + (ext.empty() ? std::string() : " " + shown("." + ext)) +
@@ -33,13 +36,26 @@ std::string mesh_format(const std::string& path) {
 template <class T>
 BasicMesh<T> read_mesh(const std::string& path, std::size_t max_bytes) {
   const std::string ext = mesh_format(path);
+  if (ext == "splat") return files::read_splat_file<T>(path, files::splat_format(path), max_bytes);
   const auto source = open_input(path, max_bytes);
+  if (ext == "ply" && !is_gzip_path(path)) {  // a compressed PLY named plainly .ply is read as what it is
+    std::string head(4096, '\0');
+    head.resize(source->read(head.data(), head.size()));
+    source->rewind();
+    if (files::looks_like_compressed_ply(head))
+      return files::read_splat_file<T>(path, files::SplatFormat::compressed_ply, max_bytes);
+  }
   return parse_mesh<T>(*source, ext, path);
 }
 
 template <class T>
 BasicMesh<T> parse_mesh(ByteSource& source, const std::string& format, const std::string& path) {
   if (source.size() == 0) throw InputError(path, "empty file");
+  if (format == "splat") {  // SPZ, compressed PLY, .splat by the name (splat_io.hpp)
+    std::string bytes(source.size(), '\0');
+    bytes.resize(source.read(bytes.data(), bytes.size()));
+    return files::decode_splat_file<T>(bytes, path, files::splat_format(path), kDefaultMaxInputBytes);
+  }
   Reader reader(source, path);
   if (format == "ply") return formats::read_ply<T>(reader, path);
   // Text a Windows editor saved may start with a byte-order mark: skipped (it is no statement of OBJ or OFF).

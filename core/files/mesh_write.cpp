@@ -5,6 +5,7 @@
 #include "core/files/file_io.hpp"
 #include "core/files/formats/writer.hpp"
 #include "core/files/mesh.hpp"
+#include "core/files/splat_io.hpp"
 
 #include <cmath>
 #include <limits>
@@ -68,11 +69,13 @@ Triangles fan_triangles(const BasicMesh<T>& mesh, const std::string& path) {
 
 std::string writable_formats() {
   return "obj, off, ply (binary; ASCII with --ply-ascii), and each gzip-compressed (.obj.gz, .off.gz, .ply.gz); "
-         "npy (numpy: the positions alone)";
+         "npy (numpy: the positions alone); Gaussian splats also as spz and compressed.ply";
 }
 
 void check_output_format(const std::string& path) {
-  const std::string ext = format_extension(path);
+  const files::SplatFormat splats = files::splat_format(path);  // splat_io.hpp
+  if (splats == files::SplatFormat::spz || splats == files::SplatFormat::compressed_ply) return;
+  const std::string ext = splats == files::SplatFormat::splat ? "splat (read only)" : format_extension(path);
   if (ext != "obj" && ext != "off" && ext != "ply" && ext != "npy")
     throw InputError(path, "unknown output format" + (ext.empty() ? std::string() : " '." + ext + "'") +
                                " (writable: " + writable_formats() + ")");
@@ -90,6 +93,8 @@ CoordinateType output_type(const BasicMesh<T>& mesh, const WriteOptions& options
 template <class T>
 std::string encode_mesh(const BasicMesh<T>& mesh, const std::string& path, const WriteOptions& options) {
   check_output_format(path);
+  if (const auto splats = files::splat_format(path); splats != files::SplatFormat::none)
+    return files::encode_splat_file(mesh, path, splats);
   const std::string ext = format_extension(path);
   // Computed normals only on request; the input's own (mesh.extras) are written by their format's writer.
   const bool computed = options.normals == NormalsOut::computed && ext != "off" && ext != "npy";

@@ -2,9 +2,9 @@
 // splat and a property, the checks of a value against a format's range).
 #pragma once
 
+#include <mlsdeform/files_error.hpp>
+#include "core/files/file_io.hpp"
 #include "core/files/formats/splat_codecs.hpp"
-#include "tools/cli/error.hpp"
-#include "tools/cli/file_io.hpp"
 
 #include <cmath>
 #include <cstdint>
@@ -13,8 +13,6 @@
 
 namespace mlsdeform::files {
 
-using cli::gunzip;
-using cli::InputError;
 
 namespace splat_detail {
 
