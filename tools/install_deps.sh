@@ -27,7 +27,7 @@ fi
 packages=(cmake g++ make pkg-config
   libtbb-dev libxsimd-dev libeigen3-dev libbenchmark-dev catch2            # the library, tests, benchmarks
   libsuitesparse-dev libopenblas0-pthread                                 # CHOLMOD, its BLAS (MLSDEFORM_CHOLMOD)
-  nlohmann-json3-dev libcli11-dev zlib1g-dev                               # the command-line tool
+  nlohmann-json3-dev libcli11-dev zlib1g-dev libzstd-dev                   # the command-line tool (zstd: SPZ 4)
   python3 python3-matplotlib                                              # figures and benchmark plots
   python3-dev python3-numpy python3-pytest pybind11-dev python3-pybind11  # the Python package (python/)
   python3-pip python3-venv python3-setuptools python3-wheel python3-build  # ... as a wheel (pyproject.toml)
@@ -41,7 +41,11 @@ packages=(cmake g++ make pkg-config
 # (tools/blender/).
 # `install_deps.sh web` adds emscripten (emcc 3.1.6; node-acorn for its link step) and Chromium (the browser
 # tests drive it headless), and Node with npm where there is none.
+# `install_deps.sh judge` adds Node with npm where there is none, and the independent splat converter the
+# splat-format tests hold the program against (@playcanvas/splat-transform, pinned by
+# tests/splat_judge/package-lock.json, into tests/splat_judge/node_modules only; docs/splats.md).
 web=0
+judge=0
 for arg in "$@"; do
   case "$arg" in
     bench) packages+=(libcgal-dev) ;;
@@ -52,7 +56,11 @@ for arg in "$@"; do
       packages+=(emscripten node-acorn chromium)
       command -v npm >/dev/null || packages+=(nodejs npm)
       ;;
-    *) echo "install_deps: unknown part '$arg' (bench, blender, web, clang19)" >&2; exit 2 ;;
+    judge)
+      judge=1
+      command -v npm >/dev/null || packages+=(nodejs npm)
+      ;;
+    *) echo "install_deps: unknown part '$arg' (bench, blender, web, judge, clang19)" >&2; exit 2 ;;
   esac
 done
 # The page's packages (three; puppeteer-core, which drives the Debian Chromium and downloads no browser),
@@ -67,12 +75,23 @@ web_npm() {
     (cd "$root/web" && PUPPETEER_SKIP_DOWNLOAD=1 npm ci --no-audit --no-fund --ignore-scripts >/dev/null)
   fi
 }
+judge_npm() {
+  [ "$judge" = 1 ] || return 0
+  local dir
+  dir=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)/tests/splat_judge
+  if [ ! -x "$dir/node_modules/.bin/splat-transform" ] ||
+    [ "$dir/package-lock.json" -nt "$dir/node_modules/.package-lock.json" ]; then
+    echo "install_deps: npm ci in tests/splat_judge/" >&2
+    (cd "$dir" && npm ci --no-audit --no-fund --ignore-scripts >/dev/null)
+  fi
+}
 missing=()
 for p in "${packages[@]}"; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
 done
 if [ ${#missing[@]} -eq 0 ]; then
   web_npm
+  judge_npm
   exit 0
 fi
 echo "install_deps: installing ${missing[*]}" >&2
@@ -82,3 +101,4 @@ export DEBIAN_FRONTEND=noninteractive
 $sudo apt-get update -qq
 $sudo apt-get install -y -qq --no-install-recommends "${missing[@]}" >/dev/null
 web_npm
+judge_npm
