@@ -126,9 +126,16 @@ if(NOT MLSDEFORM_SANITIZE)
     endforeach()
     mlsdeform_fuzz_test(fuzz_mesh_gz fuzz_mesh ${_fuzz_dir}/corpus_gz ${_fuzz_dir}/gzip.dict 100000 4096
                         FUZZ_MESH_FORMAT=gz)
+    # The splat formats (SPZ, .splat, compressed PLY), from seeds splat-transform wrote.
+    foreach(fmt spz splat compressed.ply)
+      string(REPLACE "." "_" _name ${fmt})
+      mlsdeform_fuzz_test(fuzz_mesh_${_name} fuzz_mesh ${_fuzz_dir}/corpus_${_name} ${_fuzz_dir}/splats.dict 50000 8192
+                          FUZZ_MESH_FORMAT=${fmt})
+    endforeach()
   else()
     message(STATUS "mlsdeform: fuzz target skipped: ${_fuzz_why}")
-    foreach(name fuzz_handles fuzz_mesh_obj fuzz_mesh_off fuzz_mesh_ply fuzz_mesh_gz)
+    foreach(name fuzz_handles fuzz_mesh_obj fuzz_mesh_off fuzz_mesh_ply fuzz_mesh_gz fuzz_mesh_spz fuzz_mesh_splat
+                 fuzz_mesh_compressed_ply)
       add_test(NAME cli:${name} COMMAND ${CMAKE_COMMAND} -E echo "fuzz target skipped: ${_fuzz_why}")
       set_tests_properties(cli:${name} PROPERTIES LABELS "cli;no_sanitizer" SKIP_REGULAR_EXPRESSION "skipped")
     endforeach()

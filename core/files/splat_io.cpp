@@ -45,7 +45,7 @@ BasicMesh<T> splat_mesh(const SplatCloud& c) {
       mesh.vertices(Eigen::Index(i), Eigen::Index(j)) = T(c.position[i * 3 + j]);
       r[j] = c.position[i * 3 + j], r[3 + j] = c.f_dc[i * 3 + j];
     }
-    std::memcpy(r + 6, &c.f_rest[i * k], k * 4);
+    if (k) std::memcpy(r + 6, c.f_rest.data() + i * k, k * 4);
     r[6 + k] = c.opacity[i];
     std::memcpy(r + 7 + k, &c.scale[i * 3], 12);
     std::memcpy(r + 10 + k, &c.rot[i * 4], 16);

@@ -1,7 +1,9 @@
-// libFuzzer targets for the mesh readers of the command-line tool (core/files/formats/): one binary, four
+// libFuzzer targets for the mesh readers of the command-line tool (core/files/formats/): one binary, seven
 // targets chosen by the environment variable FUZZ_MESH_FORMAT: "obj", "off" or "ply" (the input is the file's
-// bytes), or "gz" (the input is gzip data; its decompressed bytes are read as PLY, OFF or OBJ by their first
-// bytes). One binary because each build of it takes CI half a minute.
+// bytes), "gz" (the input is gzip data; its decompressed bytes are read as PLY, OFF or OBJ by their first
+// bytes), or a splat format, "spz", "splat" or "compressed.ply" (core/files/formats/splat_codecs.hpp: what is
+// read must encode as SPZ and compressed PLY, or be refused for a value those cannot hold, and read back). One
+// binary because each build of it takes CI half a minute.
 //
 // Any input must either be read, and then give a mesh that keeps the documented invariants and writes and
 // reads back bit for bit (positions, faces and every attribute kept: core/files/attributes.hpp), or be refused with
@@ -155,20 +157,56 @@ std::string format_of(std::string_view text) {
   return "obj";
 }
 
-std::string g_target;  // "obj", "off", "ply" or "gz"
+std::string g_target;  // "obj", "off", "ply", "gz", "spz", "splat" or "compressed.ply"
+
+bool splat_target() { return g_target == "spz" || g_target == "splat" || g_target == "compressed.ply"; }
+
+// A splat file read is the 3DGS layout's mesh; written as SPZ and as compressed PLY (lossy: compared in count
+// only), unless refused, naming the output, for a value the format cannot hold.
+void check_splats(std::string_view bytes) {
+  const std::string name = "fuzz." + g_target;
+  Mesh m;
+  try {
+    m = parse_mesh(*memory_source(bytes), "splat", name);
+  } catch (const InputError& e) {
+    check_message(e, name);
+    return;
+  }
+  check_invariants(m);
+  if (m.face_count() != 0 || !m.extras.ply) bug("a splat file read with faces or without its layout");
+  for (const std::string out : {"round_trip.spz", "round_trip.compressed.ply"}) {
+    std::string written;
+    try {
+      written = encode_mesh(m, out);
+    } catch (const InputError& e) {
+      check_message(e, out);
+      continue;
+    }
+    try {
+      const Mesh back = parse_mesh(*memory_source(written), "splat", out);
+      if (back.vertex_count() != m.vertex_count()) bug("splats lost in a round trip through", out);
+    } catch (const InputError& e) {
+      bug("what was written does not read back:", e.what());
+    }
+  }
+}
 
 }  // namespace
 
 extern "C" int LLVMFuzzerInitialize(int*, char***) {
   const char* target = std::getenv("FUZZ_MESH_FORMAT");
   g_target = target ? target : "";
-  if (g_target != "obj" && g_target != "off" && g_target != "ply" && g_target != "gz")
-    bug("set FUZZ_MESH_FORMAT to obj, off, ply or gz; it is", "'" + g_target + "'");
+  if (g_target != "obj" && g_target != "off" && g_target != "ply" && g_target != "gz" && !splat_target())
+    bug("set FUZZ_MESH_FORMAT to obj, off, ply, gz, spz, splat or compressed.ply; it is", "'" + g_target + "'");
   return 0;
 }
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
   const std::string_view bytes(reinterpret_cast<const char*>(data), size);
+  if (splat_target()) {
+    check_splats(bytes);
+    return 0;
+  }
   if (g_target == "gz") {
     const std::string name = "fuzz.gz";
     try {
