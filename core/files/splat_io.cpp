@@ -90,29 +90,35 @@ SplatCloud splat_cloud(const BasicMesh<T>& mesh, const std::string& path) {
   const std::size_t n = std::size_t(mesh.vertex_count()), k = std::size_t(3 * ((degree + 1) * (degree + 1) - 1));
   c.resize(n, degree);
   for (const auto& line : ply->header) c.antialiased = c.antialiased || line.text == kAntialiased;
-  auto column = [&](std::size_t at, float* out, std::size_t stride) {
-    const std::size_t step = v.stride();
-    const bool f32 = v.properties[at].type == PlyScalar::f32;
-    const unsigned char* p = v.data.data() + v.offset(at);
-    for (std::size_t i = 0; i < n; ++i, p += step, out += stride) {
-      if (f32) {
-        std::memcpy(out, p, 4);
+  // Row by row (a column at a time would cross the whole element once per property): each splat's values
+  // from their offsets in its record, float or double.
+  std::vector<std::size_t> at(props.size());
+  std::vector<bool> f32(props.size());
+  for (std::size_t q = 0; q < props.size(); ++q)
+    at[q] = v.offset(props[q]), f32[q] = v.properties[props[q]].type == PlyScalar::f32;
+  std::vector<float> row(props.size());
+  const std::size_t stride = v.stride();
+  for (std::size_t i = 0; i < n; ++i) {
+    const unsigned char* rec = v.data.data() + i * stride;
+    for (std::size_t q = 0; q < props.size(); ++q) {
+      if (f32[q]) {
+        std::memcpy(&row[q], rec + at[q], 4);
       } else {
         double d;
-        std::memcpy(&d, p, 8);
-        *out = float(d);
+        std::memcpy(&d, rec + at[q], 8);
+        row[q] = float(d);
       }
     }
-  };
-  // props: f_dc_0..2, f_rest_0..k-1, opacity, scale_0..2, rot_0..3 (property_names' order without x y z).
-  for (std::size_t j = 0; j < 3; ++j) {
-    for (std::size_t i = 0; i < n; ++i) c.position[i * 3 + j] = float(mesh.vertices(Eigen::Index(i), Eigen::Index(j)));
-    column(props[j], &c.f_dc[j], 3);
-    column(props[4 + k + j], &c.scale[j], 3);
+    // props: f_dc_0..2, f_rest_0..k-1, opacity, scale_0..2, rot_0..3 (property_names' order without x y z).
+    for (std::size_t j = 0; j < 3; ++j) {
+      c.position[i * 3 + j] = float(mesh.vertices(Eigen::Index(i), Eigen::Index(j)));
+      c.f_dc[i * 3 + j] = row[j];
+      c.scale[i * 3 + j] = row[4 + k + j];
+    }
+    if (k) std::memcpy(c.f_rest.data() + i * k, &row[3], k * 4);
+    c.opacity[i] = row[3 + k];
+    std::memcpy(&c.rot[i * 4], &row[7 + k], 16);
   }
-  for (std::size_t j = 0; j < k; ++j) column(props[3 + j], &c.f_rest[j], k);
-  column(props[3 + k], c.opacity.data(), 1);
-  for (std::size_t j = 0; j < 4; ++j) column(props[7 + k + j], &c.rot[j], 4);
   return c;
 }
 

@@ -198,14 +198,9 @@ def main():
             mls(p("x.ply"), p("b" + ext))
             st(p("b" + ext), p("b.ply"))
             got = sf.read_ply(p("b.ply"))["vertex"]
-            ok &= judge(
-                f"{label} out (the program writes SPZ 3)" if fmt == "spz" else f"{label} out ",
-                ref,
-                got,
-                bounds(fmt, "mine", p("b" + ext), n, a.degree),
-                a.degree,
-                log,
-            )
+            written = "SPZ 4" if open(p("b" + ext), "rb").read(4) == b"NGSP" else "SPZ 3"
+            name = f"spz out ({written})" if fmt == "spz" else f"{label} out "
+            ok &= judge(name, ref, got, bounds(fmt, "mine", p("b" + ext), n, a.degree), a.degree, log)
         if a.degree == 0:
             ok &= splat_case(p, x, mls, st, log)
     print("\n".join(log))

@@ -49,8 +49,9 @@ bool looks_like_compressed_ply(std::string_view bytes);
 /// and SH turned with them), as splat-transform and Niantic's library do. `max_bytes` bounds the decompressed
 /// size, checked before anything is allocated for it.
 SplatCloud decode_spz(std::string_view bytes, const std::string& path, std::size_t max_bytes);
-/// SPZ version 3 (gzip): 24-bit positions with 12 fractional bits, 8-bit everything else, SH at the full
-/// 8 bits (no coarser buckets). Refuses, naming the splat, values outside the format's ranges.
+/// SPZ version 4 (zstd streams) where the build has zstd, else version 3 (gzip): 24-bit positions with 12
+/// fractional bits, 8-bit everything else, SH at the full 8 bits (no coarser buckets). Refuses, naming the
+/// splat, values outside the format's ranges.
 std::string encode_spz(const SplatCloud& cloud, const std::string& path);
 
 /// PlayCanvas's compressed PLY: chunks of 256 splats with their bounds, each splat in 4 packed uint32,

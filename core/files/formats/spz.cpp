@@ -15,6 +15,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <stdexcept>
 
 namespace mlsdeform::files {
 
@@ -25,7 +26,15 @@ namespace {
 constexpr std::uint32_t kMagic = 0x5053474e;  // "NGSP"
 constexpr double kColourScale = 0.15;
 constexpr int kFractionalBits = 12;
+// What encode_spz writes: version 4 (zstd, level 3: zstd's default, fast at a ratio near gzip's best) where the
+// build has zstd, else version 3 (gzip). Both are what splat-transform and Niantic's library read.
+#if MLSDEFORM_HAVE_ZSTD
+constexpr std::uint32_t kWritten = 4;
+constexpr int kZstdLevel = 3;
+#else
+constexpr std::uint32_t kWritten = 3;
 constexpr int kGzipLevel = 6;
+#endif
 
 // SPZ keeps right-up-back axes, 3DGS PLY right-down-forward: the two differ by the half turn F = diag(1, -1, -1)
 // about x. A position's y and z change sign, a quaternion (w, x, y, z) becomes (w, x, -y, -z) (F q F), and an
@@ -199,6 +208,7 @@ SplatCloud decode_ngsp(std::string_view bytes, const std::string& path, std::siz
 #endif
 }
 
+#if !MLSDEFORM_HAVE_ZSTD
 std::string gzip_level(std::string_view data, int level) {
   z_stream zs{};
   if (deflateInit2(&zs, level, Z_DEFLATED, 15 + 16, 8, Z_DEFAULT_STRATEGY) != Z_OK)  // 16: a gzip header
@@ -214,6 +224,7 @@ std::string gzip_level(std::string_view data, int level) {
   if (ret != Z_STREAM_END) throw std::runtime_error("zlib: deflate did not finish");
   return out;
 }
+#endif
 
 }  // namespace
 
@@ -231,11 +242,11 @@ std::string encode_spz(const SplatCloud& c, const std::string& path) {
   const std::size_t n = c.count, k = c.sh_per_channel();
   if (n == 0) throw InputError(path, problem("no splats to write"));
   if (n > 0xffffffffu) throw InputError(path, problem("more splats than SPZ's 32-bit count holds"));
-  const Arrays a = arrays_for(n, 3, c.sh_degree);
+  const Arrays a = arrays_for(n, int(kWritten), c.sh_degree);
+  // The legacy header first (version 3 is gzip of header and arrays); version 4 writes its own header.
   std::string raw;
-  raw.reserve(16 + a.sizes[0] + a.sizes[1] + a.sizes[2] + a.sizes[3] + a.sizes[4] + a.sizes[5]);
   store_u32(raw, kMagic);
-  store_u32(raw, 3);
+  store_u32(raw, kWritten);
   store_u32(raw, std::uint32_t(n));
   raw += char(c.sh_degree), raw += char(kFractionalBits), raw += char(c.antialiased ? 1 : 0), raw += '\0';
   const std::size_t base = raw.size();
@@ -284,7 +295,30 @@ std::string encode_spz(const SplatCloud& c, const std::string& path) {
         sh[i * 3 * k + j * 3 + ch] = std::uint8_t(u + 128);
       }
   }
+#if MLSDEFORM_HAVE_ZSTD
+  // Version 4: the 32-byte header (the legacy one, then the stream count, the table's offset and 12 zero
+  // bytes), a table of (compressed, uncompressed) sizes, one zstd frame per non-empty array.
+  std::string out = raw.substr(0, 15);
+  const std::size_t streams = a.sizes[5] ? 6 : 5;
+  out += char(streams);
+  store_u32(out, 32);
+  out.append(12, '\0');
+  std::vector<std::string> packed(streams);
+  const char* at = raw.data() + base;
+  for (std::size_t j = 0; j < streams; ++j) {
+    packed[j].resize(ZSTD_compressBound(a.sizes[j]));
+    const std::size_t got = ZSTD_compress(packed[j].data(), packed[j].size(), at, a.sizes[j], kZstdLevel);
+    if (ZSTD_isError(got)) throw std::runtime_error(std::string("zstd: ") + ZSTD_getErrorName(got));
+    packed[j].resize(got);
+    at += a.sizes[j];
+    store_u64(out, got);
+    store_u64(out, a.sizes[j]);
+  }
+  for (const auto& p : packed) out += p;
+  return out;
+#else
   return gzip_level(raw, kGzipLevel);
+#endif
 }
 
 }  // namespace mlsdeform::files
