@@ -2,8 +2,9 @@
 """Mutation campaign for the mesh readers of the `mlsdeform` program, run as a user runs it.
 
 Generates a small valid mesh in every readable format (OBJ, OFF, PLY ASCII, PLY binary little- and big-endian,
-and the .gz of each), mutates each file N times (bytes, tokens, header counts, gzip members; a few gzip bombs),
-runs `mlsdeform deform` on every mutant with a fresh output folder, and checks the program's contract:
+and the .gz of each; the splat formats SPZ, .splat and compressed PLY from tests/fuzz/corpus_*), mutates each
+file N times (bytes, tokens, header counts, gzip members; a few gzip bombs), runs `mlsdeform deform` on every
+mutant with a fresh output folder, and checks the program's contract:
 
   exit 0  the mesh was read: the output file exists, nothing else is left in the folder
   exit 2  bad input: exactly one line on stderr, "mlsdeform: error: <the mesh's path>: ...", no file left (or
@@ -29,7 +30,7 @@ import threading
 import time
 import zlib
 
-from mutations import encode, make_mutant, seed_mesh  # the mutants, beside this script
+from mutations import SPLAT_KINDS, encode, make_mutant, make_splat_mutant, seed_mesh, splat_seeds  # beside this
 
 
 # GNU time (Debian's `time` package) measures the program's own peak RSS. Without it, the child's rusage is
@@ -37,12 +38,12 @@ from mutations import encode, make_mutant, seed_mesh  # the mutants, beside this
 TIME = shutil.which("time", path="/usr/bin:/bin")
 
 
-def run_one(program, path, out_dir, timeout, extra):
+def run_one(program, path, out_dir, timeout, extra, handles_name="handles.json"):
     """Runs the program on one mesh; (exit code, bug or None, peak RSS MiB, seconds, stderr)."""
     os.makedirs(out_dir)
     out = os.path.join(out_dir, "out.ply")
     err_path = path + ".stderr"
-    handles = os.path.join(os.path.dirname(out_dir), "handles.json")
+    handles = os.path.join(os.path.dirname(out_dir), handles_name)
     with open(err_path, "wb") as err:
         start = time.monotonic()
         command = [program, "deform", "-m", path, "-H", handles, "-o", out, "-q"] + extra
@@ -118,9 +119,14 @@ def main():
     kinds = ["obj", "off", "ply", "le.ply", "be.ply"]
     base = {k: encode(verts, faces, k, args.precision) for k in kinds}
     kinds += [k + ".gz" for k in ("obj", "off", "ply", "le.ply")]
+    splats = splat_seeds(os.path.dirname(os.path.abspath(__file__)))
+    kinds += list(SPLAT_KINDS)
     # Two handles at different positions: vertex 0 fixed, the last one moved.
     with open(os.path.join(args.out_dir, "handles.json"), "w") as f:
         json.dump({"points": [{"vertex": 0}, {"vertex": len(verts) - 1, "offset": [0, 0.1, 0]}]}, f)
+    # The splat seeds have a few splats: handles placed by rest position, one fixed, one moved.
+    with open(os.path.join(args.out_dir, "handles_rest.json"), "w") as f:
+        json.dump({"points": [{"rest": [0, 0, 0]}, {"rest": [1, 1, 1], "offset": [0, 0.1, 0]}]}, f)
     # Mutants are made in the workers, one at a time: a child's peak RSS counts what it shares with this
     # process between fork and exec, so this process stays small (its own peak is printed as the floor).
     jobs = [(kind, i, None) for kind in kinds for i in range(args.per_format)]
@@ -135,15 +141,18 @@ def main():
     def work(job):
         kind, i, data = job
         extra = ["--precision", args.precision]
+        rng = random.Random("%d/%s/%d" % (args.seed, kind, i))
         if data is None:
-            data = make_mutant(kind, base, random.Random("%d/%s/%d" % (args.seed, kind, i)))
+            data = make_splat_mutant(kind, splats, rng) if kind in SPLAT_KINDS else make_mutant(kind, base, rng)
         else:
             extra += ["--max-input-mib", "64"]
         path = os.path.join(args.out_dir, "m%05d.%s" % (i, kind))
         with open(path, "wb") as f:
             f.write(data)
         del data
-        result = run_one(args.program, path, os.path.join(args.out_dir, "o_%s_%d" % (kind, i)), args.timeout, extra)
+        handles = "handles_rest.json" if kind in SPLAT_KINDS else "handles.json"
+        out_dir = os.path.join(args.out_dir, "o_%s_%d" % (kind, i))
+        result = run_one(args.program, path, out_dir, args.timeout, extra, handles)
         return kind, path, result
 
     with concurrent.futures.ThreadPoolExecutor(args.jobs) as pool:

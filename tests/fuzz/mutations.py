@@ -222,3 +222,32 @@ def make_mutant(kind, base, rng):
     if kind != "obj" and r < 0.75:
         return mutate_header(base[kind], rng)
     return mutate_bytes(base[kind], rng)
+
+
+SPLAT_KINDS = ("spz", "splat", "compressed.ply")
+
+
+def splat_seeds(corpus_dir):
+    """The splat seeds (tests/fuzz/corpus_*, written by splat-transform and by hand): the mutation bases."""
+    import glob
+    import os
+
+    seeds = {}
+    for kind in SPLAT_KINDS:
+        folder = os.path.join(corpus_dir, "corpus_" + kind.replace(".", "_"))
+        seeds[kind] = [open(f, "rb").read() for f in sorted(glob.glob(os.path.join(folder, "*")))]
+    return seeds
+
+
+def make_splat_mutant(kind, seeds, rng):
+    """A splat file mutated: bytes anywhere, a compressed PLY's header, an SPZ's gzip layer or the data inside it."""
+    data = rng.choice(seeds[kind])
+    r = rng.random()
+    if kind == "spz" and data[:2] == b"\x1f\x8b":
+        if r < 0.3:
+            return mutate_gzip(data, rng)
+        if r < 0.7:
+            return gzip.compress(mutate_bytes(gzip.decompress(data), rng), mtime=0)
+    if kind == "compressed.ply" and r < 0.4:
+        return mutate_header(data, rng)
+    return mutate_bytes(data, rng)
