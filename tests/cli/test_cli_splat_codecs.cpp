@@ -97,6 +97,12 @@ TEST_CASE("SPZ: written and read back within each quantity's bound", "[splat_cod
     CHECK(alpha <= 0.5 / 255 + 1e-7);
     CHECK(sh <= 0.5 / 128 + eps_f);
     CHECK(rot <= rotation_bound(0.5 * std::sqrt(0.5) / 511));
+    // Version 3's bytes before their gzip layer (what the web page compresses itself) hold the same values.
+    const files::SplatCloud p = files::decode_spz(files::encode_spz_payload(c, "t.spz"), "t.spz", 1 << 30);
+    CHECK(p.position == d.position);
+    CHECK(p.rot == d.rot);
+    CHECK(p.f_rest == d.f_rest);
+    CHECK(files::decode_spz(gz(files::encode_spz_payload(c, "t.spz")), "t.spz", 1 << 30).scale == d.scale);
   }
 }
 

@@ -44,15 +44,18 @@ const char* splat_format_name(SplatFormat f);
 /// `packed_position` property), so that one named plainly `.ply` can be read as what it is.
 bool looks_like_compressed_ply(std::string_view bytes);
 
-/// SPZ (nianticlabs/spz): versions 2 and 3 (gzip) and 4 (zstd streams; refused, saying so, by a build without
-/// zstd). Axes converted from SPZ's right-up-back to PLY's right-down-forward (y and z negated, the quaternion
-/// and SH turned with them), as splat-transform and Niantic's library do. `max_bytes` bounds the decompressed
-/// size, checked before anything is allocated for it.
+/// SPZ (nianticlabs/spz): versions 2 and 3 (gzip, or without their gzip layer) and 4 (zstd streams; refused,
+/// saying so, by a build without zstd). Axes converted from SPZ's right-up-back to PLY's right-down-forward (y and z
+/// negated, the quaternion and SH turned with them), as splat-transform and Niantic's library do. `max_bytes` bounds
+/// the decompressed size, checked before anything is allocated for it.
 SplatCloud decode_spz(std::string_view bytes, const std::string& path, std::size_t max_bytes);
 /// SPZ version 4 (zstd streams) where the build has zstd, else version 3 (gzip): 24-bit positions with 12
 /// fractional bits, 8-bit everything else, SH at the full 8 bits (no coarser buckets). Refuses, naming the
 /// splat, values outside the format's ranges.
 std::string encode_spz(const SplatCloud& cloud, const std::string& path);
+/// SPZ version 3 before its gzip layer (the 16-byte header and the arrays): what a caller with its own gzip
+/// (the web page) compresses into a version 3 file. decode_spz reads these bytes too.
+std::string encode_spz_payload(const SplatCloud& cloud, const std::string& path);
 
 /// PlayCanvas's compressed PLY: chunks of 256 splats with their bounds, each splat in 4 packed uint32,
 /// the SH bands in an `sh` element of uchar. Read as written (the order kept).

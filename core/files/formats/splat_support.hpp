@@ -13,7 +13,6 @@
 
 namespace mlsdeform::files {
 
-
 namespace splat_detail {
 
 inline std::uint32_t load_u32(const unsigned char* p) {

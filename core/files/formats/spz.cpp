@@ -7,7 +7,9 @@
 #include "core/files/formats/splat_codecs.hpp"
 #include "core/files/formats/splat_support.hpp"
 
+#ifndef MLSDEFORM_NO_ZLIB  // the web page's module has no zlib (it decompresses gzip itself)
 #include <zlib.h>
+#endif
 #if MLSDEFORM_HAVE_ZSTD
 #include <zstd.h>
 #endif
@@ -29,10 +31,8 @@ constexpr int kFractionalBits = 12;
 // What encode_spz writes: version 4 (zstd, level 3: zstd's default, fast at a ratio near gzip's best) where the
 // build has zstd, else version 3 (gzip). Both are what splat-transform and Niantic's library read.
 #if MLSDEFORM_HAVE_ZSTD
-constexpr std::uint32_t kWritten = 4;
 constexpr int kZstdLevel = 3;
-#else
-constexpr std::uint32_t kWritten = 3;
+#elif !defined(MLSDEFORM_NO_ZLIB)
 constexpr int kGzipLevel = 6;
 #endif
 
@@ -134,8 +134,8 @@ SplatCloud unpack(const std::array<const unsigned char*, 6>& s, std::size_t n, i
   return c;
 }
 
-SplatCloud decode_legacy(std::string_view bytes, const std::string& path, std::size_t max_bytes) {
-  const std::string data = gunzip(bytes, path, max_bytes);
+// Versions 1-3 without their gzip layer: the 16-byte header and the arrays.
+SplatCloud decode_legacy_payload(std::string_view data, const std::string& path, std::size_t max_bytes) {
   if (data.size() < 16) throw InputError(path, problem("the decompressed data ends inside the 16-byte header"));
   const auto* p = reinterpret_cast<const unsigned char*>(data.data());
   if (load_u32(p) != kMagic) throw InputError(path, problem("no 'NGSP' magic at the start of the gzip data"));
@@ -156,6 +156,16 @@ SplatCloud decode_legacy(std::string_view bytes, const std::string& path, std::s
   SplatCloud c = unpack(s, n, int(version), p[12], p[13], path);
   c.antialiased = p[14] & 1;
   return c;
+}
+
+SplatCloud decode_legacy(std::string_view bytes, const std::string& path, std::size_t max_bytes) {
+#ifndef MLSDEFORM_NO_ZLIB
+  return decode_legacy_payload(gunzip(bytes, path, max_bytes), path, max_bytes);
+#else
+  (void)bytes, (void)max_bytes;
+  throw InputError(path, problem("versions 2-3 are gzip data, which this build does not decompress (the same "
+                                 "bytes without their gzip layer are read)"));
+#endif
 }
 
 SplatCloud decode_ngsp(std::string_view bytes, const std::string& path, std::size_t max_bytes) {
@@ -208,7 +218,7 @@ SplatCloud decode_ngsp(std::string_view bytes, const std::string& path, std::siz
 #endif
 }
 
-#if !MLSDEFORM_HAVE_ZSTD
+#if !MLSDEFORM_HAVE_ZSTD && !defined(MLSDEFORM_NO_ZLIB)
 std::string gzip_level(std::string_view data, int level) {
   z_stream zs{};
   if (deflateInit2(&zs, level, Z_DEFLATED, 15 + 16, 8, Z_DEFAULT_STRATEGY) != Z_OK)  // 16: a gzip header
@@ -229,8 +239,10 @@ std::string gzip_level(std::string_view data, int level) {
 }  // namespace
 
 SplatCloud decode_spz(std::string_view bytes, const std::string& path, std::size_t max_bytes) {
-  if (bytes.size() >= 4 && load_u32(reinterpret_cast<const unsigned char*>(bytes.data())) == kMagic)
-    return decode_ngsp(bytes, path, max_bytes);
+  const auto* p = reinterpret_cast<const unsigned char*>(bytes.data());
+  if (bytes.size() >= 8 && load_u32(p) == kMagic && load_u32(p + 4) <= 3)  // a legacy file with its gzip removed
+    return decode_legacy_payload(bytes, path, max_bytes);
+  if (bytes.size() >= 4 && load_u32(p) == kMagic) return decode_ngsp(bytes, path, max_bytes);
   if (bytes.size() >= 2 && static_cast<unsigned char>(bytes[0]) == 0x1f && static_cast<unsigned char>(bytes[1]) == 0x8b)
     return decode_legacy(bytes, path, max_bytes);
   throw InputError(path, problem(bytes.empty() ? "empty file"
@@ -238,15 +250,18 @@ SplatCloud decode_spz(std::string_view bytes, const std::string& path, std::size
                                                  "2-3) at the start"));
 }
 
-std::string encode_spz(const SplatCloud& c, const std::string& path) {
+namespace {
+
+// The legacy header and the six arrays of `version` (3 or 4: the arrays are the same), uncompressed.
+std::string pack(const SplatCloud& c, const std::string& path, std::uint32_t version) {
   const std::size_t n = c.count, k = c.sh_per_channel();
   if (n == 0) throw InputError(path, problem("no splats to write"));
   if (n > 0xffffffffu) throw InputError(path, problem("more splats than SPZ's 32-bit count holds"));
-  const Arrays a = arrays_for(n, int(kWritten), c.sh_degree);
+  const Arrays a = arrays_for(n, int(version), c.sh_degree);
   // The legacy header first (version 3 is gzip of header and arrays); version 4 writes its own header.
   std::string raw;
   store_u32(raw, kMagic);
-  store_u32(raw, kWritten);
+  store_u32(raw, version);
   store_u32(raw, std::uint32_t(n));
   raw += char(c.sh_degree), raw += char(kFractionalBits), raw += char(c.antialiased ? 1 : 0), raw += '\0';
   const std::size_t base = raw.size();
@@ -295,7 +310,17 @@ std::string encode_spz(const SplatCloud& c, const std::string& path) {
         sh[i * 3 * k + j * 3 + ch] = std::uint8_t(u + 128);
       }
   }
+  return raw;
+}
+
+}  // namespace
+
+std::string encode_spz_payload(const SplatCloud& cloud, const std::string& path) { return pack(cloud, path, 3); }
+
+std::string encode_spz(const SplatCloud& cloud, const std::string& path) {
 #if MLSDEFORM_HAVE_ZSTD
+  const std::string raw = pack(cloud, path, 4);
+  const Arrays a = arrays_for(cloud.count, 4, cloud.sh_degree);
   // Version 4: the 32-byte header (the legacy one, then the stream count, the table's offset and 12 zero
   // bytes), a table of (compressed, uncompressed) sizes, one zstd frame per non-empty array.
   std::string out = raw.substr(0, 15);
@@ -304,7 +329,7 @@ std::string encode_spz(const SplatCloud& c, const std::string& path) {
   store_u32(out, 32);
   out.append(12, '\0');
   std::vector<std::string> packed(streams);
-  const char* at = raw.data() + base;
+  const char* at = raw.data() + 16;
   for (std::size_t j = 0; j < streams; ++j) {
     packed[j].resize(ZSTD_compressBound(a.sizes[j]));
     const std::size_t got = ZSTD_compress(packed[j].data(), packed[j].size(), at, a.sizes[j], kZstdLevel);
@@ -316,8 +341,12 @@ std::string encode_spz(const SplatCloud& c, const std::string& path) {
   }
   for (const auto& p : packed) out += p;
   return out;
+#elif !defined(MLSDEFORM_NO_ZLIB)
+  return gzip_level(pack(cloud, path, 3), kGzipLevel);
 #else
-  return gzip_level(raw, kGzipLevel);
+  (void)cloud;
+  throw InputError(path, problem("this build has neither zstd nor zlib to compress SPZ with (encode_spz_payload "
+                                 "gives version 3's bytes to gzip)"));
 #endif
 }
 
