@@ -9,10 +9,10 @@
 // program's read_mesh and encode_mesh + write_file_atomic of each. Every file is read back and checked against
 // the scene (count, SH degree) before timing.
 #include "bench/common.hpp"
+#include "core/files/file_io.hpp"
 #include "core/files/formats/splat_codecs.hpp"
+#include "core/files/mesh.hpp"
 #include "core/files/splat_io.hpp"
-#include "tools/cli/file_io.hpp"
-#include "tools/cli/mesh.hpp"
 
 #include <benchmark/benchmark.h>
 
@@ -24,7 +24,6 @@
 
 namespace {
 
-namespace cli = mlsdeform::cli;
 namespace files = mlsdeform::files;
 constexpr std::size_t kSplats = 1000000;
 
@@ -58,17 +57,17 @@ void write_handles(const std::string& path) {
                       json.back() == '[' ? "" : ", ", x, y, z, x, ty, tz);
         json += buf;
       }
-  cli::write_file_atomic(path, json + "]}\n", true);
+  files::write_file_atomic(path, json + "]}\n", true);
 }
 
 struct Files {
   std::string dir;
-  cli::Mesh splats, points;
+  files::Mesh splats, points;
 };
 
 void bm_read(benchmark::State& state, const std::string& path, std::size_t degree) {
   for (auto _ : state) {
-    const cli::Mesh m = cli::read_mesh<float>(path, std::size_t(4) << 30);
+    const files::Mesh m = files::read_mesh<float>(path, std::size_t(4) << 30);
     if (std::size_t(m.vertex_count()) != kSplats) state.SkipWithError("wrong splat count");
     benchmark::DoNotOptimize(m.vertices.data());
   }
@@ -76,8 +75,8 @@ void bm_read(benchmark::State& state, const std::string& path, std::size_t degre
   state.SetItemsProcessed(std::int64_t(state.iterations() * kSplats));
 }
 
-void bm_write(benchmark::State& state, const cli::Mesh& mesh, const std::string& path) {
-  for (auto _ : state) cli::write_mesh(mesh, path, {true});
+void bm_write(benchmark::State& state, const files::Mesh& mesh, const std::string& path) {
+  for (auto _ : state) files::write_mesh(mesh, path, {true});
   state.SetItemsProcessed(std::int64_t(state.iterations() * kSplats));
 }
 
@@ -94,8 +93,8 @@ int main(int argc, char** argv) {
   write_handles(f.dir + "/big.json");
   const std::string names[4] = {"big.ply", "big.spz", "big.compressed.ply", "points.ply"};
   for (const auto& n : names) {
-    cli::write_mesh(n == "points.ply" ? f.points : f.splats, f.dir + "/" + n, {true});
-    const cli::Mesh back = cli::read_mesh<float>(f.dir + "/" + n, std::size_t(4) << 30);  // checked before timing
+    files::write_mesh(n == "points.ply" ? f.points : f.splats, f.dir + "/" + n, {true});
+    const files::Mesh back = files::read_mesh<float>(f.dir + "/" + n, std::size_t(4) << 30);  // checked before timing
     if (std::size_t(back.vertex_count()) != kSplats || (n != "points.ply" && !back.extras.ply)) {
       std::fprintf(stderr, "bench_splat_files: %s does not read back\n", n.c_str());
       return 1;
@@ -103,7 +102,7 @@ int main(int argc, char** argv) {
   }
   for (const auto& n : names) {
     const std::string path = f.dir + "/" + n, out = f.dir + "/written_" + n;
-    const cli::Mesh* mesh = n == "points.ply" ? &f.points : &f.splats;
+    const files::Mesh* mesh = n == "points.ply" ? &f.points : &f.splats;
     benchmark::RegisterBenchmark(("read/" + n).c_str(), [path](benchmark::State& s) { bm_read(s, path, 3); })
         ->Unit(benchmark::kMillisecond)
         ->Iterations(3)

@@ -2,9 +2,9 @@
 // compressed PLY written and read back within each quantity's derived bound, for SH degrees 0-3; every
 // truncation and every single-byte change of seed files (written by splat-transform) either read or refused
 // with a message naming the file; headers that promise what the data does not hold refused before allocating.
+#include <mlsdeform/files_error.hpp>
+#include "core/files/file_io.hpp"
 #include "core/files/formats/splat_codecs.hpp"
-#include "tools/cli/error.hpp"
-#include "tools/cli/file_io.hpp"
 
 #include "tests/cli/cli_test_util.hpp"
 #include "tests/support/catch.hpp"
@@ -15,7 +15,7 @@
 #include <random>
 #include <string>
 
-using mlsdeform::cli::InputError;
+using mlsdeform::files::InputError;
 namespace files = mlsdeform::files;
 
 namespace {
@@ -50,7 +50,7 @@ double angle(const float* a, const float* b) {
 /// 2 sqrt(3) h, an angle of 4 asin(sqrt(3) h).
 double rotation_bound(double h) { return 4 * std::asin(std::sqrt(3.0) * h) * 1.001 + 1e-6; }
 
-std::string gz(const std::string& s) { return mlsdeform::cli::gzip(s); }
+std::string gz(const std::string& s) { return mlsdeform::files::gzip(s); }
 
 std::string legacy_header(std::uint32_t version, std::uint32_t n, int degree, int flags = 0) {
   std::string h = "NGSP";

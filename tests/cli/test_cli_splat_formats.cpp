@@ -2,8 +2,8 @@
 // compressed PLY read and written by name, `.splat` read, a compressed PLY named plainly `.ply` recognised; what
 // a format cannot hold refused with exit code 2, naming the splat, and nothing written; what it drops named on
 // stderr (refused with --strict-attributes); SPZ's antialiasing flag kept.
+#include "core/files/file_io.hpp"
 #include "core/files/formats/splat_codecs.hpp"
-#include "tools/cli/file_io.hpp"
 
 #include "tests/cli/cli_test_util.hpp"
 #include "tests/support/catch.hpp"
@@ -124,7 +124,7 @@ TEST_CASE("Splat formats: SPZ's antialiasing flag passes through the program", "
   raw += std::string{'\0', char(12), char(1), '\0'};
   raw += std::string(9, '\0') + std::string(1, char(200)) + std::string(3, char(128)) + std::string(3, char(100));
   raw += std::string{'\0', '\0', '\0', char(0xc0)};  // the largest component w (index 3), the others 0
-  cli_test::write_text(dir / "a.spz", mlsdeform::cli::gzip(raw));
+  cli_test::write_text(dir / "a.spz", mlsdeform::files::gzip(raw));
   const auto r = cli_test::deform(dir / "a.spz", dir / "h.json", dir / "b.spz");
   INFO(r.err);
   REQUIRE(r.exit_code == 0);
