@@ -1,6 +1,7 @@
 // mlsdeform files: DeformJob's set-up (mlsdeform/files.hpp): the mesh and handles files read and checked, the
 // outputs named and checked, what the output keeps of the input's attributes decided, the deformer built.
 #include "core/files/file_io.hpp"
+#include "core/files/formats/splat_codecs.hpp"
 #include "core/files/job_impl.hpp"
 
 #include <algorithm>
@@ -9,9 +10,10 @@
 namespace mlsdeform::files {
 
 std::string frame_path(const std::string& out, std::size_t frame, std::size_t frame_count) {
-  // Insert "_NNNN" before the format extension (".ply" or ".ply.gz").
+  // Insert "_NNNN" before the format extension (".ply" or ".ply.gz"; ".compressed.ply" is one: splat_io.hpp).
   const std::string ext = format_extension(out);
-  const std::size_t suffix = ext.empty() ? 0 : ext.size() + 1 + (is_gzip_path(out) ? 3 : 0);
+  std::size_t suffix = ext.empty() ? 0 : ext.size() + 1 + (is_gzip_path(out) ? 3 : 0);
+  if (splat_format(out) == SplatFormat::compressed_ply) suffix = std::string(".compressed.ply").size();
   const std::size_t digits = std::max<std::size_t>(4, std::to_string(frame_count > 0 ? frame_count - 1 : 0).size());
   std::string number = std::to_string(frame);
   number.insert(0, digits - std::min(digits, number.size()), '0');

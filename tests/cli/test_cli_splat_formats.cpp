@@ -71,6 +71,13 @@ TEST_CASE("Splat formats: SPZ, compressed PLY and .splat in; SPZ and compressed 
     const std::string ply = cli_test::read_text(dir / "o.ply");
     CHECK(ply.find("property float rot_3\n") != std::string::npos);
   }
+  // An animation's frames keep the compound extension: o_0000.compressed.ply, not o.compressed_0000.ply.
+  cli_test::write_text(dir / "anim.json", R"({"points": [{"rest": [0, 0, 0]}, {"rest": [3, 0, 0]}],
+                                              "frames": [{}, {"points": [null, {"offset": [0, 0.1, 0]}]}]})");
+  const auto a = cli_test::deform(kSeeds + "corpus_spz/v4_degree3.spz", dir / "anim.json", dir / "o.compressed.ply");
+  INFO(a.err);
+  CHECK(a.exit_code == 0);
+  CHECK(files::looks_like_compressed_ply(cli_test::read_text(dir / "o_0001.compressed.ply")));
   // A compressed PLY named plainly .ply is read as what it is.
   cli_test::write_text(dir / "plain.ply", cli_test::read_text(kSeeds + "corpus_compressed_ply/degree1.compressed.ply"));
   const auto r = cli_test::deform(dir / "plain.ply", dir / "h.json", dir / "p.spz");
