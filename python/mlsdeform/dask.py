@@ -316,7 +316,9 @@ def deform_meshes(
     jobs = []
     for entry in sorted(os.listdir(in_dir)):
         base = entry[:-3] if entry.lower().endswith(".gz") else entry
-        name, ext = os.path.splitext(base)
+        # NAME.compressed.ply (a splat format) is NAME with its handles NAME.json, as the program names it.
+        compressed = base.lower().endswith(".compressed.ply")
+        name = base[: -len(".compressed.ply")] if compressed else os.path.splitext(base)[0]
         try:
             _mesh_format(entry)  # the program's readers, by the name's extension
         except ValueError:

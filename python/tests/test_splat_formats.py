@@ -78,3 +78,28 @@ def test_a_value_the_format_cannot_hold_is_refused(tmp_path):
     assert files.write_mesh(str(tmp_path / "o.compressed.ply"), mesh) > 0  # which holds -4 .. 4
     with pytest.raises(ValueError, match="read only"):
         files.write_mesh(str(tmp_path / "o.splat"), mesh)
+
+
+def test_dask_writes_the_programs_bytes(tmp_path):
+    distributed = pytest.importorskip("distributed")
+    import mlsdeform.dask
+
+    src, out = tmp_path / "in", tmp_path / "out"
+    src.mkdir()
+    out.mkdir()
+    shutil.copy(SPZ, src / "cap.spz")
+    shutil.copy(os.path.join(SEEDS, "corpus_compressed_ply", "degree1.compressed.ply"), src / "scene.compressed.ply")
+    spec = {"points": [{"rest": [0, 0, 0]}, {"rest": [1, 1, 1], "offset": [0, 0.1, 0]}]}
+    for name in ("cap", "scene"):  # NAME.compressed.ply's handles are NAME.json, as for any format
+        (src / f"{name}.json").write_text(json.dumps(spec))
+    with distributed.LocalCluster(n_workers=1, threads_per_worker=1, processes=False) as cluster:
+        with distributed.Client(cluster) as client:
+            summary = mlsdeform.dask.deform_meshes(client, str(src), str(out), output_format=".compressed.ply")
+    assert sorted(os.path.basename(p) for p in summary.written) == ["cap.compressed.ply", "scene.compressed.ply"]
+    for name, mesh in (("cap", src / "cap.spz"), ("scene", src / "scene.compressed.ply")):
+        ref = str(tmp_path / f"{name}_cli.compressed.ply")
+        handles = str(src / f"{name}.json")
+        subprocess.run(
+            [program(), "deform", "-m", str(mesh), "-H", handles, "-o", ref], check=True, capture_output=True
+        )
+        assert (out / f"{name}.compressed.ply").read_bytes() == open(ref, "rb").read()
