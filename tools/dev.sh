@@ -21,7 +21,7 @@ root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
 cd "$root"
 jobs=$(nproc 2>/dev/null || echo 2)
 case "${1:-}" in
-  test) bash tools/install_deps.sh blender web ;;
+  test) bash tools/install_deps.sh blender web judge ;;
   blender) bash tools/install_deps.sh blender ;;
   web) bash tools/install_deps.sh web ;;
   *) bash tools/install_deps.sh ;;

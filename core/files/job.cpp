@@ -3,6 +3,7 @@
 #include "core/files/file_io.hpp"
 #include "core/files/formats/splat_codecs.hpp"
 #include "core/files/job_impl.hpp"
+#include "core/files/splat_io.hpp"
 
 #include <algorithm>
 #include <chrono>
@@ -31,6 +32,8 @@ DeformJob<T>::DeformJob(const std::string& mesh_path, const std::string& handles
   check_output_format(out_path);
   j.mesh = read_mesh<T>(mesh_path, options.max_input_bytes);
   const BasicMesh<T>& mesh = j.mesh;
+  // A compact splat output needs a splat file: refused here, before any work, not after the first frame.
+  if (splat_format(out_path) != SplatFormat::none) check_splat_output(mesh, out_path);
   const bool arap = options.options.arap_iterations > 0;
   if (arap && mesh.face_count() == 0)
     throw InputError(mesh_path, "--arap needs a surface, and the mesh has no faces (a point cloud?)");

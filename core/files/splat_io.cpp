@@ -58,8 +58,12 @@ BasicMesh<T> splat_mesh(const SplatCloud& c) {
   return mesh;
 }
 
+namespace {
+
+/// The checks of a mesh's fitness for a compact splat format that need no values (splat_cloud's first part):
+/// the vertex element's 3DGS properties (every one but x, y, z, in property_names' order) and the SH degree.
 template <class T>
-SplatCloud splat_cloud(const BasicMesh<T>& mesh, const std::string& path) {
+std::vector<std::size_t> splat_properties(const BasicMesh<T>& mesh, const std::string& path, int& degree) {
   const PlyLayout* ply = mesh.extras.ply ? &*mesh.extras.ply : nullptr;
   const std::string format = splat_format_name(splat_format(path));
   if (!ply || ply->vertex_element < 0 || ply->vertices().find("rot_0") < 0)
@@ -79,13 +83,30 @@ SplatCloud splat_cloud(const BasicMesh<T>& mesh, const std::string& path) {
   };
   std::size_t rest = 0;
   while (v.find("f_rest_" + std::to_string(rest)) >= 0) ++rest;
-  const int degree = sh_degree_of(rest);
+  degree = sh_degree_of(rest);
   if (degree < 0)
     throw InputError(path, format + " holds SH degrees 0-3 (9, 24 or 45 f_rest_*); the input has " +
                                std::to_string(rest) + " f_rest_* properties");
   std::vector<std::size_t> props;
   for (const std::string& name : property_names(degree))
     if (name != "x" && name != "y" && name != "z") props.push_back(property(name));
+  return props;
+}
+
+}  // namespace
+
+template <class T>
+void check_splat_output(const BasicMesh<T>& mesh, const std::string& path) {
+  int degree = 0;
+  splat_properties(mesh, path, degree);
+}
+
+template <class T>
+SplatCloud splat_cloud(const BasicMesh<T>& mesh, const std::string& path) {
+  int degree = 0;
+  const std::vector<std::size_t> props = splat_properties(mesh, path, degree);
+  const PlyLayout* ply = &*mesh.extras.ply;
+  const PlyElement& v = ply->vertices();
   SplatCloud c;
   const std::size_t n = std::size_t(mesh.vertex_count()), k = std::size_t(3 * ((degree + 1) * (degree + 1) - 1));
   c.resize(n, degree);
@@ -174,6 +195,7 @@ std::vector<std::string> splat_output_drops(const PlyLayout& ply) {
 #define MLSDEFORM_FILES_SPLAT_IO(T)                                                                           \
   template BasicMesh<T> splat_mesh<T>(const SplatCloud&);                                                     \
   template SplatCloud splat_cloud(const BasicMesh<T>&, const std::string&);                                   \
+  template void check_splat_output(const BasicMesh<T>&, const std::string&);                                  \
   template BasicMesh<T> read_splat_file<T>(const std::string&, SplatFormat, std::size_t);                     \
   template BasicMesh<T> decode_splat_file<T>(std::string_view, const std::string&, SplatFormat, std::size_t); \
   template std::string encode_splat_file(const BasicMesh<T>&, const std::string&, SplatFormat);

@@ -22,6 +22,11 @@ BasicMesh<T> splat_mesh(const SplatCloud& cloud);
 template <class T>
 SplatCloud splat_cloud(const BasicMesh<T>& mesh, const std::string& path);
 
+/// splat_cloud's checks that need no values (a splat file, no faces, the 3DGS properties, SH degree 0-3), for
+/// a job to refuse an output it could never write before any work (DeformJob).
+template <class T>
+void check_splat_output(const BasicMesh<T>& mesh, const std::string& path);
+
 /// read_mesh for a file whose name (or, for `.ply`, whose header) asks for a compact format.
 template <class T>
 BasicMesh<T> read_splat_file(const std::string& path, SplatFormat format, std::size_t max_bytes);

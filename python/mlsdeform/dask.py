@@ -249,13 +249,15 @@ def _deform_frames(run, mesh, handles, out, paths, options, dtype):
             seconds_deform += deform
             seconds_write += time.perf_counter() - t2 + (t2 - t1 - deform)
             written.append(path)
-    except BaseException:
+    except BaseException as e:
         # All or nothing per mesh as well: a retry writes them all again.
         for p in written:
             try:
                 os.unlink(p)
             except OSError:
                 pass
+        if isinstance(e, ValueError):  # a frame the program refuses (bad input): no retry would change it
+            return {"failed": str(e)}
         raise
     return {
         "written": written,

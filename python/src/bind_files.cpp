@@ -95,7 +95,12 @@ void bind_files(py::module_& m) {
     try {
       if (p) std::rethrow_exception(p);
     } catch (const files::InputError& e) {
-      PyErr_SetString(PyExc_ValueError, e.what());
+      // InputError's text is UTF-8 (bytes that are not are escaped as \xNN); decoded leniently all the same, so
+      // that no message is ever lost to a decoding error.
+      const std::string what = e.what();
+      PyObject* text = PyUnicode_DecodeUTF8(what.data(), Py_ssize_t(what.size()), "backslashreplace");
+      PyErr_SetObject(PyExc_ValueError, text);
+      Py_XDECREF(text);
     }
   });
 

@@ -1,8 +1,9 @@
 """One file pipeline: the program (`mlsdeform deform`), Python (mlsdeform.files.DeformJob) and Dask
 (mlsdeform.dask.deform_meshes) give the same output bytes, or the same error message, for every input: the fuzz
 corpora (tests/fuzz/corpus_*), mutants of every format the program reads (OBJ, OFF, PLY ASCII and both binary
-orders, their .gz: tests/fuzz/mutations.py, the mutation campaign's own), 3DGS splat files and their mutants, and
-the handles corpus (tests/fuzz/corpus), under options and output formats that vary from input to input.
+orders, their .gz; SPZ, .splat and compressed PLY: tests/fuzz/mutations.py, the mutation campaign's own), 3DGS
+splat files and their mutants, and the handles corpus (tests/fuzz/corpus), under options and output formats that
+vary from input to input.
 
 The oracle is the program's own run (bytes of every output file, or its one-line error), independent of the
 Python and Dask front ends that are under test. MLSDEFORM_PARITY_MUTANTS sets the mutants per format (default
@@ -24,7 +25,16 @@ from mlsdeform import files
 HERE = os.path.dirname(os.path.abspath(__file__))
 FUZZ = os.path.join(HERE, "..", "..", "tests", "fuzz")
 sys.path.insert(0, FUZZ)
-from mutations import encode, make_mutant, mutate_bytes, mutate_header, seed_mesh  # noqa: E402
+from mutations import (  # noqa: E402
+    SPLAT_KINDS,
+    encode,
+    make_mutant,
+    make_splat_mutant,
+    mutate_bytes,
+    mutate_header,
+    seed_mesh,
+    splat_seeds,
+)
 
 MUTANTS = int(os.environ.get("MLSDEFORM_PARITY_MUTANTS", "24"))
 # Options that vary from input to input: (program flags, DeformJob keyword arguments, output extension).
@@ -36,6 +46,8 @@ VARIANTS = [
     (["--precision", "double", "--output-type", "double"], {"dtype": np.float64, "output_type": "float64"}, ".ply.gz"),
     (["--normals", "computed"], {"normals": "computed"}, ".obj.gz"),
     ([], {}, ".npy"),
+    (["--transform", "similarity"], {"transform": "similarity"}, ".spz"),
+    ([], {}, ".compressed.ply"),
 ]
 
 
@@ -110,6 +122,13 @@ def inputs():
             rng = random.Random(f"parity/splats/{degree}/{i}")
             data = (mutate_header if i % 2 else mutate_bytes)(splats, rng)
             out.append((f"splats_{degree}_{i:03d}.ply", data, handles))
+    seeds = splat_seeds(FUZZ)  # SPZ, .splat and compressed PLY: the corpora and their mutants
+    for kind in SPLAT_KINDS:
+        for k, data in enumerate(seeds[kind]):
+            out.append((f"corpus_{kind.split('.')[0]}_{k}.{kind}", data, handles))
+        for i in range(MUTANTS):
+            data = make_splat_mutant(kind, seeds, random.Random(f"parity/{kind}/{i}"))
+            out.append((f"mutant_{i:03d}.{kind}", data, handles))
     return out
 
 
@@ -120,10 +139,12 @@ def run_program(exe, mesh, handles, out, flags):
     written = {n: open(os.path.join(os.path.dirname(out), n), "rb").read() for n in os.listdir(os.path.dirname(out))}
     if r.returncode == 0:
         return None, written
+    # One error line, after at most the line that names what the output drops.
     err = r.stderr.decode("utf-8", "replace").strip().splitlines()
-    assert r.returncode == 2 and len(err) == 1 and err[0].startswith("mlsdeform: error: "), (mesh, r.returncode, err)
+    ok = r.returncode == 2 and 1 <= len(err) <= 2 and err[-1].startswith("mlsdeform: error: ")
+    assert ok and (len(err) == 1 or err[0].startswith("mlsdeform: dropped from ")), (mesh, r.returncode, err)
     assert not written, (mesh, "the program left files after an error")
-    return err[0][len("mlsdeform: error: ") :], {}
+    return err[-1][len("mlsdeform: error: ") :], {}
 
 
 def run_python(mesh, handles, out, options):
@@ -187,7 +208,9 @@ def test_program_and_dask_agree_on_every_input(tmp_path):
         src.mkdir(exist_ok=True)
         stem = f"i{k:04d}_" + name  # one name per input, its extension the format
         open(src / stem, "wb").write(data)
-        base = os.path.splitext(stem[:-3] if stem.endswith(".gz") else stem)[0]
+        base = stem[:-3] if stem.endswith(".gz") else stem
+        # NAME.EXT's handles file is NAME.json (NAME.compressed.ply's too: its format's name has two dots).
+        base = base[: -len(".compressed.ply")] if base.endswith(".compressed.ply") else os.path.splitext(base)[0]
         open(src / (base + ".json"), "wb").write(handles)
         folders.setdefault(v, []).append((stem, base))
     cluster = distributed.LocalCluster(
@@ -206,8 +229,9 @@ def test_program_and_dask_agree_on_every_input(tmp_path):
                 cli = tmp_path / f"cli{v}" / base
                 want_err, want = run_program(exe, mesh, str(src / (base + ".json")), str(cli / (base + ext)), flags)
                 where = f"{stem} ({' '.join(flags) or 'defaults'} -> {ext})"
-                if want_err is not None:
-                    assert s.failed.get(mesh) == want_err, where
+                if want_err is not None:  # the same message, the output's folder aside (an error may name it)
+                    got = s.failed.get(mesh, "").replace(str(out), str(cli))
+                    assert got == want_err, where
                     continue
                 assert mesh not in s.failed, f"{where}: the program wrote, Dask failed: {s.failed[mesh]}"
                 for n, data in want.items():

@@ -283,3 +283,11 @@ TEST_CASE("bad groups: one line with the file, the JSON path and the problem", "
   require_error(file(R"("groups": [{"points": [0]}], "frames": [{"groups": [{"translate": [1e300, 0, 0]}]}])"),
                 "h.json: /frames/0/groups/0: coordinates too large for --precision float");
 }
+
+TEST_CASE("InputError: one line of valid UTF-8, a UTF-8 file name kept", "[files]") {
+  // A newline and bytes that are not UTF-8 (a lone continuation byte, a truncated sequence, an overlong form, a
+  // surrogate) escaped as \xNN; well-formed sequences of 2, 3 and 4 bytes kept.
+  const std::string name = "caf\xc3\xa9_\xe2\x82\xac_\xf0\x9f\x98\x80.ply";
+  const InputError e(name, "bad \x80 \xc3 \xc0\xaf \xed\xa0\x80 line\nend");
+  CHECK(std::string(e.what()) == name + ": bad \\x80 \\xc3 \\xc0\\xaf \\xed\\xa0\\x80 line\\x0aend");
+}
