@@ -249,3 +249,31 @@ def test_mesh_object_carries_splats_as_the_program(tmp_path, transform):
     assert (tmp_path / "py.ply").read_bytes() == (tmp_path / "cli.ply").read_bytes()
     with pytest.raises(ValueError, match="frames_for"):
         mesh.deformed(X)
+
+
+@pytest.mark.parametrize("dtype", ["<f4", "<f8"])
+def test_binary_ply_output_is_the_records_with_new_positions(tmp_path, dtype):
+    """A binary PLY written from a PLY read: every record byte for byte as read, x, y, z replaced by the deformed
+    positions (numpy the oracle: the input's structured array, its x, y, z set from the .npy of the same job)."""
+    g = np.random.default_rng(11)
+    names = ["x", "y", "z", "red", "q", "nz_", "w"]
+    types = [dtype, dtype, dtype, "u1", "<i2", "<f4", "<f8"]
+    rec = np.zeros(50, np.dtype(list(zip(names, types))))
+    for n in names:
+        rec[n] = g.uniform(0, 100, 50)
+    head = "ply\nformat binary_little_endian 1.0\nelement vertex 50\n"
+    ply_type = {"<f4": "float", "<f8": "double", "u1": "uchar", "<i2": "short"}
+    head += "".join(f"property {ply_type[t]} {n}\n" for n, t in zip(names, types)) + "end_header\n"
+    (tmp_path / "in.ply").write_bytes(head.encode() + rec.tobytes())
+    (tmp_path / "h.json").write_text('{"points": [{"vertex": 0}, {"vertex": 7, "offset": [1, 2, 3]}, {"vertex": 9}]}')
+    precision = np.float32 if dtype == "<f4" else np.float64
+    for out in ("o.ply", "o.npy"):
+        job = files.DeformJob(str(tmp_path / "in.ply"), str(tmp_path / "h.json"), str(tmp_path / out), dtype=precision)
+        job.write_frame(0)
+    want = rec.copy()
+    X = np.load(tmp_path / "o.npy")
+    for c, n in enumerate("xyz"):
+        want[n] = X[:, c]
+    data = (tmp_path / "o.ply").read_bytes()
+    body = data[data.index(b"end_header\n") + len(b"end_header\n") :]
+    assert body == want.tobytes()
