@@ -15,6 +15,26 @@
 #include <limits>
 #include <utility>
 
+#if defined(__aarch64__)
+// xsimd (8.1 and 13.2 alike) divides and takes square roots of float batches on aarch64 with the 32-bit ARM
+// recipe: a reciprocal (square root) estimate refined by two Newton steps, a few ulps off the correctly rounded
+// result, where SSE, AVX and the scalar reference round once (IEEE 754). AArch64 has the correctly rounded
+// instructions (FDIV, FSQRT on vectors): these explicit specialisations of xsimd's neon kernels for neon64 make
+// `/` and sqrt use them, so that the NEON twins agree with the scalar reference bit for bit where x86's do
+// (tests/test_stages.cpp). Double already uses vdivq_f64 / vsqrtq_f64. Kernel objects only (this header).
+namespace xsimd::kernel {
+template <>
+inline batch<float, neon64> div<neon64>(batch<float, neon64> const& lhs, batch<float, neon64> const& rhs,
+                                        requires_arch<neon>) noexcept {
+  return vdivq_f32(lhs, rhs);
+}
+template <>
+inline batch<float, neon64> sqrt<neon64>(batch<float, neon64> const& x, requires_arch<neon>) noexcept {
+  return vsqrtq_f32(x);
+}
+}  // namespace xsimd::kernel
+#endif
+
 namespace mlsdeform::kernels {
 
 /// Tag for Simd<T, Twin<A>>: two batches of arch A side by side, processed together by every operation,
