@@ -4,8 +4,9 @@
 // time, for the two methods that have SIMD kernels (axis_angle, horn_quaternion by Jacobi in lanes).
 //
 // MLSDEFORM_SEED as in the scalar suite; MLSDEFORM_BATCH_CASES sets the matrices per family and precision
-// (default 4,000; 400 under the sanitizers). The families' order within a batch is interleaved so that every
-// SIMD batch mixes families (a lane's result must not depend on its neighbours).
+// (default 4,000; 400 under the sanitizers and under an emulator); MLSDEFORM_SUBNORMAL_CASES the matrices per
+// family and subnormal scale (default 3; 1 under an emulator). The families' order within a batch is interleaved so
+// that every SIMD batch mixes families (a lane's result must not depend on its neighbours).
 #include "tests/support/accuracy_bounds.hpp"
 #include "tests/support/isa_guard.hpp"
 #include "tests/support/rotation_cases.hpp"
@@ -40,7 +41,8 @@ const char* type_name() {
 template <class T>
 void batched_families() {
   const std::uint64_t seed = env_u64("MLSDEFORM_SEED", 20261121);
-  const std::uint64_t per_family = env_u64("MLSDEFORM_BATCH_CASES", built_with_sanitizer() ? 400 : 4000);
+  const std::uint64_t per_family =
+      env_u64("MLSDEFORM_BATCH_CASES", built_with_sanitizer() || run_emulated() ? 400 : 4000);
   const auto families = all_families();
   // Case i of family f sits at index i * F + f: consecutive lanes hold different families.
   const std::size_t F = families.size(), n = per_family * F;
@@ -148,7 +150,7 @@ template <class T>
 void subnormal_families() {
   using LD = long double;
   const std::uint64_t seed = env_u64("MLSDEFORM_SEED", 20261121);
-  const std::uint64_t per_scale = env_u64("MLSDEFORM_SUBNORMAL_CASES", 3);
+  const std::uint64_t per_scale = env_u64("MLSDEFORM_SUBNORMAL_CASES", run_emulated() ? 1 : 3);
   const int lo = subnormal_lo<T>, hi = subnormal_hi<T>;
   struct Item {
     Case<T> c;
