@@ -41,4 +41,13 @@ if(NOT CMAKE_MATCH_1 OR CMAKE_MATCH_1 LESS 8)
 endif()
 # -L: the aarch64 dynamic loader and C library of Debian's cross toolchain (libc6-arm64-cross); what is not there
 # (libtbb, zlib) qemu finds at its own path, in /usr/lib/aarch64-linux-gnu.
-set(CMAKE_CROSSCOMPILING_EMULATOR "${MLSDEFORM_QEMU};-L;/usr/aarch64-linux-gnu")
+# taskset -c 0: the emulated program sees one CPU, so oneTBB starts no worker threads. With two, test_deformer's
+# cases ran for minutes each (natively milliseconds), qemu spinning in glibc's pthread_create (its walk of the
+# cached thread stacks, whose entries all looked in use); on one CPU they take about a second. The library's
+# multi-threaded paths are tested natively; here the kernels are.
+find_program(MLSDEFORM_TASKSET taskset NO_CMAKE_FIND_ROOT_PATH)
+if(MLSDEFORM_TASKSET)
+  set(CMAKE_CROSSCOMPILING_EMULATOR "${MLSDEFORM_TASKSET};-c;0;${MLSDEFORM_QEMU};-L;/usr/aarch64-linux-gnu")
+else()
+  set(CMAKE_CROSSCOMPILING_EMULATOR "${MLSDEFORM_QEMU};-L;/usr/aarch64-linux-gnu")
+endif()
