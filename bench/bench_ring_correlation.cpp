@@ -22,6 +22,7 @@
 
 #include <mlsdeform/dispatch.hpp>
 
+#include <algorithm>
 #include <cstring>
 #include <map>
 #include <memory>
@@ -127,17 +128,26 @@ const Rings* mesh(int which) {
 
 const kernels::KernelTable* table(int isa) {
   const mlsdeform::Isa want = mlsdeform::Isa(isa);
-  for (const mlsdeform::Isa s : mlsdeform::supported_isas())
-    if (s == want) switch (want) {
-        case mlsdeform::Isa::scalar:
-          return &kernels::kernel_table_scalar();
-        case mlsdeform::Isa::sse4_2:
-          return &kernels::kernel_table_sse4_2();
-        case mlsdeform::Isa::avx2:
-          return &kernels::kernel_table_avx2();
-        case mlsdeform::Isa::avx512:
-          return &kernels::kernel_table_avx512();
-      }
+  const std::vector<mlsdeform::Isa> runs = mlsdeform::supported_isas();
+  if (std::find(runs.begin(), runs.end(), want) == runs.end()) return nullptr;
+  switch (want) {  // the architecture's tables only (kernels/CMakeLists.txt)
+    case mlsdeform::Isa::scalar:
+      return &kernels::kernel_table_scalar();
+#if defined(__x86_64__) || defined(__i386__)
+    case mlsdeform::Isa::sse4_2:
+      return &kernels::kernel_table_sse4_2();
+    case mlsdeform::Isa::avx2:
+      return &kernels::kernel_table_avx2();
+    case mlsdeform::Isa::avx512:
+      return &kernels::kernel_table_avx512();
+#endif
+#if defined(__aarch64__)
+    case mlsdeform::Isa::neon:
+      return &kernels::kernel_table_neon();
+#endif
+    default:
+      break;
+  }
   return nullptr;
 }
 
@@ -260,8 +270,8 @@ void BM_ring_rhs(benchmark::State& state) {
 
 void args(benchmark::internal::Benchmark* b) {
   for (int m : {0, 1})
-    for (const mlsdeform::Isa isa :
-         {mlsdeform::Isa::scalar, mlsdeform::Isa::sse4_2, mlsdeform::Isa::avx2, mlsdeform::Isa::avx512})
+    for (const mlsdeform::Isa isa : {mlsdeform::Isa::scalar, mlsdeform::Isa::sse4_2, mlsdeform::Isa::avx2,
+                                     mlsdeform::Isa::avx512, mlsdeform::Isa::neon})
       for (int threads : {1, 2})
         for (int step : {0, 1}) b->Args({m, int(isa), threads, step});
   b->ArgNames({"mesh", "isa", "threads", "step"});
@@ -272,8 +282,8 @@ BENCHMARK_TEMPLATE(BM_ring_correlation, float)->Apply(args)->UseRealTime()->Unit
 
 void rhs_args(benchmark::internal::Benchmark* b) {
   for (int m : {0, 1})
-    for (const mlsdeform::Isa isa :
-         {mlsdeform::Isa::scalar, mlsdeform::Isa::sse4_2, mlsdeform::Isa::avx2, mlsdeform::Isa::avx512})
+    for (const mlsdeform::Isa isa : {mlsdeform::Isa::scalar, mlsdeform::Isa::sse4_2, mlsdeform::Isa::avx2,
+                                     mlsdeform::Isa::avx512, mlsdeform::Isa::neon})
       for (int threads : {1, 2}) b->Args({m, int(isa), threads});
   b->ArgNames({"mesh", "isa", "threads"});
 }

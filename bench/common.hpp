@@ -16,8 +16,10 @@
 
 namespace bench {
 
-/// The SIMD extensions this CPU offers, widest first ("avx512f avx2 fma sse4.2"), from cpuid.
+/// The SIMD extensions this CPU offers, widest first ("avx512f avx2 fma sse4.2"), from cpuid; on aarch64
+/// "neon" (Advanced SIMD is part of its baseline).
 inline std::string cpu_isa() {
+#if defined(__x86_64__) || defined(__i386__)
   std::string s;
   __builtin_cpu_init();
   if (__builtin_cpu_supports("avx512f")) s += "avx512f ";
@@ -26,6 +28,11 @@ inline std::string cpu_isa() {
   if (__builtin_cpu_supports("sse4.2")) s += "sse4.2 ";
   if (!s.empty()) s.pop_back();
   return s;
+#elif defined(__aarch64__)
+  return "neon";
+#else
+  return "";
+#endif
 }
 
 /// The CPU's model name from /proc/cpuinfo (empty if unreadable).

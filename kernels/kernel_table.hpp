@@ -30,7 +30,7 @@ template <class T>
 using RingCorrelationFn = void (*)(const RingFrame<T>& frame, std::size_t block_begin, std::size_t block_end);
 
 struct KernelTable {
-  const char* name;         ///< "scalar", "sse4_2", "avx2", "avx512"
+  const char* name;         ///< "scalar", "sse4_2", "avx2", "avx512", "neon"
   std::size_t lanes_float;  ///< SIMD lanes for float and double (1 for the scalar reference)
   std::size_t lanes_double;
   FitRotationsFn<float> fit_axis_angle_f;
@@ -51,10 +51,12 @@ struct KernelTable {
   bool (*all_finite_d)(const double* x, std::size_t count);
 };
 
-/// Defined in kernels/isa_<name>.cpp and core/src/scalar_kernels.cpp; each returns its table.
+/// Defined in kernels/isa_<name>.cpp and core/src/scalar_kernels.cpp; each returns its table. Only the ISAs of
+/// the target architecture are built (kernels/CMakeLists.txt: sse4_2, avx2, avx512 on x86-64; neon on aarch64).
 const KernelTable& kernel_table_scalar();
 const KernelTable& kernel_table_sse4_2();
 const KernelTable& kernel_table_avx2();
 const KernelTable& kernel_table_avx512();
+const KernelTable& kernel_table_neon();
 
 }  // namespace mlsdeform::kernels

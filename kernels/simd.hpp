@@ -15,6 +15,26 @@
 #include <limits>
 #include <utility>
 
+#if defined(__aarch64__)
+// xsimd (8.1 and 13.2 alike) divides and takes square roots of float batches on aarch64 with the 32-bit ARM
+// recipe: a reciprocal (square root) estimate refined by two Newton steps, a few ulps off the correctly rounded
+// result, where SSE, AVX and the scalar reference round once (IEEE 754). AArch64 has the correctly rounded
+// instructions (FDIV, FSQRT on vectors): these explicit specialisations of xsimd's neon kernels for neon64 make
+// `/` and sqrt use them, so that the NEON twins agree with the scalar reference bit for bit where x86's do
+// (tests/test_stages.cpp). Double already uses vdivq_f64 / vsqrtq_f64. Kernel objects only (this header).
+namespace xsimd::kernel {
+template <>
+inline batch<float, neon64> div<neon64>(batch<float, neon64> const& lhs, batch<float, neon64> const& rhs,
+                                        requires_arch<neon>) noexcept {
+  return vdivq_f32(lhs, rhs);
+}
+template <>
+inline batch<float, neon64> sqrt<neon64>(batch<float, neon64> const& x, requires_arch<neon>) noexcept {
+  return vsqrtq_f32(x);
+}
+}  // namespace xsimd::kernel
+#endif
+
 namespace mlsdeform::kernels {
 
 /// Tag for Simd<T, Twin<A>>: two batches of arch A side by side, processed together by every operation,
@@ -266,20 +286,30 @@ MLSDEFORM_KERNEL_INLINE Pair<B> pow2_inverse_exponent(const Pair<B>& m) {
 /// explicit element type, which rules out the AVX2 and AVX-512 overloads, and falls back to one load and insert
 /// per lane in a call that GCC 12 does not inline (7% of an ARAP iteration on the 6,890-vertex body, `perf`). The
 /// values are the same loads: bitwise xsimd's.
+/// NEON has no gather instruction: xsimd's lane loads there.
 template <class A>
 MLSDEFORM_KERNEL_INLINE xsimd::batch<double, A> gather(const double* base, const xsimd::batch<std::int64_t, A>& index) {
+#if defined(__SSE2__)  // x86 (and WebAssembly through emscripten's SSE headers)
   if constexpr (std::is_same_v<A, xsimd::avx512f>)
     return _mm512_i64gather_pd(index, base, 8);
   else if constexpr (std::is_base_of_v<xsimd::avx2, A>)  // avx2, fma3<avx2>
     return _mm256_i64gather_pd(base, index, 8);
   else
+#endif
     return xsimd::batch<double, A>::gather(base, index);
 }
 
 /// Whether store_streaming writes past the caches on arch A: AVX2 and AVX-512 (vmovntps / vmovntpd). Elsewhere
-/// (SSE4.2, and WebAssembly through it) it is a plain aligned store.
+/// (SSE4.2, WebAssembly through it, and NEON) it is a plain aligned store.
+/// NEON's non-temporal pair stores (STNP) are a hint that the core may ignore, and xsimd does not offer them:
+/// plain stores there too.
 template <class A>
-inline constexpr bool kStreamingStores = std::is_same_v<A, xsimd::avx512f> || std::is_base_of_v<xsimd::avx2, A>;
+inline constexpr bool kStreamingStores =
+#if defined(__SSE2__)
+    std::is_same_v<A, xsimd::avx512f> || std::is_base_of_v<xsimd::avx2, A>;
+#else
+    false;
+#endif
 
 /// v to p (aligned to the vector's width) by a non-temporal store where kStreamingStores<A>: the line goes to
 /// memory through a write-combining buffer, without first being read into the cache (a plain store's read for
@@ -287,6 +317,7 @@ inline constexpr bool kStreamingStores = std::is_same_v<A, xsimd::avx512f> || st
 /// the values are read by another thread. The same bits as store_aligned.
 template <class T, class A>
 MLSDEFORM_KERNEL_INLINE void store_streaming(T* p, const xsimd::batch<T, A>& v) {
+#if defined(__SSE2__)
   if constexpr (std::is_same_v<A, xsimd::avx512f> && std::is_same_v<T, float>)
     _mm512_stream_ps(p, v);
   else if constexpr (std::is_same_v<A, xsimd::avx512f>)
@@ -296,13 +327,16 @@ MLSDEFORM_KERNEL_INLINE void store_streaming(T* p, const xsimd::batch<T, A>& v) 
   else if constexpr (std::is_base_of_v<xsimd::avx2, A>)
     _mm256_stream_pd(p, v);
   else
+#endif
     v.store_aligned(p);
 }
 
 /// Orders the non-temporal stores before it ahead of every store after it (sfence), where arch A has them.
 template <class A>
 MLSDEFORM_KERNEL_INLINE void store_fence() {
+#if defined(__SSE2__)
   if constexpr (kStreamingStores<A>) _mm_sfence();
+#endif
 }
 
 }  // namespace mlsdeform::kernels

@@ -4,8 +4,9 @@
 // time, for the two methods that have SIMD kernels (axis_angle, horn_quaternion by Jacobi in lanes).
 //
 // MLSDEFORM_SEED as in the scalar suite; MLSDEFORM_BATCH_CASES sets the matrices per family and precision
-// (default 4,000; 400 under the sanitizers). The families' order within a batch is interleaved so that every
-// SIMD batch mixes families (a lane's result must not depend on its neighbours).
+// (default 4,000; 400 under the sanitizers and under an emulator); MLSDEFORM_SUBNORMAL_CASES the matrices per
+// family and subnormal scale (default 3; 1 under an emulator). The families' order within a batch is interleaved so
+// that every SIMD batch mixes families (a lane's result must not depend on its neighbours).
 #include "tests/support/accuracy_bounds.hpp"
 #include "tests/support/isa_guard.hpp"
 #include "tests/support/rotation_cases.hpp"
@@ -14,7 +15,9 @@
 
 #include "tests/support/catch.hpp"
 
+#if defined(__SSE2__)
 #include <xmmintrin.h>  // MXCSR: flush-to-zero and denormals-are-zero
+#endif
 
 #include <algorithm>
 #include <cmath>
@@ -38,7 +41,8 @@ const char* type_name() {
 template <class T>
 void batched_families() {
   const std::uint64_t seed = env_u64("MLSDEFORM_SEED", 20261121);
-  const std::uint64_t per_family = env_u64("MLSDEFORM_BATCH_CASES", built_with_sanitizer() ? 400 : 4000);
+  const std::uint64_t per_family =
+      env_u64("MLSDEFORM_BATCH_CASES", built_with_sanitizer() || run_emulated() ? 400 : 4000);
   const auto families = all_families();
   // Case i of family f sits at index i * F + f: consecutive lanes hold different families.
   const std::size_t F = families.size(), n = per_family * F;
@@ -146,7 +150,7 @@ template <class T>
 void subnormal_families() {
   using LD = long double;
   const std::uint64_t seed = env_u64("MLSDEFORM_SEED", 20261121);
-  const std::uint64_t per_scale = env_u64("MLSDEFORM_SUBNORMAL_CASES", 3);
+  const std::uint64_t per_scale = env_u64("MLSDEFORM_SUBNORMAL_CASES", run_emulated() ? 1 : 3);
   const int lo = subnormal_lo<T>, hi = subnormal_hi<T>;
   struct Item {
     Case<T> c;
@@ -274,16 +278,33 @@ TEMPLATE_TEST_CASE("fit_rotations: H = 0, -0, denorm_min I and mixed signed zero
 namespace {
 
 /// Sets flush-to-zero and denormals-are-zero on this thread (as a library built with -ffast-math does for
-/// a whole process when loaded), and restores MXCSR when it goes, also when a check throws.
+/// a whole process when loaded), and restores the control register when it goes, also when a check throws.
+/// x86: MXCSR's FTZ and DAZ bits; aarch64: FPCR's FZ bit, which flushes subnormal inputs and outputs both;
+/// elsewhere nothing (the test then checks the default mode).
 class FlushToZero {
  public:
+#if defined(__SSE2__)
   FlushToZero() : saved_(_mm_getcsr()) { _mm_setcsr(saved_ | 0x8040u); }  // FTZ (bit 15) | DAZ (bit 6)
   ~FlushToZero() { _mm_setcsr(saved_); }
+#elif defined(__aarch64__)
+  FlushToZero() : saved_(fpcr()) { set_fpcr(saved_ | (std::uint64_t(1) << 24)); }  // FZ (bit 24)
+  ~FlushToZero() { set_fpcr(saved_); }
+#endif
   FlushToZero(const FlushToZero&) = delete;
   FlushToZero& operator=(const FlushToZero&) = delete;
 
  private:
+#if defined(__SSE2__)
   unsigned saved_;
+#elif defined(__aarch64__)
+  static std::uint64_t fpcr() {
+    std::uint64_t r;
+    asm volatile("mrs %0, fpcr" : "=r"(r));
+    return r;
+  }
+  static void set_fpcr(std::uint64_t r) { asm volatile("msr fpcr, %0" : : "r"(r)); }
+  std::uint64_t saved_;
+#endif
 };
 
 }  // namespace
@@ -307,7 +328,7 @@ TEMPLATE_TEST_CASE("fit_rotations under flush-to-zero and denormals-are-zero: ro
   for (Isa isa : supported_isas()) {
     set_isa(isa);
     for (RotationMethod m : {RotationMethod::axis_angle, RotationMethod::horn_quaternion}) {
-      const std::vector<Matrix3<T>> R = fit_all(H, m, 1);  // on this thread: MXCSR is per thread
+      const std::vector<Matrix3<T>> R = fit_all(H, m, 1);  // on this thread: MXCSR / FPCR is per thread
       std::size_t bad = 0;
       std::string first;
       for (std::size_t k = 0; k < H.size(); ++k) {

@@ -317,7 +317,7 @@ TEST_CASE("ISA names and forcing", "[batch]") {
   std::cout << "supported ISAs:";
   for (Isa isa : isas) std::cout << ' ' << to_string(isa);
   std::cout << "; active: " << to_string(active_isa()) << '\n';
-  for (Isa isa : {Isa::sse4_2, Isa::avx2, Isa::avx512})
+  for (Isa isa : mlsdeform::testing::architecture_isas())
     if (std::find(isas.begin(), isas.end(), isa) == isas.end())
       WARN("ISA " << to_string(isa) << " not supported by this CPU: its kernels are not tested here");
 }

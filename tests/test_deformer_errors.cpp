@@ -137,7 +137,7 @@ TEMPLATE_TEST_CASE("bad rest input is rejected with a message naming the problem
     // An instruction set this CPU lacks is refused at construction, not when a frame would run it.
     o.isa = std::nullopt;
     const std::vector<Isa> runs = supported_isas();
-    for (const Isa isa : {Isa::scalar, Isa::sse4_2, Isa::avx2, Isa::avx512}) {
+    for (const Isa isa : {Isa::scalar, Isa::sse4_2, Isa::avx2, Isa::avx512, Isa::neon}) {
       o.isa = isa;
       if (std::find(runs.begin(), runs.end(), isa) == runs.end())
         expect_ctor_error(sc.vertices, sc.rest, o, "this CPU cannot run it");

@@ -4,7 +4,9 @@
 # Arguments add optional parts: `bench` (CGAL, for bench_quality's reference ARAP), `blender` (Blender), `web`
 # (emscripten and Chromium from Debian, and the page's npm packages into web/node_modules from
 # web/package-lock.json: docs/web.md), `clang19` (Debian 12: clang 19 beside the default clang 14, for a clang
-# build: CXX=clang++-19; Debian 13's default clang is 19 already).
+# build: CXX=clang++-19; Debian 13's default clang is 19 already), `arm64` (the ARM64 cross build,
+# cmake/aarch64-linux-gnu.cmake: Debian's cross g++, the arm64 libraries by multiarch, and a qemu-aarch64 that
+# runs TBB programs: Debian 13's qemu-user, which on Debian 12 is unpacked into /opt/qemu-trixie/bin).
 set -euo pipefail
 codename=$(. /etc/os-release 2>/dev/null && echo "${VERSION_CODENAME:-}")
 case "$codename" in
@@ -46,8 +48,17 @@ packages=(cmake g++ make pkg-config
 # tests/splat_judge/package-lock.json, into tests/splat_judge/node_modules only; docs/splats.md).
 web=0
 judge=0
+arm64=0
 for arg in "$@"; do
   case "$arg" in
+    arm64)
+      # The arm64 -dev packages by multiarch (dpkg --add-architecture below); xsimd's carries its CMake package
+      # for the target's library directory, Eigen, CLI11 and nlohmann-json are architecture-independent.
+      arm64=1
+      packages+=(g++-aarch64-linux-gnu libtbb-dev:arm64 libxsimd-dev:arm64 zlib1g-dev:arm64)
+      # Debian 12's qemu-user 7.2 hangs in multi-threaded TBB programs; Debian 13's 10.0 runs them.
+      [ "$codename" = trixie ] && packages+=(qemu-user)
+      ;;
     bench) packages+=(libcgal-dev) ;;
     clang19) [ "$codename" = trixie ] || packages+=(clang-19 libclang-rt-19-dev) ;;
     blender) packages+=(blender) ;;
@@ -60,7 +71,7 @@ for arg in "$@"; do
       judge=1
       command -v npm >/dev/null || packages+=(nodejs npm)
       ;;
-    *) echo "install_deps: unknown part '$arg' (bench, blender, web, judge, clang19)" >&2; exit 2 ;;
+    *) echo "install_deps: unknown part '$arg' (bench, blender, web, judge, clang19, arm64)" >&2; exit 2 ;;
   esac
 done
 # The page's packages (three; puppeteer-core, which drives the Debian Chromium and downloads no browser),
@@ -85,6 +96,38 @@ judge_npm() {
     (cd "$dir" && npm ci --no-audit --no-fund --ignore-scripts >/dev/null)
   fi
 }
+# Debian 12 (arm64): Debian 13's static qemu-aarch64 and qemu-x86_64 (qemu-user 10.0, whose binaries are static)
+# unpacked into /opt/qemu-trixie/bin, where cmake/aarch64-linux-gnu.cmake looks first. The package comes from
+# Debian's trixie suite through apt with a private source list and state, so the host's apt sources stay as they
+# are; it is checked with the archive keys of Debian 12's debian-archive-keyring, which include Debian 13's.
+qemu_dir=/opt/qemu-trixie/bin
+arm64_qemu() {
+  [ "$arm64" = 1 ] && [ "$codename" = bookworm ] || return 0
+  [ -x "$qemu_dir/qemu-aarch64" ] && [ -x "$qemu_dir/qemu-x86_64" ] && return 0
+  echo "install_deps: Debian 13's qemu-user into $qemu_dir" >&2
+  local tmp opts
+  tmp=$(mktemp -d)
+  mkdir -p "$tmp/lists/partial" "$tmp/cache/archives/partial" "$tmp/deb"
+  echo "deb [signed-by=/usr/share/keyrings/debian-archive-keyring.gpg] ${DEBIAN_MIRROR:-http://deb.debian.org/debian}" \
+    "trixie main" >"$tmp/sources.list"
+  opts=(-o "Dir::Etc::SourceList=$tmp/sources.list" -o Dir::Etc::SourceParts=/dev/null
+    -o "Dir::State::Lists=$tmp/lists" -o "Dir::Cache=$tmp/cache" -o APT::Architectures::=amd64
+    -o Debug::NoLocking=1 -o APT::Sandbox::User=root)
+  $sudo apt-get "${opts[@]}" update -qq
+  (cd "$tmp/deb" && $sudo apt-get "${opts[@]}" download qemu-user >/dev/null 2>&1)
+  $sudo dpkg-deb -x "$tmp"/deb/qemu-user_*.deb "$tmp/root"
+  $sudo mkdir -p "$qemu_dir"
+  $sudo cp "$tmp/root/usr/bin/qemu-aarch64" "$tmp/root/usr/bin/qemu-x86_64" "$qemu_dir/"
+  $sudo rm -rf "$tmp"
+  "$qemu_dir/qemu-aarch64" --version | head -n 1 >&2
+}
+sudo=""
+[ "$(id -u)" -eq 0 ] || sudo="sudo"
+if [ "$arm64" = 1 ] && ! dpkg --print-foreign-architectures | grep -qx arm64; then
+  echo "install_deps: dpkg --add-architecture arm64" >&2
+  $sudo dpkg --add-architecture arm64
+  $sudo apt-get update -qq
+fi
 missing=()
 for p in "${packages[@]}"; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
@@ -92,13 +135,13 @@ done
 if [ ${#missing[@]} -eq 0 ]; then
   web_npm
   judge_npm
+  arm64_qemu
   exit 0
 fi
 echo "install_deps: installing ${missing[*]}" >&2
-sudo=""
-[ "$(id -u)" -eq 0 ] || sudo="sudo"
 export DEBIAN_FRONTEND=noninteractive
 $sudo apt-get update -qq
 $sudo apt-get install -y -qq --no-install-recommends "${missing[@]}" >/dev/null
 web_npm
 judge_npm
+arm64_qemu

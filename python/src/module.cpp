@@ -55,7 +55,7 @@ PYBIND11_MODULE(_mlsdeform, m) {
 
   m.def(
       "active_isa", [] { return std::string(to_string(active_isa())); },
-      "The instruction set the kernels use: 'scalar', 'sse4_2', 'avx2' or 'avx512'.");
+      "The instruction set the kernels use: 'scalar', 'sse4_2', 'avx2' or 'avx512' (x86-64), 'neon' (aarch64).");
   m.def(
       "supported_isas",
       [] {
@@ -67,7 +67,7 @@ PYBIND11_MODULE(_mlsdeform, m) {
   m.def(
       "set_isa",
       [](const std::string& name) {
-        for (Isa i : {Isa::scalar, Isa::sse4_2, Isa::avx2, Isa::avx512})
+        for (Isa i : {Isa::scalar, Isa::sse4_2, Isa::avx2, Isa::avx512, Isa::neon})
           if (to_string(i) == name) return set_isa(i);
         throw py::value_error("set_isa: unknown instruction set '" + name + "'");
       },

@@ -80,7 +80,7 @@ struct Shared {
 /// One table of entries: n lanes of in, into n lanes of out.
 template <class T>
 struct StageEntries {
-  const char* isa;    ///< "scalar", "sse4_2", "avx2", "avx512"
+  const char* isa;    ///< "scalar", "sse4_2", "avx2", "avx512", "neon"
   std::size_t width;  ///< lanes per batch (1 for the scalar table)
   void (*invariants)(const Matrix<T>* in, InvariantsOut<T>* out, std::size_t n);
   void (*maximum_root)(const InvariantsOut<T>* in, RootOut<T>* out, std::size_t n);
@@ -108,6 +108,8 @@ template <class T>
 const StageEntries<T>& avx2_entries();
 template <class T>
 const StageEntries<T>& avx512_entries();
+template <class T>
+const StageEntries<T>& neon_entries();
 
 /// Calls f(in, out) with In<V>, Out<V> holding lanes [i0, i0 + W) of in, out, W = L::W at a time (a partial
 /// last batch zero-padded). The structs hold only E's, so In<T> is sizeof(In<T>) / sizeof(T) values of T

@@ -25,19 +25,22 @@ LD gamma(int k) {
 /// The table of an ISA's stage entries.
 template <class T>
 const StageEntries<T>& entries(Isa isa) {
-  switch (isa) {
+  switch (isa) {  // the architecture's tables only (kernels/CMakeLists.txt)
+#if defined(__EMSCRIPTEN__) || defined(__x86_64__) || defined(__i386__)
     case Isa::sse4_2:
       return sse4_2_entries<T>();
-#ifndef __EMSCRIPTEN__  // WebAssembly runs the SSE4.2 twins only (kernels/CMakeLists.txt)
+#endif
+#if (defined(__x86_64__) || defined(__i386__)) && !defined(__EMSCRIPTEN__)
     case Isa::avx2:
       return avx2_entries<T>();
     case Isa::avx512:
       return avx512_entries<T>();
-#else
-    case Isa::avx2:
-    case Isa::avx512:
 #endif
-    case Isa::scalar:
+#if defined(__aarch64__)
+    case Isa::neon:
+      return neon_entries<T>();
+#endif
+    default:
       break;
   }
   return scalar_entries<T>();

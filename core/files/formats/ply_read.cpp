@@ -3,6 +3,7 @@
 // values in the file's types, so that the writer gives them back bit for bit.
 #include "core/files/formats/reader.hpp"
 
+#include <algorithm>
 #include <bit>
 
 namespace mlsdeform::files::formats {
@@ -37,8 +38,9 @@ bool fits(PlyScalar s, std::int64_t v) {
 /// One value of type s from a binary body in either byte order, appended to `data` in the machine's order
 /// (kept as the file's bits); false if the body ends first. `out`: the value, exact.
 bool read_binary(Reader& reader, PlyScalar s, bool big_endian, std::vector<unsigned char>& data, double& out) {
-  const std::size_t n = size_of(s);
   unsigned char raw[8];
+  // At most 8 (the largest PLY type), stated so that aarch64 g++ 12 can bound the copy (-Wstringop-overflow).
+  const std::size_t n = std::min(size_of(s), sizeof raw);
   if (!reader.bytes(reinterpret_cast<char*>(raw), n)) return false;
   if (big_endian != (std::endian::native == std::endian::big)) std::reverse(raw, raw + n);
   data.insert(data.end(), raw, raw + n);

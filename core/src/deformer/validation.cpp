@@ -34,7 +34,7 @@ void check_options(const Options& o) {
                                 std::to_string(static_cast<int>(o.segment_weight)));
   if (o.isa) {
     const int isa = static_cast<int>(*o.isa);
-    if (isa < static_cast<int>(Isa::scalar) || isa > static_cast<int>(Isa::avx512))
+    if (isa < static_cast<int>(Isa::scalar) || isa > static_cast<int>(Isa::neon))
       throw std::invalid_argument("Deformer: unknown Isa value " + std::to_string(isa));
     const std::vector<Isa> runs = supported_isas();
     if (std::find(runs.begin(), runs.end(), *o.isa) == runs.end())
