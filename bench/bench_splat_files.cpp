@@ -13,12 +13,12 @@
 #include "core/files/formats/splat_codecs.hpp"
 #include "core/files/mesh.hpp"
 #include "core/files/splat_io.hpp"
+#include "tests/support/splats.hpp"
 
 #include <benchmark/benchmark.h>
 
 #include <cmath>
 #include <cstdio>
-#include <numbers>
 #include <random>
 #include <string>
 
@@ -45,19 +45,7 @@ files::SplatCloud scene() {
 }
 
 void write_handles(const std::string& path) {
-  std::string json = "{\"points\": [";
-  const double c = std::cos(std::numbers::pi / 3), s = std::sin(std::numbers::pi / 3);
-  for (double z : {0.0, 0.1, 1.9, 2.0})
-    for (double x : {-0.2, 0.2})
-      for (double y : {-0.2, 0.2}) {
-        double ty = y, tz = z;
-        if (z > 1) ty = c * y - s * (z - 1.5), tz = 1.5 + s * y + c * (z - 1.5);
-        char buf[200];
-        std::snprintf(buf, sizeof buf, "%s{\"rest\": [%g, %g, %g], \"target\": [%.17g, %.17g, %.17g]}",
-                      json.back() == '[' ? "" : ", ", x, y, z, x, ty, tz);
-        json += buf;
-      }
-  files::write_file_atomic(path, json + "]}\n", true);
+  files::write_file_atomic(path, mlsdeform::testing::bent_bar_handles(), true);
 }
 
 struct Files {

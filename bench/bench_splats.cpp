@@ -128,21 +128,10 @@ void add(const std::string& name, int threads, std::function<void(benchmark::Sta
 /// ones turned 60 degrees about x around (0, 0, 1.5).
 int write_ply(const std::string& path) {
   mlsdeform::testing::write_splat_ply(path, cloud());
-  std::string json = "{\"points\": [";
-  const double c = std::cos(std::numbers::pi / 3), s = std::sin(std::numbers::pi / 3);
-  for (double z : {0.0, 0.1, 1.9, 2.0})
-    for (double x : {-0.2, 0.2})
-      for (double y : {-0.2, 0.2}) {
-        double ty = y, tz = z;
-        if (z > 1) ty = c * y - s * (z - 1.5), tz = 1.5 + s * y + c * (z - 1.5);
-        char buf[200];
-        std::snprintf(buf, sizeof buf, "%s{\"rest\": [%g, %g, %g], \"target\": [%.17g, %.17g, %.17g]}",
-                      json.back() == '[' ? "" : ", ", x, y, z, x, ty, tz);
-        json += buf;
-      }
+  const std::string json = mlsdeform::testing::bent_bar_handles();
   std::FILE* f = std::fopen((path + ".json").c_str(), "w");
   if (!f) return 1;
-  std::fputs((json + "]}\n").c_str(), f);
+  std::fputs(json.c_str(), f);
   std::fclose(f);
   std::printf("%s (%zu splats), %s.json\n", path.c_str(), kSplats, path.c_str());
   return 0;

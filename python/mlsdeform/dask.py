@@ -46,6 +46,7 @@ machine, or `dask worker --nworkers N --nthreads 1 tcp://scheduler:8786` on each
 worker must see the input and output paths (a shared file system).
 """
 import os
+import threading
 import time
 import uuid
 
@@ -100,10 +101,14 @@ def _render_shard(run, mesh, handles, out, dtype, options, frames):
 def _render_frames(run, mesh, handles, out, dtype, options, frames):
     built = False
     with _sessions_lock:
-        job = _sessions.get(run)
-        if job is None:
-            job = _sessions[run] = _job(mesh, handles, out, dtype, options)
+        entry = _sessions.get(run)
+        if entry is None:
+            # One job per worker process, shared by its threads (threads_per_worker > 1): a job deforms and
+            # encodes one frame at a time (its buffers are its own), so its frames take turns under its lock;
+            # each frame uses the worker's threads inside the library.
+            entry = _sessions[run] = (_job(mesh, handles, out, dtype, options), threading.Lock())
             built = True
+    job, job_lock = entry
     seconds_deform = seconds_write = 0.0
     written, nbytes = [], 0
     cpu = time.process_time()
@@ -111,7 +116,8 @@ def _render_frames(run, mesh, handles, out, dtype, options, frames):
         if run in _stopped:
             break
         t0 = time.perf_counter()
-        data, deform, _ = job.encode_frame(frame)
+        with job_lock:
+            data, deform, _ = job.encode_frame(frame)
         t1 = time.perf_counter()
         path = job.outputs[frame]
         files.write_atomically(path, data, run)

@@ -273,7 +273,8 @@ class DeformJob:
         self.summary = dict(self._job.summary)
 
     def encode_frame(self, i):
-        """(bytes of output i, seconds deforming, seconds carrying attributes and encoding)."""
+        """(bytes of output i, seconds deforming, seconds carrying attributes and encoding). One frame at a time
+        per job (it reuses its buffers): threads that share a job take turns (a lock), or each has its own."""
         return self._job.encode_frame(i)
 
     def write_frame(self, i, tag=""):

@@ -4,8 +4,10 @@
 
 #include <bit>
 #include <cmath>
+#include <cstdio>
 #include <cstring>
 #include <fstream>
+#include <numbers>
 #include <stdexcept>
 
 namespace mlsdeform::testing {
@@ -86,6 +88,22 @@ void write_splat_ply(const std::string& path, const SplatCloud& cloud) {
   std::ofstream out(path, std::ios::binary);
   out.write(bytes.data(), std::streamsize(bytes.size()));
   if (!out) throw std::runtime_error("write_splat_ply: cannot write " + path);
+}
+
+std::string bent_bar_handles() {
+  std::string json = "{\"points\": [";
+  const double c = std::cos(std::numbers::pi / 3), s = std::sin(std::numbers::pi / 3);
+  for (double z : {0.0, 0.1, 1.9, 2.0})
+    for (double x : {-0.2, 0.2})
+      for (double y : {-0.2, 0.2}) {
+        double ty = y, tz = z;
+        if (z > 1) ty = c * y - s * (z - 1.5), tz = 1.5 + s * y + c * (z - 1.5);
+        char buf[200];
+        std::snprintf(buf, sizeof buf, "%s{\"rest\": [%g, %g, %g], \"target\": [%.17g, %.17g, %.17g]}",
+                      json.back() == '[' ? "" : ", ", x, y, z, x, ty, tz);
+        json += buf;
+      }
+  return json + "]}\n";
 }
 
 }  // namespace mlsdeform::testing

@@ -37,4 +37,8 @@ std::vector<char> splat_ply_bytes(const SplatCloud& cloud);
 /// Writes splat_ply_bytes to `path`; throws std::runtime_error if it cannot.
 void write_splat_ply(const std::string& path, const SplatCloud& cloud);
 
+/// The benchmarks' handles file (the program's format) for a bar along z from 0 to 2: 16 point handles, those at
+/// z = 0 and 0.1 staying, those at z = 1.9 and 2 turned 60 degrees about x around (0, 0, 1.5).
+std::string bent_bar_handles();
+
 }  // namespace mlsdeform::testing
