@@ -38,6 +38,10 @@ endforeach()
 # The splat formats against an independent converter, splat-transform (tests/splat_judge/judge.py, docs/splats.md):
 # a rigid motion through SPZ, compressed PLY and .splat within each format's derived bound, one test per SH
 # degree. Skipped, saying so, where node or splat-transform is missing (tools/install_deps.sh judge).
+# Debian's interpreter (numpy), not a pyenv python3 that may come first on PATH (as the top level chooses it).
+if(NOT Python3_EXECUTABLE AND EXISTS /usr/bin/python3)
+  set(Python3_EXECUTABLE /usr/bin/python3)
+endif()
 find_package(Python3 COMPONENTS Interpreter)
 if(Python3_Interpreter_FOUND)
   foreach(_degree 0 1 2 3)
