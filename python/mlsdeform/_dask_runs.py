@@ -23,8 +23,8 @@ class Summary:
     """What a run wrote. `written`: the output paths, in order; `failed`: {input: error message} (deform_meshes);
     `seconds`: wall-clock time of the whole run on the client; `seconds_deform`, `seconds_write`: summed over the
     tasks (the share of the work spent writing files is seconds_write / (seconds_deform + seconds_write));
-    `seconds_setup`: of `seconds`, the client's part before the first task (render_animation: reading the mesh,
-    resolving the handles, sending the rest pose); `cpu_seconds`: the CPU time of the worker processes while they
+    `seconds_setup`: of `seconds`, the client's part before the first task (render_animation: reading and
+    checking the mesh and the handles file); `cpu_seconds`: the CPU time of the worker processes while they
     ran the frames (render_animation; with the worker's other threads, if any); `sessions_built`: sessions built
     on the workers (one per worker for render_animation, one per mesh for deform_meshes, more when a worker died
     and its replacement built its own); `temporaries_removed`: files of attempts that died; `dropped`: {input:

@@ -19,9 +19,9 @@ tasks runs, and keeps it for the rest of the run; the frames are split into shar
 are the frames' files (OUT_0000.EXT, ... as the program names them: the number zero-padded to the digits of the
 largest index, at least 4).
 
-deform_meshes: one task per mesh of a folder: NAME.obj / NAME.off / NAME.ply (or .gz) with its handles file
-NAME.json beside it; each frame of the handles file is one output (NAME_0000.EXT, ...; NAME.EXT when the file has
-no frames).
+deform_meshes: one task per mesh of a folder: NAME.EXT in any format the program reads (.obj, .off, .ply, their
+.gz, and the splat formats) with its handles file NAME.json beside it; each frame of the handles file is one
+output (NAME_0000.EXT, ...; NAME.EXT when the file has no frames).
 
 Every file is written all or nothing (a temporary file beside it, then a rename): a reader never sees part of a
 file. Every output path of the run is known before anything is submitted (deform_meshes counts each handles
