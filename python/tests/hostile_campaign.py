@@ -70,6 +70,7 @@ def build_cases(args):
     from hostile_cases import (
         cases_arap,
         cases_attributes,
+        cases_attributes_splats,
         cases_cli,
         cases_dask,
         cases_files_api,
@@ -107,7 +108,7 @@ def build_cases(args):
     cases_helpers.build(args)
     cases_splats.build(args)
     cases_attributes.build(args)
-    cases_attributes.build_splats(args)
+    cases_attributes_splats.build(args)
     cases_attributes.build_cube(args)
     cases_files_api.build(args)
     cases_dask.build(args)
