@@ -3,7 +3,9 @@
 #   tools/dev.sh demo   install what is missing, build (Release), run `mlsdeform demo`
 #   tools/dev.sh test   install what is missing, build, run the whole test suite through ctest, then the
 #                       C++ tests and the program's again under AddressSanitizer + UndefinedBehaviorSanitizer
-#                       with every assertion on
+#                       with every assertion on, then the other platforms' stages (HACKING.md): Debian 13 with
+#                       clang 19, numpy 2 and Blender 4.3 in a debootstrap root (tools/trixie.sh ci; root or
+#                       sudo), and ARM64 cross-built and tested under qemu; MLSDEFORM_PLATFORMS=0 skips those
 #   tools/dev.sh python install what is missing, build (Release), install the Python package into the venv .venv/
 #                       (made if missing; editable: it loads the module of build/, so a rebuild is picked up)
 #                       and run the Python tests against it
@@ -20,6 +22,8 @@ set -euo pipefail
 root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
 cd "$root"
 jobs=$(nproc 2>/dev/null || echo 2)
+sudo=""
+[ "$(id -u)" -eq 0 ] || sudo="sudo"
 case "${1:-}" in
   test) bash tools/install_deps.sh blender web judge ;;
   blender) bash tools/install_deps.sh blender ;;
@@ -81,6 +85,15 @@ case "${1:-}" in
     black --quiet .  # pyproject.toml's settings; the files git would take (.gitignore)
     ;;
   test)
+    # The other platforms' stages run last, but the Debian 13 root's download and set-up (network and disk, a few
+    # minutes) goes on in the background meanwhile; its log is build-trixie/setup.log.
+    platforms=${MLSDEFORM_PLATFORMS:-1}
+    trixie_setup=""
+    if [ "$platforms" != 0 ] && [ "$(. /etc/os-release && echo "$VERSION_CODENAME")" != trixie ]; then
+      mkdir -p build-trixie
+      $sudo bash tools/trixie.sh setup blender >build-trixie/setup.log 2>&1 &
+      trixie_setup=$!
+    fi
     build_web  # before build/: its ctest label `web` runs the WebAssembly tests and the browser tests
     build build -DMLSDEFORM_WERROR=ON
     ctest --test-dir build --output-on-failure -j "$jobs"
@@ -96,6 +109,20 @@ case "${1:-}" in
       -DMLSDEFORM_SANITIZE=ON -DMLSDEFORM_BUILD_BENCH=OFF -DMLSDEFORM_WERROR=ON -DMLSDEFORM_CHOLMOD=OFF
     ASAN_OPTIONS=detect_leaks=1 UBSAN_OPTIONS=print_stacktrace=1 \
       ctest --test-dir build-asan --output-on-failure -j "$jobs" -LE no_sanitizer
+    if [ "$platforms" = 0 ]; then
+      echo "dev.sh test: MLSDEFORM_PLATFORMS=0: the Debian 13 and ARM64 stages are skipped" >&2
+      exit 0
+    fi
+    # Debian 13: clang 19, xsimd 13, Catch2 3, Python 3.13 with numpy 2 and pybind11 2.13, Blender 4.3. On a
+    # Debian 13 host the builds above were that platform already (with its g++).
+    if [ -n "$trixie_setup" ]; then
+      if ! wait "$trixie_setup"; then
+        tail -n 30 build-trixie/setup.log >&2
+        echo "dev.sh test: the Debian 13 root's set-up failed (build-trixie/setup.log)" >&2
+        exit 1
+      fi
+      $sudo bash tools/trixie.sh ci
+    fi
     ;;
   *)
     echo "usage: tools/dev.sh demo [demo options] | test | python | blender | web [--serve [PORT]] | format" >&2

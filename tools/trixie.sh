@@ -2,11 +2,18 @@
 # Builds and tests mlsdeform on Debian 13 (trixie: gcc 14, clang 19, Python 3.13, numpy 2, xsimd 13, Catch2 3)
 # from a Debian 12 or 13 host, inside a Debian 13 root that debootstrap makes in build-trixie/root/ (.gitignore:
 # /build*/; TRIXIE_ROOT=DIR puts it elsewhere). Needs root (debootstrap, chroot, mounts) and Debian's mirror.
-#   tools/trixie.sh setup         make the root if missing (debootstrap, a few minutes), then install the project's
-#                                 dependencies in it with tools/install_deps.sh, as a user on Debian 13 would
+#   tools/trixie.sh setup [PARTS] make the root if missing (debootstrap, a few minutes), then install the project's
+#                                 dependencies in it with tools/install_deps.sh PARTS (default: bench), as a user on
+#                                 Debian 13 would
 #   tools/trixie.sh test [CXX]    setup, then in the root: build build-trixie/<CXX>/ (Release, -Werror, CHOLMOD) with
 #                                 CXX=g++ (default) or clang++, and run its ctest: the C++ tests and the Python
 #                                 tests (python_tests, python_wheel) against Debian 13's numpy 2 and pybind11 2.13
+#   tools/trixie.sh ci            CI's Debian 13 stage (tools/dev.sh test; HACKING.md says what runs where): setup
+#                                 with Blender 4.3 instead of CGAL, then build build-trixie/ci/ with clang 19 (Release,
+#                                 -Werror, CHOLMOD; no benchmarks or fuzzers) and run the chosen set: the SIMD stages
+#                                 and batch fits against the scalar and long-double references, the deformer tests
+#                                 (Catch2 3: a random seed each run), the files library and the program, the Python
+#                                 tests against numpy 2, and the Blender 4.3 extension installed and run headless
 #   tools/trixie.sh shell         a shell in the root, the checkout at /src
 # The checkout is bind-mounted at /src, so the build trees land in build-trixie/ beside the root. Mounts live in a
 # private mount namespace (unshare): nothing stays mounted when the script ends, however it ends.
@@ -35,7 +42,7 @@ in_root() {
   ' in_root "$chroot_dir" "$root" "$@"
 }
 
-setup() {
+setup() {  # setup [install_deps.sh parts...]
   if [ ! -x "$chroot_dir/usr/bin/apt-get" ]; then
     command -v debootstrap >/dev/null || {
       echo "trixie.sh: installing debootstrap" >&2
@@ -53,18 +60,30 @@ setup() {
       }
   fi
   # The project's own script, as on a fresh Debian 13 (it chooses the packages by /etc/os-release).
-  in_root bash /src/tools/install_deps.sh bench
+  in_root bash /src/tools/install_deps.sh "$@"
 }
 
+# CI's set (tools/trixie.sh ci): what differs on Debian 13 is the compiler and its warnings, xsimd 13, Catch2 3,
+# TBB 2022, Python 3.13 with numpy 2 and pybind11 2.13, and Blender 4.3; these targets and tests reach each.
+ci_targets=(mlsdeform _mlsdeform mlsdeform_py_reference mlsdeform_blender_zip
+  test_stages test_stages_ring test_batch_accuracy test_batch_fit test_deformer test_deformer_continuity
+  test_deformer_session test_deformer_segments test_frames_near_handles test_splats
+  test_cli_commands test_cli_mesh_io test_cli_splat_codecs test_cli_scene_hashes)
+ci_tests='^(test_[a-z_0-9]+:|python_tests$|blender_)'
+
+
 case "${1:-}" in
-  setup) setup ;;
+  setup)
+    shift
+    setup "${@:-bench}"
+    ;;
   test)
     cxx=${2:-g++}
     case "$cxx" in
       g++ | clang++) ;;
       *) echo "trixie.sh: test takes g++ or clang++, not '$cxx'" >&2; exit 2 ;;
     esac
-    setup
+    setup bench
     in_root bash -c '
       cd /src
       . /etc/os-release; echo "$PRETTY_NAME: $('"$cxx"' --version | head -n 1)"
@@ -76,9 +95,25 @@ case "${1:-}" in
       ctest --test-dir "$dir" --output-on-failure -j '"$jobs"'
     '
     ;;
-  shell) setup && in_root bash -c 'cd /src && exec bash -i' ;;
+  ci)
+    setup blender
+    start=$(date +%s)
+    in_root bash -c '
+      cd /src
+      . /etc/os-release; echo "$PRETTY_NAME: $(clang++ --version | head -n 1)"
+      dir=build-trixie/ci
+      CXX=clang++ cmake -S . -B "$dir" -DCMAKE_BUILD_TYPE=Release -DMLSDEFORM_WERROR=ON -DMLSDEFORM_CHOLMOD=ON \
+        -DMLSDEFORM_BUILD_BENCH=OFF -DMLSDEFORM_BUILD_PYTHON=ON >/dev/null
+      cmake --build "$dir" -j '"$jobs"' --target '"${ci_targets[*]}"'
+      python3 -c "import numpy, pybind11; print(\"numpy\", numpy.__version__, \"pybind11\", pybind11.__version__)"
+      blender --version | head -n 1
+      ctest --test-dir "$dir" --output-on-failure -j '"$jobs"' -R "'"$ci_tests"'"
+    '
+    echo "trixie.sh ci: $(($(date +%s) - start)) s after setup" >&2
+    ;;
+  shell) setup bench && in_root bash -c 'cd /src && exec bash -i' ;;
   *)
-    echo "usage: tools/trixie.sh setup | test [g++|clang++] | shell" >&2
+    echo "usage: tools/trixie.sh setup [PARTS] | test [g++|clang++] | ci | shell" >&2
     exit 2
     ;;
 esac

@@ -14,7 +14,13 @@ unbind (restores the rest mesh exactly). Prints "N passed, M failed" and exits n
 is the Blender 4.2+ extension as this Blender can run it (tools/blender/test_extension.sh): an add-on without
 the compiled package inside, which imports the one unpacked from the extension's wheel into SITE_PACKAGES, as
 Blender 4.2+ unpacks it into its extensions' site-packages.
+
+    ... --python tests/blender/test_addon.py -- --installed-extension EXTENSIONS
+
+is the extension installed by Blender 4.2+ itself (`blender --command extension install-file -r user_default`,
+with BLENDER_USER_EXTENSIONS=EXTENSIONS), enabled as bl_ext.user_default.mlsdeform_blender.
 """
+import importlib
 import math
 import os
 import sys
@@ -26,8 +32,11 @@ import bpy
 import numpy as np
 
 ARGS = sys.argv[sys.argv.index("--") + 1 :] if "--" in sys.argv else []
-ZIP = ARGS[0] if ARGS else None
-if len(ARGS) > 1:
+# `-- --installed-extension EXTENSIONS`: the extension that Blender 4.2+'s own installer put into the user
+# repository of EXTENSIONS (BLENDER_USER_EXTENSIONS), its wheel unpacked by Blender into EXTENSIONS/.local.
+INSTALLED = ARGS[1] if ARGS[:1] == ["--installed-extension"] and len(ARGS) == 2 else None
+ZIP = ARGS[0] if ARGS and not INSTALLED else None
+if len(ARGS) > 1 and not INSTALLED:
     sys.path.insert(0, ARGS[1])
 results = {"passed": 0, "failed": 0}
 
@@ -133,12 +142,23 @@ def expected(addon, obj, rest, now, seg):
 
 
 def main():
-    bpy.ops.preferences.addon_install(filepath=ZIP, overwrite=True)
-    bpy.ops.preferences.addon_enable(module="mlsdeform_blender")
-    import mlsdeform_blender as addon
+    if INSTALLED:
+        name = "bl_ext.user_default.mlsdeform_blender"
+        bpy.ops.preferences.addon_enable(module=name)
+        addon = importlib.import_module(name)
+        check("extension enabled from the user repository", name in bpy.context.preferences.addons, name)
+        check(
+            "the compiled package is the one Blender unpacked from the extension's wheel",
+            os.path.realpath(addon.mlsdeform.__file__).startswith(os.path.realpath(INSTALLED) + os.sep),
+            addon.mlsdeform.__file__,
+        )
+    else:
+        bpy.ops.preferences.addon_install(filepath=ZIP, overwrite=True)
+        bpy.ops.preferences.addon_enable(module="mlsdeform_blender")
+        import mlsdeform_blender as addon
 
     check("add-on enabled, module imported", hasattr(bpy.ops.mlsdeform, "bind"))
-    if len(ARGS) > 1:
+    if len(ARGS) > 1 and not INSTALLED:
         check(
             "the compiled package is the wheel's, unpacked into the site-packages",
             os.path.realpath(addon.mlsdeform.__file__).startswith(os.path.realpath(ARGS[1]) + os.sep),

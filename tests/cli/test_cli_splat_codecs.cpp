@@ -156,9 +156,9 @@ TEST_CASE("Splat codecs: every truncation and byte change of the seeds read or r
   for (const auto& [name, format] : seeds) {
     INFO(name);
     const std::string whole = cli_test::read_text(dir + name);
-    auto decode = [&, format = format](const std::string& b) {
-      if (format == files::SplatFormat::spz) return files::decode_spz(b, "t.bin", 1 << 20);
-      if (format == files::SplatFormat::splat) return files::decode_splat(b, "t.bin");
+    auto decode = [&, f = format](const std::string& b) {  // f: a structured binding is not captured by name
+      if (f == files::SplatFormat::spz) return files::decode_spz(b, "t.bin", 1 << 20);
+      if (f == files::SplatFormat::splat) return files::decode_splat(b, "t.bin");
       return files::decode_compressed_ply(b, "t.bin");
     };
     REQUIRE(decode(whole).count > 0);

@@ -323,7 +323,7 @@ def cube_case(program, g, precision):
     faces = [(0, 1, 3, 2, (-1, 0, 0)), (4, 6, 7, 5, (1, 0, 0)), (0, 4, 5, 1, (0, -1, 0))]
     faces += [(2, 3, 7, 6, (0, 1, 0)), (0, 2, 6, 4, (0, 0, -1)), (1, 5, 7, 3, (0, 0, 1))]
     other = ["# a cube", "mtllib cube.mtl", "o cube", "vt 0 0", "vt 1 0", "vt 1 1", "g sides", "usemtl red", "s off"]
-    lines = other[:3] + ["v %r %r %r" % tuple(v) for v in V] + other[3:]
+    lines = other[:3] + ["v %r %r %r" % tuple(map(float, v)) for v in V] + other[3:]
     lines += ["vn %d %d %d" % f[4] for f in faces]
     for k, f in enumerate(faces):
         lines.append("f " + " ".join(f"{i + 1}/{(j % 3) + 1}/{k + 1}" for j, i in enumerate(f[:4])))
