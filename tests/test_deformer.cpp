@@ -18,8 +18,10 @@ namespace {
 
 /// Checks out against expected(v) for every vertex, with the bound of the direct evaluation (moved handles
 /// as given) plus `extra` (absolute). Returns the largest deviation / bound. Vertices where the fit is
-/// singular in double (affine with fewer than four handles of non-negligible weight) fail the test unless
-/// `ill_posed` is given, which then counts them.
+/// ill-posed fail the test unless `ill_posed` is given, which then counts them: singular in double (affine:
+/// G; rigid, similarity: gap = 0), or H rank-deficient to the double reference's own rounding (gap <= 64
+/// eps_double s1: the sum's and the SVD's rounding, a few eps s1 each, with a margin), where the reference's
+/// rotation, and so its bound, mean nothing; above that the bound covers T's rounding, which grows as 1 / gap.
 template <class T, class F>
 double check_expected(const Points<T>& out, const DeformCase<T>& sc, const Handles<T>& moved, const Options& o,
                       F expected, double extra = 0, long* ill_posed = nullptr) {
@@ -28,8 +30,16 @@ double check_expected(const Points<T>& out, const DeformCase<T>& sc, const Handl
   for (Eigen::Index i = 0; i < sc.vertices.rows(); ++i) {
     const Vec3d v = sc.vertices.row(i).transpose().template cast<double>();
     const DirectVertex d = direct_vertex(v, sc.rest, moved, o, l);
-    if (!d.well_posed && ill_posed) {
+    const double eps_d = std::numeric_limits<double>::epsilon();
+    const bool rotation = o.transform != Transform::affine;
+    if ((!d.well_posed || (rotation && d.gap <= 64 * eps_d * d.s1)) && ill_posed) {
       ++*ill_posed;
+      // Whatever rotation the fit takes, a rigid or similarity map moves v by at most mu |v - p*| off
+      // (the centroid's image is exact to rounding): 2 mu |vhat| apart from the expected point.
+      if (rotation && d.well_posed) {
+        const double dev = (out.row(i).transpose().template cast<double>() - expected(v)).norm();
+        CHECK(dev <= 2 * d.mu * d.vhat_norm + 8 * std::numeric_limits<T>::epsilon() * (expected(v).norm() + l));
+      }
       continue;
     }
     REQUIRE(d.well_posed);
@@ -164,16 +174,20 @@ TEMPLATE_TEST_CASE("extreme weight exponents and vertices close to handles stay 
       Points<T> out;
       def.deform(moved, out);
       REQUIRE(out.allFinite());
-      // Every transform reproduces a rigid motion (test_deformer_common.hpp bound). With u = 20 the nearest
-      // two or three handles take all the weight at some vertices, and the affine fit is singular there.
+      // Every transform reproduces a rigid motion (test_deformer_common.hpp bound). With large u the nearest
+      // handles take all the weight at some vertices, and what is left of the others' below rounding: a
+      // segment alone, two points (a vertex 256 eps from one handle: H is the next handle's term, 1e-238, the
+      // third's 1e-17 of it), fewer than four points for affine. The fit is ill-posed there (rotation about
+      // that line free) for every transform; such vertices are counted, and stay few (300 seeds: at most 10
+      // of 200, none with u <= 1.5).
       long ill_posed = 0;
       check_expected(
           out, sc, moved, o, [&](const Vec3d& v) { return Vec3d(R * v + t); },
           8 * std::numeric_limits<double>::epsilon() * (2 + t.norm()), &ill_posed);
-      if (tr != Transform::affine || u < 20) CHECK(ill_posed == 0);
+      CHECK(ill_posed <= (u <= 1.5 ? 0 : sc.vertices.rows() / 10));
       if (ill_posed)
-        std::printf("[extreme] %s %s u = %g: %ld vertices with a singular affine fit skipped\n", type_name<T>(),
-                    name(tr), u, ill_posed);
+        std::printf("[extreme] %s %s u = %g: %ld vertices with an ill-posed fit skipped\n", type_name<T>(), name(tr), u,
+                    ill_posed);
     }
 }
 

@@ -65,11 +65,11 @@ for arg in "$@"; do
     web)
       web=1
       packages+=(emscripten node-acorn chromium)
-      command -v npm >/dev/null || packages+=(nodejs npm)
+      command -v npm >/dev/null || [[ " ${packages[*]} " == *" npm "* ]] || packages+=(nodejs npm)
       ;;
     judge)
       judge=1
-      command -v npm >/dev/null || packages+=(nodejs npm)
+      command -v npm >/dev/null || [[ " ${packages[*]} " == *" npm "* ]] || packages+=(nodejs npm)
       ;;
     *) echo "install_deps: unknown part '$arg' (bench, blender, web, judge, clang19, arm64)" >&2; exit 2 ;;
   esac

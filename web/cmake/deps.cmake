@@ -3,7 +3,13 @@
 # (a link to the Debian one), never /usr/include itself: that holds the host's libc headers, which must not
 # shadow emscripten's. No TBB: MLSDEFORM_SERIAL gives the serial stand-ins (core/src/threading.hpp).
 set(_mls_sysdeps ${CMAKE_BINARY_DIR}/sysdeps)
-foreach(dep eigen3/Eigen:Eigen eigen3/unsupported:unsupported xsimd:xsimd nlohmann:nlohmann catch2:catch2)
+# Catch2 only as version 2's single header (Debian 12): Debian 13's Catch2 3 is a compiled library, built for
+# the host only, so there the WebAssembly C++ tests are left out (web/cmake/tests.cmake says so).
+set(_mls_deps eigen3/Eigen:Eigen eigen3/unsupported:unsupported xsimd:xsimd nlohmann:nlohmann)
+if(EXISTS /usr/include/catch2/catch.hpp)
+  list(APPEND _mls_deps catch2:catch2)
+endif()
+foreach(dep ${_mls_deps})
   string(REPLACE ":" ";" _pair ${dep})
   list(GET _pair 0 _from)
   list(GET _pair 1 _to)
