@@ -1,0 +1,121 @@
+// The page's splat scenes in headless Debian Chromium (harness.mjs), for the native build's ctest label `web`
+// (tests/web.cmake, through run_browser_test.sh). One check per run:
+//   node web/tests/browser_splats.mjs SITE pose DIR        a synthetic scene (splat_scene.js) opened by URL, three
+//                                                          handles placed on splats and moved: DIR/scene.ply, the
+//                                                          page's DIR/page.ply, DIR/page.spz, DIR/handles.json and
+//                                                          DIR/spz_decoded.ply (page.spz read back by the library)
+//                                                          for run_browser_test.sh to hold against the program
+//   node web/tests/browser_splats.mjs SITE screenshot PNG  a posed scene is drawn by Spark (not blank)
+//   node web/tests/browser_splats.mjs SITE hostile         bad splat files opened, NaN targets, far handles, export
+//                                                          without splats: a message each, the scene kept
+//   node web/tests/browser_splats.mjs SITE bench           web/src/bench_splats.js, as JSON
+import { writeFileSync } from 'node:fs';
+import { join } from 'node:path';
+import { startPage } from './harness.mjs';
+import { splatScenePly } from '../src/splat_scene.js';
+import { compareSplatPly } from './splat_compare.mjs';
+
+const [siteArg, check, arg] = process.argv.slice(2);
+const { page, open, extra, fail, finish } = await startPage(siteArg);
+
+/** Opens the scene, puts handles on splats 0, n/2 and n-1, and bends the bar: the far end turned about x. */
+async function pose(n, degree) {
+  extra.set('/scene.ply', splatScenePly(n, degree));
+  await open('?mesh=scene.ply');
+  return page.evaluate((n) => {
+    const p = window.mlsdeformPage;
+    if (p.splatCount() !== n) throw new Error(`the page shows ${p.splatCount()} splats, not ${n}`);
+    p.addSplatHandle(Math.floor(n / 2));
+    p.addSplatHandle(n - 1);
+    const t = p.state.handles.points.map((h) => h.target);
+    p.moveHandle(2, [t[2][0] + 0.3, t[2][1] - 1.5, t[2][2] + 2.5]);
+    p.moveHandle(1, [t[1][0] + 0.1, t[1][1] - 0.2, t[1][2] + 0.6]);
+    return p.handleCount();
+  }, n);
+}
+
+/** Opens `bytes` as the file `name` through the page's file input; resolves to the message shown. */
+async function drop(name, bytes) {
+  extra.set('/' + name, bytes);
+  return page.evaluate(async (name) => {
+    document.getElementById('error').textContent = '';
+    const data = new Uint8Array(await (await fetch('/' + name)).arrayBuffer());
+    const input = document.getElementById('file');
+    const dt = new DataTransfer();
+    dt.items.add(new File([data], name));
+    input.files = dt.files;
+    input.dispatchEvent(new Event('change'));
+    const start = performance.now();
+    while (document.getElementById('error').textContent === '' && performance.now() - start < 10000)
+      await new Promise((r) => setTimeout(r, 20));
+    return document.getElementById('error').textContent;
+  }, name);
+}
+
+const bytesOf = (b64) => Buffer.from(b64, 'base64');
+
+try {
+  if (check === 'pose') {
+    const n = 2000;
+    const handles = await pose(n, 3);
+    console.log(`scene of ${n} splats (SH degree 3), ${handles} handles placed on splats and moved`);
+    writeFileSync(join(arg, 'scene.ply'), extra.get('/scene.ply'));
+    writeFileSync(join(arg, 'handles.json'), await page.evaluate(() => window.mlsdeformPage.exportHandles()));
+    const ply = bytesOf(await page.evaluate(() => window.mlsdeformPage.exportSplats('ply')));
+    const spz = bytesOf(await page.evaluate(() => window.mlsdeformPage.exportSplats('spz')));
+    writeFileSync(join(arg, 'page.ply'), ply);
+    writeFileSync(join(arg, 'page.spz'), spz);
+    console.log(`exported page.ply (${ply.length} bytes) and page.spz (${spz.length} bytes, gzip: ${spz[0] === 0x1f && spz[1] === 0x8b})`);
+    // page.spz read back by the library (the page's reader: the browser removes the gzip layer) and written as PLY.
+    extra.set('/page.spz', spz);
+    const decoded = await page.evaluate(async () => {
+      const p = window.mlsdeformPage;
+      const r = await fetch('/page.spz');
+      const stream = r.body.pipeThrough(new DecompressionStream('gzip'));
+      const s = p.state.mls.readSplats(new Uint8Array(await new Response(stream).arrayBuffer()), 'page.spz');
+      try {
+        s.setup({ points: Array.from(s.rest.subarray(0, 3)) });
+        s.deform();  // one handle at rest: every splat's frame is the identity, its bits kept
+        let b = '';
+        const bytes = s.exportFile('ply', 'decoded.ply');
+        for (let i = 0; i < bytes.length; i += 0x8000) b += String.fromCharCode(...bytes.subarray(i, i + 0x8000));
+        return btoa(b);
+      } finally {
+        s.delete();
+      }
+    });
+    writeFileSync(join(arg, 'spz_decoded.ply'), bytesOf(decoded));
+    const r = compareSplatPly(ply, bytesOf(decoded), 'spz');
+    console.log(`page.spz read back against page.ply: ${r.report}`);
+    if (!r.ok) fail('the SPZ export is not the PLY export within SPZ\'s bounds');
+  } else if (check === 'screenshot') {
+    await pose(40000, 3);
+    await new Promise((r) => setTimeout(r, 3000));  // Spark sorts in a worker: a few frames until drawn
+    const png = await page.screenshot({ type: 'png' });
+    writeFileSync(arg, png);
+    const share = await page.evaluate(() => {
+      const c = document.querySelector('#view canvas');
+      const g = document.createElement('canvas');
+      g.width = c.width, g.height = c.height;
+      const ctx = g.getContext('2d');
+      ctx.drawImage(c, 0, 0);
+      const d = ctx.getImageData(0, 0, g.width, g.height).data;
+      let on = 0;
+      for (let i = 0; i < d.length; i += 4) on += Math.abs(d[i] - 0x20) + Math.abs(d[i + 1] - 0x24) + Math.abs(d[i + 2] - 0x2a) > 30;
+      return on / (d.length / 4);
+    });
+    console.log(`screenshot ${arg}: ${(100 * share).toFixed(1)}% of the canvas shows splats`);
+    if (!(share > 0.02)) fail('the canvas is blank');
+  } else if (check === 'hostile') {
+    await import('./splat_hostile.mjs').then((m) => m.hostile({ page, pose, drop, fail, extra }));
+  } else if (check === 'bench') {
+    await open('');
+    const fig = await page.evaluate(() => window.mlsdeformPage.benchmarkSplats({ seconds: Number(arg ?? 3) }));
+    console.log(JSON.stringify(fig, null, 1));
+  } else {
+    fail(`unknown check '${check}'`);
+  }
+} catch (e) {
+  fail(e.stack ?? String(e));
+}
+await finish();
