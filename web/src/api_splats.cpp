@@ -29,9 +29,14 @@ namespace mlsdeform::web {
 struct SplatScene {
   std::string path;
   files::BasicMesh<float> rest, result;
-  files::CarryPlan plan;
+  /// What a pose carries (the splats) and what an export carries as the program does (the splats, and a 3DGS
+  /// file's nx ny nz into a PLY of the same format: DeformJob), which needs each vertex's linear part too.
+  files::CarryPlan plan, export_plan;
   files::SplatLayout layout;
   int opacity = -1, f_dc[3] = {-1, -1, -1};  ///< vertex properties
+  /// Where pack() reads each property in a vertex's record: rot_0..3, scale_0..2, f_dc_0..2, opacity, f_rest_*.
+  std::size_t stride = 0, rot_at[4] = {}, scale_at[3] = {}, f_dc_at[3] = {}, opacity_at = 0;
+  std::vector<std::size_t> f_rest_at;
   std::optional<Deformer<float>> deformer;
   Handles<float> moved;
   std::vector<float> targets;  ///< k points, then s segment starts, then s segment ends, xyz each
@@ -47,6 +52,12 @@ namespace {
 float property(const files::PlyElement& v, const unsigned char* row, int k) {
   float x;
   std::memcpy(&x, row + v.offset(std::size_t(k)), 4);
+  return x;
+}
+
+float at(const unsigned char* row, std::size_t offset) {
+  float x;
+  std::memcpy(&x, row + offset, 4);
   return x;
 }
 
@@ -81,27 +92,27 @@ SparkEncoding encoding_of(const SplatScene& s) {
   return e;
 }
 
-/// The result's splats into the renderer's arrays.
+/// The result's splats into the renderer's arrays (the properties at the offsets read_scene found).
 void pack(SplatScene& s) {
   const auto& v = s.result.extras.ply->vertices();
-  const std::size_t stride = v.stride(), n = std::size_t(v.count);
-  const int degree = s.layout.sh_degree, k = 3 * ((degree + 1) * (degree + 1) - 1);
+  const std::size_t n = std::size_t(v.count), k = s.f_rest_at.size();
+  const int degree = s.layout.sh_degree;
   float f_rest[45];
   for (std::size_t i = 0; i < n; ++i) {
-    const unsigned char* row = v.data.data() + i * stride;
+    const unsigned char* row = v.data.data() + i * s.stride;
     float centre[3], log_scale[3], f_dc[3];
     double q[4];
     for (int c = 0; c < 3; ++c) {
       centre[c] = s.result.vertices(Eigen::Index(i), c);
-      log_scale[c] = property(v, row, int(s.layout.scale[std::size_t(c)]));
-      f_dc[c] = property(v, row, s.f_dc[c]);
+      log_scale[c] = at(row, s.scale_at[c]);
+      f_dc[c] = at(row, s.f_dc_at[c]);
     }
-    for (int c = 0; c < 4; ++c) q[c] = property(v, row, int(s.layout.rot[std::size_t(c)]));
-    pack_splat(&s.packed[4 * i], centre, log_scale, q, property(v, row, s.opacity), f_dc, s.encoding);
-    for (int j = 0; j < k; ++j) f_rest[j] = property(v, row, int(s.layout.f_rest[std::size_t(j)]));
-    if (degree > 0)
-      pack_sh(f_rest, degree, s.encoding, s.sh1.data() + 2 * i, degree >= 2 ? s.sh2.data() + 4 * i : nullptr,
-              degree >= 3 ? s.sh3.data() + 4 * i : nullptr);
+    for (int c = 0; c < 4; ++c) q[c] = at(row, s.rot_at[c]);
+    pack_splat(&s.packed[4 * i], centre, log_scale, q, at(row, s.opacity_at), f_dc, s.encoding);
+    if (degree == 0) continue;
+    for (std::size_t j = 0; j < k; ++j) f_rest[j] = at(row, s.f_rest_at[j]);
+    pack_sh(f_rest, degree, s.encoding, s.sh1.data() + 2 * i, degree >= 2 ? s.sh2.data() + 4 * i : nullptr,
+            degree >= 3 ? s.sh3.data() + 4 * i : nullptr);
   }
 }
 
@@ -134,6 +145,14 @@ SplatScene* read_scene(std::string_view data, const std::string& path) {
       throw InputError(path, "the page shows splats of float properties; " + v.properties[k].name + " is " +
                                  std::string(type_name(v.properties[k].type)));
   if (s->rest.face_count() > 0) throw InputError(path, "a splat file with faces is not shown by the page");
+  s->stride = v.stride();
+  for (int c = 0; c < 4; ++c) s->rot_at[c] = v.offset(s->layout.rot[std::size_t(c)]);
+  for (int c = 0; c < 3; ++c) {
+    s->scale_at[c] = v.offset(s->layout.scale[std::size_t(c)]);
+    s->f_dc_at[c] = v.offset(std::size_t(s->f_dc[c]));
+  }
+  s->opacity_at = v.offset(std::size_t(s->opacity));
+  for (const std::size_t k : s->layout.f_rest) s->f_rest_at.push_back(v.offset(k));
   s->result = s->rest;
   s->out = s->rest.vertices;
   const std::size_t n = std::size_t(s->rest.vertex_count()), cap = spark_capacity(n);
@@ -150,6 +169,39 @@ Points<float> rows(const float* xyz, int n) {
   if (n < 0) throw std::invalid_argument("negative count");
   if (n > 0 && !xyz) throw std::invalid_argument("null coordinates");
   return n == 0 ? Points<float>(0, 3) : Points<float>(ConstInterleavedView<float>(xyz, n, 3));
+}
+
+/// Deforms with the targets: the centres by the deformer, each splat by its centre's frame (carry_frame, as
+/// DeformJob: `plan`), then packed for the renderer.
+void pose(SplatScene& s, const files::CarryPlan& plan) {
+  if (!s.deformer) throw std::logic_error("mls_splats_setup first");
+  const Eigen::Index k = s.moved.point_count(), m = s.moved.segment_count();
+  const float* t = s.targets.data();
+  for (Eigen::Index i = 0; i < k; ++i)
+    for (int c = 0; c < 3; ++c) s.moved.points(i, c) = t[3 * i + c];
+  for (Eigen::Index i = 0; i < m; ++i)
+    for (int c = 0; c < 3; ++c) {
+      s.moved.segment_a(i, c) = t[3 * (k + i) + c];
+      s.moved.segment_b(i, c) = t[3 * (k + m + i) + c];
+    }
+  if (!s.moved.points.allFinite() || !s.moved.segment_a.allFinite() || !s.moved.segment_b.allFinite())
+    throw std::invalid_argument("a handle's target is not finite");
+  // The positions and the quaternions are bitwise the same whichever frames are asked for (deformer.hpp).
+  const bool linear = plan.needs_linear();
+  FramesOut<float> frames;
+  if (linear) frames.linear = std::span<float>(s.linear);
+  frames.quaternions = std::span<float>(s.quaternions);
+  frames.scales = std::span<float>(s.scales);
+  InterleavedView<float> out(s.out.data(), s.rest.vertex_count(), 3);
+  if (frames.any())
+    s.deformer->deform(s.moved, out, frames);
+  else
+    s.deformer->deform(s.moved, out);
+  const files::VertexFrames<float> vf{linear ? s.linear.data() : nullptr,
+                                      s.quaternions.empty() ? nullptr : s.quaternions.data(),
+                                      s.scales.empty() ? nullptr : s.scales.data()};
+  files::carry_frame(s.rest, s.result, s.out, plan, vf, 1, s.path);
+  pack(s);
 }
 
 }  // namespace
@@ -201,10 +253,12 @@ EMSCRIPTEN_KEEPALIVE int mls_splats_setup(SplatScene* s, const float* points, in
     o.weight_exponent = weight_exponent;
     o.centroids = centroids == 1 ? Centroids::rbf : Centroids::mls;
     o.threads = 1;
-    // As DeformJob: the input's normals are carried into a PLY of the same format (a 3DGS file's nx ny nz).
+    // As DeformJob: the input's normals are carried into a PLY of the same format (a 3DGS file's nx ny nz), on
+    // export (the renderer has no use for them: a pose leaves them as read).
     const bool normals = files::format_extension(s->path) == "ply" && s->rest.extras.has_normals();
-    files::CarryPlan plan = files::carry_plan(s->rest, o.transform, normals, s->path);
-    o.affine_frames = o.transform == Transform::affine && plan.needs_linear();
+    files::CarryPlan plan = files::carry_plan(s->rest, o.transform, false, s->path);
+    files::CarryPlan export_plan = files::carry_plan(s->rest, o.transform, normals, s->path);
+    o.affine_frames = o.transform == Transform::affine && export_plan.needs_linear();
     Handles<float> h;
     h.points = web::rows(points, k);
     h.segment_a = web::rows(seg_a, m);
@@ -213,6 +267,7 @@ EMSCRIPTEN_KEEPALIVE int mls_splats_setup(SplatScene* s, const float* points, in
     const std::size_t n = std::size_t(s->rest.vertex_count());
     s->deformer.emplace(std::move(d));
     s->plan = std::move(plan);
+    s->export_plan = std::move(export_plan);
     s->moved = h;
     s->targets.assign(std::size_t(k + 2 * m) * 3, 0);
     if (k > 0) std::copy_n(points, 3 * k, s->targets.begin());
@@ -220,7 +275,7 @@ EMSCRIPTEN_KEEPALIVE int mls_splats_setup(SplatScene* s, const float* points, in
       std::copy_n(seg_a, 3 * m, s->targets.begin() + 3 * k);
       std::copy_n(seg_b, 3 * m, s->targets.begin() + 3 * (k + m));
     }
-    s->linear.assign(s->plan.needs_linear() ? 9 * n : 0, 0);
+    s->linear.assign(s->export_plan.needs_linear() ? 9 * n : 0, 0);
     s->quaternions.assign(s->plan.needs_quaternions() ? 4 * n : 0, 0);
     s->scales.assign(s->plan.needs_quaternions() && s->plan.scales ? n : 0, 0);
     return 0;
@@ -232,35 +287,8 @@ EMSCRIPTEN_KEEPALIVE float* mls_splats_targets(SplatScene* s) { return s->target
 /// DeformJob), then packed for the renderer. 0, or 1 with mls_last_error() set (the scene then shows the last
 /// pose that deformed).
 EMSCRIPTEN_KEEPALIVE int mls_splats_deform(SplatScene* s) {
-  using namespace mlsdeform;
   return guarded(1, [&] {
-    if (!s->deformer) throw std::logic_error("mls_splats_setup first");
-    const Eigen::Index k = s->moved.point_count(), m = s->moved.segment_count();
-    const float* t = s->targets.data();
-    for (Eigen::Index i = 0; i < k; ++i)
-      for (int c = 0; c < 3; ++c) s->moved.points(i, c) = t[3 * i + c];
-    for (Eigen::Index i = 0; i < m; ++i)
-      for (int c = 0; c < 3; ++c) {
-        s->moved.segment_a(i, c) = t[3 * (k + i) + c];
-        s->moved.segment_b(i, c) = t[3 * (k + m + i) + c];
-      }
-    if (!s->moved.points.allFinite() || !s->moved.segment_a.allFinite() || !s->moved.segment_b.allFinite())
-      throw std::invalid_argument("a handle's target is not finite");
-    FramesOut<float> frames;
-    frames.linear = std::span<float>(s->linear);
-    frames.quaternions = std::span<float>(s->quaternions);
-    frames.scales = std::span<float>(s->scales);
-    const auto n = s->rest.vertex_count();
-    InterleavedView<float> out(s->out.data(), n, 3);
-    if (frames.any())
-      s->deformer->deform(s->moved, out, frames);
-    else
-      s->deformer->deform(s->moved, out);
-    const files::VertexFrames<float> vf{s->linear.empty() ? nullptr : s->linear.data(),
-                                        s->quaternions.empty() ? nullptr : s->quaternions.data(),
-                                        s->scales.empty() ? nullptr : s->scales.data()};
-    files::carry_frame(s->rest, s->result, s->out, s->plan, vf, 1, s->path);
-    web::pack(*s);
+    mlsdeform::web::pose(*s, s->plan);
     return 0;
   });
 }
@@ -274,6 +302,7 @@ EMSCRIPTEN_KEEPALIVE int mls_splats_export(SplatScene* s, int format, const char
   return guarded(1, [&] {
     const std::string path = name ? name : "";
     s->bytes.clear();
+    if (s->export_plan.normals) web::pose(*s, s->export_plan);  // the same pose, the normals carried too
     if (format == 0)
       s->bytes = files::formats::encode_ply<float, float>(s->result, nullptr, files::PlyEncoding::binary);
     else if (format == 1)

@@ -110,7 +110,7 @@ try {
     await import('./splat_hostile.mjs').then((m) => m.hostile({ page, pose, drop, fail, extra }));
   } else if (check === 'bench') {
     await open('');
-    const fig = await page.evaluate(() => window.mlsdeformPage.benchmarkSplats({ seconds: Number(arg ?? 3) }));
+    const fig = await page.evaluate((s) => window.mlsdeformPage.benchmarkSplats({ seconds: s }), Number(arg ?? 3));
     console.log(JSON.stringify(fig, null, 1));
   } else {
     fail(`unknown check '${check}'`);
