@@ -92,23 +92,27 @@ SparkEncoding encoding_of(const SplatScene& s) {
   return e;
 }
 
-/// The result's splats into the renderer's arrays (the properties at the offsets read_scene found).
-void pack(SplatScene& s) {
+/// The result's splats into the renderer's arrays (the properties at the offsets read_scene found); `colour`:
+/// their RGBA too, which no pose changes (read_scene packs it once).
+void pack(SplatScene& s, bool colour = false) {
   const auto& v = s.result.extras.ply->vertices();
   const std::size_t n = std::size_t(v.count), k = s.f_rest_at.size();
   const int degree = s.layout.sh_degree;
   float f_rest[45];
   for (std::size_t i = 0; i < n; ++i) {
     const unsigned char* row = v.data.data() + i * s.stride;
-    float centre[3], log_scale[3], f_dc[3];
+    float centre[3], log_scale[3];
     double q[4];
     for (int c = 0; c < 3; ++c) {
       centre[c] = s.result.vertices(Eigen::Index(i), c);
       log_scale[c] = at(row, s.scale_at[c]);
-      f_dc[c] = at(row, s.f_dc_at[c]);
     }
     for (int c = 0; c < 4; ++c) q[c] = at(row, s.rot_at[c]);
-    pack_splat(&s.packed[4 * i], centre, log_scale, q, at(row, s.opacity_at), f_dc, s.encoding);
+    if (colour) {
+      const float f_dc[3] = {at(row, s.f_dc_at[0]), at(row, s.f_dc_at[1]), at(row, s.f_dc_at[2])};
+      s.packed[4 * i] = pack_colour(at(row, s.opacity_at), f_dc, s.encoding);
+    }
+    pack_pose(&s.packed[4 * i], centre, log_scale, q, s.encoding);
     if (degree == 0) continue;
     for (std::size_t j = 0; j < k; ++j) f_rest[j] = at(row, s.f_rest_at[j]);
     pack_sh(f_rest, degree, s.encoding, s.sh1.data() + 2 * i, degree >= 2 ? s.sh2.data() + 4 * i : nullptr,
@@ -161,7 +165,7 @@ SplatScene* read_scene(std::string_view data, const std::string& path) {
   if (s->layout.sh_degree >= 1) s->sh1.assign(2 * cap, 0);
   if (s->layout.sh_degree >= 2) s->sh2.assign(4 * cap, 0);
   if (s->layout.sh_degree >= 3) s->sh3.assign(4 * cap, 0);
-  pack(*s);
+  pack(*s, true);
   return s.release();
 }
 

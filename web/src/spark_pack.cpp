@@ -73,12 +73,16 @@ std::size_t spark_capacity(std::size_t n) {
   return width * height * std::max<std::size_t>(depth, 1);
 }
 
-void pack_splat(std::uint32_t* out, const float centre[3], const float log_scale[3], const double q[4], float opacity,
-                const float f_dc[3], const SparkEncoding& e) {
+std::uint32_t pack_colour(float opacity, const float f_dc[3], const SparkEncoding& e) {
   std::uint32_t rgb[3];
   for (int c = 0; c < 3; ++c)
     rgb[c] = byte_of((0.5 + kC0 * double(f_dc[c]) - e.rgb_min) / double(e.rgb_max - e.rgb_min));
   const std::uint32_t alpha = byte_of(1 / (1 + std::exp(-double(opacity))));
+  return rgb[0] | rgb[1] << 8 | rgb[2] << 16 | alpha << 24;
+}
+
+void pack_pose(std::uint32_t* out, const float centre[3], const float log_scale[3], const double q[4],
+               const SparkEncoding& e) {
   const std::uint32_t quat = quaternion_code(q);
   const double step = 254 / double(e.ln_scale_max - e.ln_scale_min);
   std::uint32_t scale[3];
@@ -87,7 +91,6 @@ void pack_splat(std::uint32_t* out, const float centre[3], const float log_scale
         log_scale[c] < kLnScaleZero
             ? 0
             : std::uint32_t(std::clamp(js_round((double(log_scale[c]) - e.ln_scale_min) * step) + 1, 1.0, 255.0));
-  out[0] = rgb[0] | rgb[1] << 8 | rgb[2] << 16 | alpha << 24;
   out[1] = half_of(centre[0]) | half_of(centre[1]) << 16;
   out[2] = half_of(centre[2]) | (quat & 0xff) << 16 | ((quat >> 8) & 0xff) << 24;
   out[3] = scale[0] | scale[1] << 8 | scale[2] << 16 | ((quat >> 16) & 0xff) << 24;

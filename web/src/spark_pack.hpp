@@ -23,10 +23,14 @@ struct SparkEncoding {
 /// Spark's texture holds whole rows of 2048 splats (its computeMaxSplats): the arrays' length in splats.
 std::size_t spark_capacity(std::size_t n);
 
-/// One splat from the 3DGS values: centre, log scales, a quaternion (w x y z, any length but 0), opacity before
-/// the sigmoid, band 0 (f_dc) of each channel.
-void pack_splat(std::uint32_t* out4, const float centre[3], const float log_scale[3], const double q[4], float opacity,
-                const float f_dc[3], const SparkEncoding& e);
+/// Word 0 of a splat (its RGBA bytes) from 3DGS's opacity before the sigmoid and band 0 (f_dc) of each channel:
+/// what no pose changes.
+std::uint32_t pack_colour(float opacity, const float f_dc[3], const SparkEncoding& e);
+
+/// Words 1-3 of a splat (`out4` its four words; word 0 kept) from its centre, its log scales and a quaternion
+/// (w x y z, any length but 0).
+void pack_pose(std::uint32_t* out4, const float centre[3], const float log_scale[3], const double q[4],
+               const SparkEncoding& e);
 
 /// The SH bands of one splat from 3DGS's f_rest (channel-major, k = 3, 8 or 15 per channel): band 1 into sh1 (2
 /// words), band 2 into sh2 (4), band 3 into sh3 (4); a band the degree lacks is not written.

@@ -25,14 +25,11 @@ export class SplatView {
     splats.views();
     const extra = {};
     for (const band of [1, 2, 3]) if (splats.sh(band)) extra[`sh${band}`] = splats.sh(band).slice();
-    this.packed = new PackedSplats({
-      packedArray: splats.packed.slice(),
-      numSplats: splats.count,
-      splatEncoding: { ...splats.encoding, lodOpacity: false },
-      extra,
-    });
+    // The ranges the module packed with (its SplatMesh sets the packed splats' encoding: given to both).
+    const splatEncoding = { ...splats.encoding, lodOpacity: false };
+    this.packed = new PackedSplats({ packedArray: splats.packed.slice(), numSplats: splats.count, splatEncoding, extra });
     this.splats = splats;
-    this.mesh = new SplatMesh({ packedSplats: this.packed, raycastable: false });
+    this.mesh = new SplatMesh({ packedSplats: this.packed, splatEncoding, raycastable: false });
     return this.mesh;
   }
 

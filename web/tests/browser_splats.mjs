@@ -13,7 +13,7 @@ import { writeFileSync } from 'node:fs';
 import { join } from 'node:path';
 import { startPage } from './harness.mjs';
 import { splatScenePly } from '../src/splat_scene.js';
-import { compareSplatPly } from './splat_compare.mjs';
+import { compareSplatPly, comparePacked } from './splat_compare.mjs';
 
 const [siteArg, check, arg] = process.argv.slice(2);
 const { page, open, extra, fail, finish } = await startPage(siteArg);
@@ -54,6 +54,29 @@ async function drop(name, bytes) {
 
 const bytesOf = (b64) => Buffer.from(b64, 'base64');
 
+/** In the page: Spark's unpackSplat of each splat of its mesh, and the SH fields as its shaders extract them. */
+async function unpack() {
+  const { unpackSplat } = await import('@sparkjsdev/spark');
+  const packed = window.mlsdeformPage.state.object.packedSplats, e = packed.splatEncoding;
+  const field = (words, bits, i) => {
+    const start = i * bits, w = Math.floor(start / 32), o = start % 32;
+    let v = words[w] >>> o;
+    if (o + bits > 32) v |= words[w + 1] << (32 - o);
+    return (v << (32 - bits)) >> (32 - bits);  // sign-extended, as int(x << a) >> b in GLSL
+  };
+  const bands = [[packed.extra.sh1, 7, 9, 2], [packed.extra.sh2, 8, 15, 4], [packed.extra.sh3, 6, 21, 4]];
+  const splats = [];
+  for (let i = 0; i < packed.numSplats; ++i) {
+    const u = unpackSplat(packed.packedArray, i, e);
+    splats.push({
+      center: u.center.toArray(), scales: u.scales.toArray(), quaternion: u.quaternion.toArray(), opacity: u.opacity,
+      color: [u.color.r, u.color.g, u.color.b],
+      sh: bands.map(([a, bits, n, words]) => a && Array.from({ length: n }, (_, j) => field(a.subarray(words * i), bits, j))),
+    });
+  }
+  return { encoding: e, splats };
+}
+
 try {
   if (check === 'pose') {
     const n = 2000;
@@ -65,6 +88,10 @@ try {
     const spz = bytesOf(await page.evaluate(() => window.mlsdeformPage.exportSplats('spz')));
     writeFileSync(join(arg, 'page.ply'), ply);
     writeFileSync(join(arg, 'page.spz'), spz);
+    // What Spark draws: its own decoding of the arrays the module packed, against the posed splats.
+    const packed = comparePacked(ply, await page.evaluate(unpack));
+    console.log(`Spark's reading of the packed splats against page.ply: ${packed.report}`);
+    if (!packed.ok) fail('the splats handed to Spark are not the posed splats within its quantisation');
     console.log(`exported page.ply (${ply.length} bytes) and page.spz (${spz.length} bytes, gzip: ${spz[0] === 0x1f && spz[1] === 0x8b})`);
     // page.spz read back by the library (the page's reader: the browser removes the gzip layer) and written as PLY.
     extra.set('/page.spz', spz);

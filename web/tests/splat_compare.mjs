@@ -65,3 +65,43 @@ export function compareSplatPly(aBytes, bBytes, format) {
   const report = Object.keys(worst).map((k) => `${k} ${(worst[k] * bound[k]).toExponential(2)} / ${bound[k].toExponential(2)}`).join(', ');
   return { ok, report };
 }
+
+/**
+ * What Spark reads of the page's splats (its own unpackSplat, and band 1-3 fields decoded as its shaders decode
+ * them, `unpacked` from browser_splats.mjs) against the posed splats of the page's PLY, within Spark's
+ * quantisation (spark_pack.hpp): a centre's half keeps 10 bits (truncated: 2^-10 of its size), a log scale
+ * 21 / 254 per step, alpha and a colour byte 1 / 255 of their range, an SH field max / 63, 127 or 31 (each
+ * rounded: half a step). The rotation: its angle in a byte over [0, pi] (within pi / 510 = 0.0062 rad), its axis
+ * as octahedral bytes (half a step of 2 / 255 on a face, stretched at most twice onto the sphere: 0.011 rad, which
+ * turns the rotation by at most twice that): 0.0062 + 0.022, within 0.03 rad.
+ */
+export function comparePacked(plyBytes, unpacked) {
+  const { count, props } = readSplatPly(plyBytes);
+  const e = unpacked.encoding;
+  const C0 = 0.28209479177387814;
+  const worst = {};
+  const check = (what, err, limit) => (worst[what] = Math.max(worst[what] ?? 0, err / limit));
+  const k = Object.keys(props).filter((p) => p.startsWith('f_rest_')).length / 3;
+  for (let i = 0; i < count; ++i) {
+    const u = unpacked.splats[i];
+    ['x', 'y', 'z'].forEach((c, j) => check('centre', Math.abs(u.center[j] - props[c][i]), Math.abs(props[c][i]) * 2 ** -10 + 1e-7));
+    for (let j = 0; j < 3; ++j) check('log scale', Math.abs(Math.log(u.scales[j]) - props[`scale_${j}`][i]), 21 / 254 / 2 + 1e-6);
+    check('alpha', Math.abs(u.opacity - sigmoid(props.opacity[i])), 1 / 510 + 1e-7);
+    for (let j = 0; j < 3; ++j) {
+      const rgb = Math.min(e.rgbMax, Math.max(e.rgbMin, 0.5 + C0 * props[`f_dc_${j}`][i]));
+      check('colour', Math.abs(u.color[j] - rgb), (e.rgbMax - e.rgbMin) / 510 + 1e-6);
+    }
+    const q = [0, 1, 2, 3].map((c) => props[`rot_${c}`][i]), n = Math.hypot(...q);
+    const dot = Math.abs(q[0] * u.quaternion[3] + q[1] * u.quaternion[0] + q[2] * u.quaternion[1] + q[3] * u.quaternion[2]) / n;
+    check('rotation', 2 * Math.acos(Math.min(1, dot)), 0.03);
+    // Band l's coefficient j of channel c: Spark's field 3 j + c, 3DGS's f_rest_(c k + first + j).
+    [[1, 0, 3, 63, e.sh1Max], [2, 3, 5, 127, e.sh2Max], [3, 8, 7, 31, e.sh3Max]].forEach(([l, first, m, steps, max]) => {
+      if (!u.sh[l - 1]) return;
+      for (let j = 0; j < m; ++j)
+        for (let c = 0; c < 3; ++c)
+          check(`SH band ${l}`, Math.abs((u.sh[l - 1][3 * j + c] * max) / steps - props[`f_rest_${c * k + first + j}`][i]), max / steps / 2 + 1e-6);
+    });
+  }
+  const ok = Object.values(worst).every((w) => w <= 1);
+  return { ok, report: Object.keys(worst).map((w) => `${w} ${worst[w].toFixed(2)} of its bound`).join(', ') };
+}
