@@ -72,7 +72,7 @@ export function installSplats(ctx) {
     setUp(-1);
     const c = sphere.center;
     orbit.target.copy(c);
-    camera.position.set(c.x, c.y, c.z - 2.8 * state.radius);
+    camera.position.set(c.x, c.y, c.z - 3.2 * state.radius);
     camera.near = state.radius / 100;
     camera.far = state.radius * 100;
     camera.updateProjectionMatrix();
@@ -120,6 +120,10 @@ export function installSplats(ctx) {
     if (view.mesh && view.splats === splats) view.update();
     ctx.timed(performance.now() - t0);
     ctx.placeMarkers();
+    for (const m of state.markers) {  // drawn over the splats: a handle sits inside its splat
+      m.material.depthTest = false;
+      m.renderOrder = 1;
+    }
   }
 
   /** The splat whose centre the ray passes nearest (within 1% of the scene's radius), as a surface hit. */

@@ -1,6 +1,7 @@
 // A synthetic Gaussian splat scene as a 3DGS PLY file (docs/splats.md, "The layout"): the page's splat benchmark
 // and the browser tests (web/tests/browser_splats.mjs) make their scenes here, the same in the browser and in
-// Node. A bar of n splats along y, each with random colour, SH bands, opacity, scales and orientation.
+// Node. A bar of n splats along y, coloured in bands along it, each with random SH bands, opacity, scales and
+// orientation.
 
 /** The PLY bytes of n splats of SH degree `degree` (0..3), from a fixed seed. */
 export function splatScenePly(n, degree, seed = 1) {
@@ -28,7 +29,11 @@ export function splatScenePly(n, degree, seed = 1) {
     put(8 * ((next() + Math.floor(i / (side * side))) / Math.ceil(n / (side * side))) - 4);
     put((next() + (Math.floor(i / side) % side)) / side - 0.5);
     put(0), put(0), put(0);
-    for (let c = 0; c < 3; ++c) put(2 * next() - 1);
+    // Band 0: bands of colour along the bar, a little noise (the picture of docs/web.md compresses well).
+    const y = view.getFloat32(at - 20, true), x = view.getFloat32(at - 24, true);
+    put(1.1 * Math.sin(1.3 * y) + 0.1 * next());
+    put(1.1 * Math.cos(0.9 * y + 1) + 0.1 * next());
+    put(0.8 * x + 0.3 * Math.sin(2 * y) + 0.1 * next());
     for (let j = 0; j < k; ++j) put(0.5 * (next() - 0.5));
     put(4 * next() - 1);
     for (let c = 0; c < 3; ++c) put(Math.log(0.02 + 0.06 * next()));

@@ -18,7 +18,7 @@ import { compareSplatPly, comparePacked } from './splat_compare.mjs';
 const [siteArg, check, arg] = process.argv.slice(2);
 const { page, open, extra, fail, finish } = await startPage(siteArg);
 
-/** Opens the scene, puts handles on splats 0, n/2 and n-1, and bends the bar: the far end turned about x. */
+/** Opens the scene, puts handles on splats 0, n/2 and n-1, and bends the bar: its bottom end swung sideways. */
 async function pose(n, degree) {
   extra.set('/scene.ply', splatScenePly(n, degree));
   await open('?mesh=scene.ply');
@@ -28,8 +28,8 @@ async function pose(n, degree) {
     p.addSplatHandle(Math.floor(n / 2));
     p.addSplatHandle(n - 1);
     const t = p.state.handles.points.map((h) => h.target);
-    p.moveHandle(2, [t[2][0] + 0.3, t[2][1] - 1.5, t[2][2] + 2.5]);
-    p.moveHandle(1, [t[1][0] + 0.1, t[1][1] - 0.2, t[1][2] + 0.6]);
+    p.moveHandle(2, [t[2][0] + 3, t[2][1] - 1.2, t[2][2] + 0.5]);
+    p.moveHandle(1, [t[1][0] + 0.4, t[1][1] - 0.1, t[1][2] + 0.2]);
     return p.handleCount();
   }, n);
 }
