@@ -33,13 +33,14 @@ function rate(splats, view, gl, seconds) {
   return { perSecond: (1000 * frames) / elapsed, deformMs: deformMs / frames, uploadMs: uploadMs / frames, frames };
 }
 
-export function benchmarkSplats(mls, renderer, { seconds = 3, n = 100000, degrees = [3, 0], handles = 10 } = {}) {
+export async function benchmarkSplats(mls, renderer, { seconds = 3, n = 100000, degrees = [3, 0], handles = 10 } = {}) {
   const out = { splats: n, handles };
   const gl = renderer.getContext();
   for (const degree of degrees) {
     const splats = mls.readSplats(splatScenePly(n, degree), `bench_sh${degree}.ply`);
     const view = new SplatView(renderer, null);
     try {
+      await view.load();
       const points = [];
       for (let i = 0; i < handles; ++i) {
         const j = Math.floor((i * n) / handles);

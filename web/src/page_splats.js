@@ -44,12 +44,20 @@ export function installSplats(ctx) {
    */
   async function read(bytes, name) {
     const data = /\.spz$/i.test(name) ? await ungzip(bytes, name) : bytes;
+    let splats;
     try {
-      return state.mls.readSplats(data, name);
+      splats = state.mls.readSplats(data, name);
     } catch (e) {
       if (!splatName(name) && / not a Gaussian splat file /.test(e.message)) return null;
       throw e;
     }
+    try {
+      await view.load();
+    } catch (e) {
+      splats.delete();
+      throw new Error(`the splat renderer did not load (${e.message})`);
+    }
+    return splats;
   }
 
   /** Shows the scene with its handles (or one at the first splat); all or nothing. */
@@ -76,8 +84,15 @@ export function installSplats(ctx) {
     camera.near = state.radius / 100;
     camera.far = state.radius * 100;
     camera.updateProjectionMatrix();
-    return `${name}: ${splats.count} splats, SH degree ${splats.shDegree}; ${handles.points.length} point and ` +
-      `${handles.segments.length} segment handles`;
+    state.splatName = name;
+    return status();
+  }
+
+  /** The status line: the scene and its handles now. */
+  function status() {
+    const { splats, handles } = state;
+    return `${state.splatName}: ${splats.count} splats, SH degree ${splats.shDegree}; ${handles.points.length} point ` +
+      `and ${handles.segments.length} segment handles`;
   }
 
   /** Back to a mesh: the splat scene `splats` (no longer the page's) freed. */
@@ -101,6 +116,7 @@ export function installSplats(ctx) {
       weightExponent: o.weightExponent,
       centroids: o.centroids,
     });
+    document.getElementById('status').textContent = status();
     deform();
   }
 
@@ -120,9 +136,10 @@ export function installSplats(ctx) {
     if (view.mesh && view.splats === splats) view.update();
     ctx.timed(performance.now() - t0);
     ctx.placeMarkers();
-    for (const m of state.markers) {  // drawn over the splats: a handle sits inside its splat
+    for (const m of state.markers) {  // drawn after Spark's splats and over them: a handle sits inside its splat
       m.material.depthTest = false;
-      m.renderOrder = 1;
+      m.material.transparent = true;
+      m.renderOrder = 1e6;
     }
   }
 

@@ -4,7 +4,6 @@
 // drag. Picking finds the splat centre nearest the ray (a handle sits on a splat, by its index: the program's
 // `vertex`).
 import * as THREE from 'three';
-import { SparkRenderer, SplatMesh, PackedSplats } from '@sparkjsdev/spark';
 
 export class SplatView {
   constructor(renderer, scene) {
@@ -15,8 +14,14 @@ export class SplatView {
     this.packed = null;
   }
 
+  /** Loads Spark (0.9 MB compressed: only when a splat scene is opened). */
+  async load() {
+    this.Spark ??= await import('@sparkjsdev/spark');
+  }
+
   /** Shows the module's scene (mlsdeform.js SplatScene) in place of what was shown; returns Spark's mesh. */
   show(splats) {
+    const { SparkRenderer, SplatMesh, PackedSplats } = this.Spark;
     if (!this.spark && this.scene) {  // none for the benchmark, which never draws
       this.spark = new SparkRenderer({ renderer: this.renderer });
       this.scene.add(this.spark);
