@@ -34,6 +34,40 @@ async function pose(n, degree) {
   }, n);
 }
 
+/**
+ * A click on splat i's centre (as the camera shows it) adds a handle on a splat there; dragging the gizmo 30
+ * pixels to the right moves the handle and poses the scene.
+ */
+async function clickAndDrag(i) {
+  const at = await page.evaluate((i) => {
+    const p = window.mlsdeformPage, c = p.state.splats.centres;
+    p.camera.updateMatrixWorld();
+    const v = p.camera.position.clone().set(c[3 * i], c[3 * i + 1], c[3 * i + 2]).project(p.camera);
+    return { x: (v.x + 1) * 400, y: (1 - v.y) * 300, count: p.handleCount() };
+  }, i);
+  await page.mouse.click(at.x, at.y);
+  const added = await page.evaluate(() => {
+    const p = window.mlsdeformPage, h = p.state.handles.points.at(-1);
+    return { count: p.handleCount(), vertex: h.vertex, target: [...h.target], centres: Array.from(p.state.splats.centres) };
+  });
+  console.log(`a click at (${at.x.toFixed(0)}, ${at.y.toFixed(0)}) on splat ${i} added a handle on splat ${added.vertex}`);
+  if (added.count !== at.count + 1 || !(added.vertex >= 0)) fail('a click on a splat did not add a handle on a splat');
+  await new Promise((r) => setTimeout(r, 200));
+  await page.mouse.move(at.x, at.y);
+  await page.mouse.down();
+  await page.mouse.move(at.x + 15, at.y, { steps: 4 });
+  await page.mouse.move(at.x + 30, at.y, { steps: 4 });
+  await page.mouse.up();
+  const dragged = await page.evaluate((before) => {
+    const p = window.mlsdeformPage, t = p.state.handles.points.at(-1).target, c = p.state.splats.centres;
+    let moved = 0;
+    for (let k = 0; k < c.length; ++k) moved = Math.max(moved, Math.abs(c[k] - before.centres[k]));
+    return { moved, by: Math.hypot(...t.map((x, k) => x - before.target[k])) };
+  }, added);
+  console.log(`dragging it 30 pixels moved it by ${dragged.by.toFixed(3)} and the splats by up to ${dragged.moved.toFixed(3)}`);
+  if (!(dragged.by > 0.05 && dragged.moved > 0.05)) fail('dragging the new handle did not pose the scene');
+}
+
 /** Opens `bytes` as the file `name` through the page's file input; resolves to the message shown. */
 async function drop(name, bytes) {
   extra.set('/' + name, bytes);
@@ -82,6 +116,7 @@ try {
     const n = 2000;
     const handles = await pose(n, 3);
     console.log(`scene of ${n} splats (SH degree 3), ${handles} handles placed on splats and moved`);
+    await clickAndDrag(Math.floor(n / 4));
     writeFileSync(join(arg, 'scene.ply'), extra.get('/scene.ply'));
     writeFileSync(join(arg, 'handles.json'), await page.evaluate(() => window.mlsdeformPage.exportHandles()));
     const ply = bytesOf(await page.evaluate(() => window.mlsdeformPage.exportSplats('ply')));
