@@ -51,17 +51,20 @@ std::uint32_t quaternion_code(const double q_in[4]) {
   return angle << 16 | v << 8 | u;
 }
 
-/// Signed fields of `bits` bits, `count` of them from value index `first` on, packed low bits first across words
-/// (encodeSh1Rgb, encodeSh3Rgb); values scaled to [-limit, limit].
-void pack_signed(const float* rgb, int count, int bits, double scale, int limit, std::uint32_t* words, int n_words) {
-  std::fill(words, words + n_words, 0u);
-  for (int i = 0; i < count; ++i) {
-    const double s = std::clamp(double(rgb[i]) * scale, double(-limit), double(limit));
-    const std::uint32_t value = std::uint32_t(std::int32_t(js_round(s))) & ((1u << bits) - 1);
-    const int start = i * bits, word = start / 32, offset = start % 32;
-    words[word] |= value << offset;
-    if (offset + bits > 32) words[word + 1] |= value >> (32 - offset);
+/// Count signed fields of Bits bits, packed low bits first across Words words (encodeSh1Rgb, encodeSh3Rgb),
+/// each value scaled and clamped to [-limit, limit]; templated so that every field's word and shift are constants.
+template <int Bits, int Count, int Words>
+void pack_signed(const float* rgb, double scale, std::uint32_t* words) {
+  constexpr double limit = double((1 << (Bits - 1)) - 1);
+  std::uint32_t w[Words] = {};
+  for (int i = 0; i < Count; ++i) {
+    const double s = std::clamp(double(rgb[i]) * scale, -limit, limit);
+    const std::uint32_t value = std::uint32_t(std::int32_t(js_round(s))) & ((1u << Bits) - 1);
+    const int start = i * Bits, word = start / 32, offset = start % 32;
+    w[word] |= value << offset;
+    if (offset + Bits > 32) w[word + 1] |= value >> (32 - offset);
   }
+  std::copy_n(w, Words, words);
 }
 
 }  // namespace
@@ -108,16 +111,16 @@ void pack_sh(const float* f_rest, int degree, const SparkEncoding& e, std::uint3
   };
   if (degree >= 1) {
     gather(0, 3);
-    pack_signed(band, 9, 7, 63 / double(e.sh_max[0]), 63, sh1, 2);
+    pack_signed<7, 9, 2>(band, 63 / double(e.sh_max[0]), sh1);
   }
   if (degree >= 2) {
     gather(3, 5);
     band[15] = 0;  // the fourth word's last byte
-    pack_signed(band, 16, 8, 127 / double(e.sh_max[1]), 127, sh2, 4);
+    pack_signed<8, 16, 4>(band, 127 / double(e.sh_max[1]), sh2);
   }
   if (degree >= 3) {
     gather(8, 7);
-    pack_signed(band, 21, 6, 31 / double(e.sh_max[2]), 31, sh3, 4);
+    pack_signed<6, 21, 4>(band, 31 / double(e.sh_max[2]), sh3);
   }
 }
 

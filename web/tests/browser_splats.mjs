@@ -5,6 +5,9 @@
 //                                                          page's DIR/page.ply, DIR/page.spz, DIR/handles.json and
 //                                                          DIR/spz_decoded.ply (page.spz read back by the library)
 //                                                          for run_browser_test.sh to hold against the program
+//   node web/tests/browser_splats.mjs SITE formats DIR     the posed scene (DIR/page.ply) as the program writes it in
+//                                                          compressed PLY and SPZ version 4 (DIR/program.*), and as
+//                                                          a .splat file written here, opened by URL
 //   node web/tests/browser_splats.mjs SITE screenshot PNG  a posed scene is drawn by Spark (not blank)
 //   node web/tests/browser_splats.mjs SITE hostile         bad splat files opened, NaN targets, far handles, export
 //                                                          without splats: a message each, the scene kept
@@ -13,7 +16,8 @@ import { writeFileSync } from 'node:fs';
 import { join } from 'node:path';
 import { startPage } from './harness.mjs';
 import { splatScenePly } from '../src/splat_scene.js';
-import { compareSplatPly, comparePacked } from './splat_compare.mjs';
+import { compareSplatPly, comparePacked, readSplatPly } from './splat_compare.mjs';
+import { checkFormats } from './splat_formats.mjs';
 
 const [siteArg, check, arg] = process.argv.slice(2);
 const { page, open, extra, fail, finish } = await startPage(siteArg);
@@ -150,6 +154,8 @@ try {
     const r = compareSplatPly(ply, bytesOf(decoded), 'spz');
     console.log(`page.spz read back against page.ply: ${r.report}`);
     if (!r.ok) fail('the SPZ export is not the PLY export within SPZ\'s bounds');
+  } else if (check === 'formats') {
+    await checkFormats({ page, open, extra, fail, dir: arg, readSplatPly });
   } else if (check === 'screenshot') {
     await pose(40000, 3);
     await new Promise((r) => setTimeout(r, 3000));  // Spark sorts in a worker: a few frames until drawn

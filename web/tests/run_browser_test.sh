@@ -75,6 +75,11 @@ case "$check" in
         exit 1
       fi
       echo "page.ply and mlsdeform deform's program.ply: bitwise equal ($(wc -c <"$tmp/page.ply") bytes)"
+      # The same pose as the program writes it in the compact formats, opened by the page.
+      for f in compressed.ply spz; do
+        "$program" deform -q -m "$tmp/scene.ply" -H "$tmp/handles.json" -o "$tmp/program.$f" 2>/dev/null
+      done
+      splats formats "$tmp"
     fi
     ;;
   splat_screenshot) splats screenshot "${WEB_SCREENSHOT:-$tmp/splats.png}" ;;
