@@ -2,8 +2,9 @@
 // layer, .splat) read by the files library's readers, deformed as `mlsdeform deform` deforms it (the deformer's
 // frames, then carry_frame: each splat turned, its SH bands rotated, its scales grown or its covariance mapped),
 // packed for the page's renderer (spark_pack.hpp) and written back as 3DGS PLY or SPZ's payload by the library's
-// writers. A frame allocates nothing: the targets, the frames, the deformed splats and the packed arrays are the
-// scene's buffers, which JavaScript views.
+// writers. The targets, the frames, the deformed splats and the packed arrays are the scene's buffers, which
+// JavaScript views; a pose allocates only carry_frame's scratch (a chunk of splats in double), so the views
+// stay valid.
 #include "web/src/api.hpp"
 #include "web/src/spark_pack.hpp"
 
@@ -49,12 +50,6 @@ struct SplatScene {
 
 namespace {
 
-float property(const files::PlyElement& v, const unsigned char* row, int k) {
-  float x;
-  std::memcpy(&x, row + v.offset(std::size_t(k)), 4);
-  return x;
-}
-
 float at(const unsigned char* row, std::size_t offset) {
   float x;
   std::memcpy(&x, row + offset, 4);
@@ -66,20 +61,20 @@ float at(const unsigned char* row, std::size_t offset) {
 SparkEncoding encoding_of(const SplatScene& s) {
   const auto& v = s.rest.extras.ply->vertices();
   SparkEncoding e;
-  const std::size_t stride = v.stride(), n = std::size_t(v.count);
+  const std::size_t n = std::size_t(v.count);
   const int degree = s.layout.sh_degree, k = (degree + 1) * (degree + 1) - 1;
   float lo = 0, hi = 1;
   float band_max[3] = {0, 0, 0};
   for (std::size_t i = 0; i < n; ++i) {
-    const unsigned char* row = v.data.data() + i * stride;
+    const unsigned char* row = v.data.data() + i * s.stride;
     for (int c = 0; c < 3; ++c) {
-      const float rgb = float(0.5 + 0.28209479177387814 * double(property(v, row, s.f_dc[c])));
+      const float rgb = float(0.5 + 0.28209479177387814 * double(at(row, s.f_dc_at[c])));
       if (std::isfinite(rgb)) lo = std::min(lo, rgb), hi = std::max(hi, rgb);
       int first = 0;
       for (int l = 1; l <= degree; ++l) {
         double norm = 0;
         for (int j = 0; j < 2 * l + 1; ++j) {
-          const double x = property(v, row, int(s.layout.f_rest[std::size_t(c * k + first + j)]));
+          const double x = at(row, s.f_rest_at[std::size_t(c * k + first + j)]);
           norm += x * x;
         }
         if (std::isfinite(norm)) band_max[l - 1] = std::max(band_max[l - 1], float(std::sqrt(norm)));
