@@ -3,7 +3,8 @@
 //   node web/tests/browser_splats.mjs SITE pose DIR        a synthetic scene (splat_scene.js) opened by URL, three
 //                                                          handles placed on splats and moved: DIR/scene.ply, the
 //                                                          page's DIR/page.ply, DIR/page.spz, DIR/handles.json and
-//                                                          DIR/spz_decoded.ply (page.spz read back by the library)
+//                                                          DIR/spz_decoded.ply (page.spz read back by the library),
+//                                                          DIR/page_{similarity,affine}.ply (the other transforms)
 //                                                          for run_browser_test.sh to hold against the program
 //   node web/tests/browser_splats.mjs SITE formats DIR     the posed scene (DIR/page.ply) as the program writes it in
 //                                                          compressed PLY and SPZ version 4 (DIR/program.*), and as
@@ -151,6 +152,18 @@ try {
       }
     });
     writeFileSync(join(arg, 'spz_decoded.ply'), bytesOf(decoded));
+    // The same handles under the similarity and the affine transforms (the switch, as a user changes it).
+    for (const transform of ['similarity', 'affine']) {
+      const b64 = await page.evaluate(async (t) => {
+        const select = document.getElementById('transform');
+        select.value = t;
+        select.dispatchEvent(new Event('change'));
+        const shown = document.getElementById('error').textContent;
+        if (shown) throw new Error(shown);
+        return window.mlsdeformPage.exportSplats('ply');
+      }, transform);
+      writeFileSync(join(arg, `page_${transform}.ply`), bytesOf(b64));
+    }
     const r = compareSplatPly(ply, bytesOf(decoded), 'spz');
     console.log(`page.spz read back against page.ply: ${r.report}`);
     if (!r.ok) fail('the SPZ export is not the PLY export within SPZ\'s bounds');

@@ -75,6 +75,14 @@ case "$check" in
         exit 1
       fi
       echo "page.ply and mlsdeform deform's program.ply: bitwise equal ($(wc -c <"$tmp/page.ply") bytes)"
+      for t in similarity affine; do
+        MLSDEFORM_ISA=sse4_2 "$program" deform -q -t $t -m "$tmp/scene.ply" -H "$tmp/handles.json" -o "$tmp/program_$t.ply"
+        if ! cmp "$tmp/page_$t.ply" "$tmp/program_$t.ply"; then
+          echo "FAILED: the page's PLY and \`mlsdeform deform -t $t\`'s differ" >&2
+          exit 1
+        fi
+        echo "page_$t.ply and mlsdeform deform -t $t's: bitwise equal"
+      done
       # The same pose as the program writes it in the compact formats, opened by the page.
       for f in compressed.ply spz; do
         "$program" deform -q -m "$tmp/scene.ply" -H "$tmp/handles.json" -o "$tmp/program.$f" 2>/dev/null
