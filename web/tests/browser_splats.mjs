@@ -171,10 +171,8 @@ try {
     await checkFormats({ page, open, extra, fail, dir: arg, readSplatPly });
   } else if (check === 'screenshot') {
     await pose(40000, 3);
-    await new Promise((r) => setTimeout(r, 3000));  // Spark sorts in a worker: a few frames until drawn
-    const png = await page.screenshot({ type: 'png' });
-    writeFileSync(arg, png);
-    const share = await page.evaluate(() => {
+    // Spark sorts in a worker: the splats appear a few frames later (software WebGL: up to seconds).
+    const drawn = () => page.evaluate(() => {
       const c = document.querySelector('#view canvas');
       const g = document.createElement('canvas');
       g.width = c.width, g.height = c.height;
@@ -185,8 +183,17 @@ try {
       for (let i = 0; i < d.length; i += 4) on += Math.abs(d[i] - 0x20) + Math.abs(d[i + 1] - 0x24) + Math.abs(d[i + 2] - 0x2a) > 30;
       return on / (d.length / 4);
     });
+    const start = Date.now();
+    let share = await drawn();
+    while (share <= 0.05 && Date.now() - start < 20000) {
+      await new Promise((r) => setTimeout(r, 500));
+      share = await drawn();
+    }
+    await new Promise((r) => setTimeout(r, 1000));  // the last sort's frame
+    share = await drawn();
+    writeFileSync(arg, await page.screenshot({ type: 'png' }));
     console.log(`screenshot ${arg}: ${(100 * share).toFixed(1)}% of the canvas shows splats`);
-    if (!(share > 0.02)) fail('the canvas is blank');
+    if (!(share > 0.05)) fail('the canvas is blank');
   } else if (check === 'hostile') {
     await import('./splat_hostile.mjs').then((m) => m.hostile({ page, pose, drop, fail, extra }));
   } else if (check === 'bench') {
