@@ -15,6 +15,8 @@ export async function hostile({ page, pose, drop, fail }) {
     ['huge.ply', Buffer.concat([Buffer.from(header.replace('element vertex 64', 'element vertex 4000000000'), 'latin1'),
       Buffer.from(good.subarray(header.length, header.length + 4096))]), /huge.ply/],
     ['magic.spz', Buffer.from('this is not an SPZ file at all, only text'), /magic.spz/],
+    // SPZ version 2's header (as its payload: the page hands it over without a gzip layer) promising 2^31 splats.
+    ['huge.spz', Buffer.from([0x4e, 0x47, 0x53, 0x50, 2, 0, 0, 0, 0, 0, 0, 0x80, 0, 12, 0, 0, 1, 2, 3, 4]), /huge.spz/],
     ['corrupt.spz', Buffer.from([0x1f, 0x8b, 8, 0, 0, 0, 0, 0, 0, 3, 1, 2, 3, 4, 5, 6]), /corrupt.spz: corrupt gzip data/],
     ['odd.splat', new Uint8Array(33), /odd.splat/],
     ['empty.spz', new Uint8Array(0), /empty.spz/],
