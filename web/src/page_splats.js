@@ -74,6 +74,8 @@ export function installSplats(ctx) {
       throw e;
     }
     if (previous.splats && previous.splats !== splats) previous.splats.delete();
+    previous.session?.delete();  // the mesh's deformer, if a mesh was open
+    state.session = null;
     if (previous.object) scene.remove(previous.object);
     state.object = view.show(splats);
     scene.add(state.object);
