@@ -170,7 +170,7 @@ try {
   } else if (check === 'formats') {
     await checkFormats({ page, open, extra, fail, dir: arg, readSplatPly });
   } else if (check === 'screenshot') {
-    await pose(40000, 3);
+    await pose(15000, 3);
     // Spark sorts in a worker: the splats appear a few frames later (software WebGL: up to seconds).
     const drawn = () => page.evaluate(() => {
       const c = document.querySelector('#view canvas');
@@ -188,6 +188,7 @@ try {
     while (share <= 0.05 && Date.now() - start < 20000) {
       await new Promise((r) => setTimeout(r, 500));
       share = await drawn();
+      if (process.env.MLSDEFORM_WEB_DEBUG) console.error(`${Date.now() - start} ms: ${share}`);
     }
     await new Promise((r) => setTimeout(r, 1000));  // the last sort's frame
     share = await drawn();
