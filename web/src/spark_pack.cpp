@@ -52,14 +52,15 @@ std::uint32_t quaternion_code(const double q_in[4]) {
 }
 
 /// Count signed fields of Bits bits, packed low bits first across Words words (encodeSh1Rgb, encodeSh3Rgb),
-/// each value scaled and clamped to [-limit, limit]; templated so that every field's word and shift are constants.
+/// each value scaled and clamped to [-limit, limit] (in float: these are display bytes; fmin / fmax send a NaN
+/// to a bound); templated so that every field's word and shift are constants.
 template <int Bits, int Count, int Words>
-void pack_signed(const float* rgb, double scale, std::uint32_t* words) {
-  constexpr double limit = double((1 << (Bits - 1)) - 1);
+void pack_signed(const float* rgb, float scale, std::uint32_t* words) {
+  constexpr float limit = float((1 << (Bits - 1)) - 1);
   std::uint32_t w[Words] = {};
   for (int i = 0; i < Count; ++i) {
-    const double s = std::clamp(double(rgb[i]) * scale, -limit, limit);
-    const std::uint32_t value = std::uint32_t(std::int32_t(js_round(s))) & ((1u << Bits) - 1);
+    const float s = std::fmax(-limit, std::fmin(limit, rgb[i] * scale));
+    const std::uint32_t value = std::uint32_t(int(std::floor(s + 0.5f))) & ((1u << Bits) - 1);
     const int start = i * Bits, word = start / 32, offset = start % 32;
     w[word] |= value << offset;
     if (offset + Bits > 32) w[word + 1] |= value >> (32 - offset);
@@ -111,16 +112,16 @@ void pack_sh(const float* f_rest, int degree, const SparkEncoding& e, std::uint3
   };
   if (degree >= 1) {
     gather(0, 3);
-    pack_signed<7, 9, 2>(band, 63 / double(e.sh_max[0]), sh1);
+    pack_signed<7, 9, 2>(band, 63 / e.sh_max[0], sh1);
   }
   if (degree >= 2) {
     gather(3, 5);
     band[15] = 0;  // the fourth word's last byte
-    pack_signed<8, 16, 4>(band, 127 / double(e.sh_max[1]), sh2);
+    pack_signed<8, 16, 4>(band, 127 / e.sh_max[1], sh2);
   }
   if (degree >= 3) {
     gather(8, 7);
-    pack_signed<6, 21, 4>(band, 31 / double(e.sh_max[2]), sh3);
+    pack_signed<6, 21, 4>(band, 31 / e.sh_max[2], sh3);
   }
 }
 
