@@ -71,6 +71,23 @@ async function clickAndDrag(i) {
   }, added);
   console.log(`dragging it 30 pixels moved it by ${dragged.by.toFixed(3)} and the splats by up to ${dragged.moved.toFixed(3)}`);
   if (!(dragged.by > 0.05 && dragged.moved > 0.05)) fail('dragging the new handle did not pose the scene');
+  // A shift-drag from one splat to another: a segment handle between them, by their indices.
+  const ends = await page.evaluate((ks) => {
+    const p = window.mlsdeformPage, c = p.state.splats.centres;
+    return ks.map((k) => {
+      const v = p.camera.position.clone().set(c[3 * k], c[3 * k + 1], c[3 * k + 2]).project(p.camera);
+      return { x: (v.x + 1) * 400, y: (1 - v.y) * 300 };
+    });
+  }, [Math.floor(i / 2), Math.floor((3 * i) / 2)]);
+  await page.keyboard.down('Shift');
+  await page.mouse.move(ends[0].x, ends[0].y);
+  await page.mouse.down();
+  await page.mouse.move(ends[1].x, ends[1].y, { steps: 5 });
+  await page.mouse.up();
+  await page.keyboard.up('Shift');
+  const segment = await page.evaluate(() => window.mlsdeformPage.state.handles.segments.at(-1)?.vertices ?? null);
+  console.log(`a shift-drag from splat ${Math.floor(i / 2)} to splat ${Math.floor((3 * i) / 2)} made a segment handle on splats ${segment}`);
+  if (!segment || !(segment[0] >= 0 && segment[1] >= 0)) fail('a shift-drag between splats did not make a segment handle on splats');
 }
 
 /** Opens `bytes` as the file `name` through the page's file input; resolves to the message shown. */
