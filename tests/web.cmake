@@ -9,11 +9,12 @@ foreach(name test_stages test_stages_ring test_deformer test_arap)
 endforeach()
 # The page (build-web/site/) in headless Chromium: the human bending opened by URL against `mlsdeform deform`,
 # a click and a drag, a malformed file (the program's message), a screenshot that shows the mesh, the program's
-# OFF, PLY and .gz outputs read by the page. (`compare` and `formats` need the program; `interact` and
-# `malformed` use it: not in the builds without tools.)
-set(_checks interact malformed screenshot)
+# OFF, PLY and .gz outputs read by the page; a splat scene posed (its PLY the program's, byte for byte; its SPZ
+# within the format's bounds), drawn by Spark, and hostile splat files. (`compare`, `formats` and `splat_pose`
+# need the program; `interact` and `malformed` use it: not in the builds without tools.)
+set(_checks interact malformed screenshot splat_screenshot splat_hostile)
 if(MLSDEFORM_BUILD_TOOLS)
-  list(APPEND _checks compare formats)
+  list(APPEND _checks compare formats splat_pose)
 endif()
 foreach(check ${_checks})
   add_test(NAME web:page_${check} COMMAND bash ${PROJECT_SOURCE_DIR}/web/tests/run_browser_test.sh

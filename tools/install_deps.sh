@@ -74,13 +74,14 @@ for arg in "$@"; do
     *) echo "install_deps: unknown part '$arg' (bench, blender, web, judge, clang19, arm64)" >&2; exit 2 ;;
   esac
 done
-# The page's packages (three; puppeteer-core, which drives the Debian Chromium and downloads no browser),
+# The page's packages (three, Spark; puppeteer-core, which drives the Debian Chromium and downloads no browser),
 # pinned by web/package-lock.json, into web/node_modules only.
 web_npm() {
   [ "$web" = 1 ] || return 0
   local root
   root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
   if [ ! -d "$root/web/node_modules/three" ] || [ ! -d "$root/web/node_modules/puppeteer-core" ] ||
+    [ ! -d "$root/web/node_modules/@sparkjsdev/spark" ] ||
     [ "$root/web/package-lock.json" -nt "$root/web/node_modules/.package-lock.json" ]; then
     echo "install_deps: npm ci in web/" >&2
     (cd "$root/web" && PUPPETEER_SKIP_DOWNLOAD=1 npm ci --no-audit --no-fund --ignore-scripts >/dev/null)

@@ -1,5 +1,6 @@
 // The page's pointer work (web/src/page.js gives it the view and the editing functions as `ctx`):
-//   click on the surface          a point handle at the clicked point (its rest: the same point of the rest mesh)
+//   click on the surface          a point handle at the clicked point (its rest: the same point of the rest mesh;
+//                                 on a splat scene: at the splat centre nearest the ray, by its index)
 //   shift-drag on the surface     a segment handle from where the drag starts to where it ends
 //   click on a handle             select it (the gizmo moves it); ctrl-click adds it to (or takes it from) a group
 //   a group of two or more        the gizmo rotates (R) or moves (T) them as one rigid body about their centroid
@@ -21,12 +22,15 @@ export function installInteraction(ctx) {
     raycaster.setFromCamera(new THREE.Vector2(((e.clientX - rect.left) / rect.width) * 2 - 1,
       -((e.clientY - rect.top) / rect.height) * 2 + 1), camera);
   };
+  // A splat scene is hit at a splat's centre ({point, splat}: page_splats.js), a mesh on its surface.
   const surface = (e) => {
     cast(e);
+    if (state.splats) return ctx.pickSplat(raycaster);
     return raycaster.intersectObject(state.object)[0] ?? null;
   };
-  /** The rest-mesh point with the hit's barycentric coordinates in its triangle. */
+  /** The rest-mesh point with the hit's barycentric coordinates in its triangle (a splat's: its rest centre). */
   const restPoint = (hit) => {
+    if (hit.splat !== undefined) return Array.from(state.mesh.vertices.subarray(3 * hit.splat, 3 * hit.splat + 3));
     const tri = state.mesh.triangles, rest = state.mesh.vertices, now = state.object.geometry.attributes.position.array;
     const corner = (a, i) => new THREE.Vector3().fromArray(a, 3 * tri[3 * hit.faceIndex + i]);
     const b = new THREE.Triangle(corner(now, 0), corner(now, 1), corner(now, 2)).getBarycoord(hit.point, new THREE.Vector3());
@@ -110,8 +114,9 @@ export function installInteraction(ctx) {
       orbit.enabled = true;
       const end = surface(e);
       if (!end || Math.hypot(e.clientX - start.x, e.clientY - start.y) <= 4) return;
+      const ends = start.hit.splat !== undefined ? [start.hit.splat, end.splat] : null;
       addHandle(() => state.handles.segments.push({ restA: restPoint(start.hit), restB: restPoint(end), targetA: at(start.hit),
-        targetB: at(end), vertices: null, name: '' }));
+        targetB: at(end), vertices: ends, name: '' }));
       return;
     }
     if (Math.hypot(e.clientX - start.x, e.clientY - start.y) > 4 || gizmo.axis) return;
@@ -127,7 +132,7 @@ export function installInteraction(ctx) {
     if (!hit) return setGroup([]);
     state.group = [];
     gizmo.setMode('translate');
-    if (addHandle(() => state.handles.points.push({ rest: restPoint(hit), target: at(hit), vertex: -1, name: '' })))
+    if (addHandle(() => state.handles.points.push({ rest: restPoint(hit), target: at(hit), vertex: hit.splat ?? -1, name: '' })))
       ctx.select(state.handles.points.length - 1);
   });
 

@@ -187,8 +187,96 @@ export async function loadMlsdeform(options = {}) {
     return result;
   }
 
+  /**
+   * A Gaussian splat scene (docs/splats.md) read by the program's readers: a 3DGS PLY, a compressed PLY, an SPZ
+   * file given without its gzip layer, or a .splat file (the format by the name, or a PLY's header). `setup()`
+   * places handles on it; `deform()` moves the centres and turns each splat and its SH bands by its centre's frame
+   * as `mlsdeform deform` does, and packs them for Spark (`packed`, `sh(band)`: views on the module's memory,
+   * remade by `views()` when it grew); `exportFile(format, name)` gives the bytes the program writes.
+   */
+  class SplatScene {
+    constructor(data, name) {
+      const [ptr, size] = bytesIn(data);
+      const namePtr = nameIn(name);
+      try {
+        this._s = M._mls_splats_read(ptr, size, namePtr);
+      } finally {
+        M._free(ptr);
+        M._free(namePtr);
+      }
+      if (!this._s) fail();
+      this.count = M._mls_splats_count(this._s);
+      this.shDegree = M._mls_splats_sh_degree(this._s);
+      this.capacity = M._mls_splats_capacity(this._s);
+      const e = (i) => M._mls_splats_encoding(this._s, i);
+      this.encoding = { rgbMin: e(0), rgbMax: e(1), lnScaleMin: e(2), lnScaleMax: e(3), sh1Max: e(4), sh2Max: e(5), sh3Max: e(6) };
+      this.rest = new Float32Array(M.HEAPU8.buffer, M._mls_splats_rest(this._s), 3 * this.count).slice();
+      this.pointCount = this.segmentCount = 0;
+    }
+    /** Views on the module's memory, remade when it grew: returns true when they changed. */
+    views() {
+      const buffer = M.HEAPU8.buffer;
+      if (this._buffer === buffer) return false;
+      this._buffer = buffer;
+      const s = this._s, u32 = (ptr, n) => (ptr ? new Uint32Array(buffer, ptr, n) : null);
+      this.packed = u32(M._mls_splats_packed(s), 4 * this.capacity);
+      this._sh = [null, u32(M._mls_splats_sh(s, 1), 2 * this.capacity), u32(M._mls_splats_sh(s, 2), 4 * this.capacity),
+        u32(M._mls_splats_sh(s, 3), 4 * this.capacity)];
+      this.centres = new Float32Array(buffer, M._mls_splats_centres(s), 3 * this.count);
+      const k = this.pointCount, m = this.segmentCount;
+      this.targets = k + m ? new Float32Array(buffer, M._mls_splats_targets(s), 3 * (k + 2 * m)) : new Float32Array(0);
+      return true;
+    }
+    /** Band 1, 2 or 3's packed SH (null where the scene's degree lacks it). */
+    sh(band) {
+      this.views();
+      return this._sh[band];
+    }
+    /** Handles at rest (xyz lists as createSession's) and the switches; throws the library's message. */
+    setup({ points = [], segmentsA = [], segmentsB = [], transform = 'rigid', weightExponent = 2, centroids = 'mls' }) {
+      const t = TRANSFORMS[transform], c = CENTROIDS[centroids];
+      if (t === undefined || c === undefined) throw new TypeError('transform or centroids unknown');
+      const ptrs = [points, segmentsA, segmentsB].map((a) => copyIn(a.length ? Float32Array.from(a) : null, Float32Array));
+      let status;
+      try {
+        status = M._mls_splats_setup(this._s, ptrs[0], points.length / 3, ptrs[1], ptrs[2], segmentsA.length / 3, t,
+          weightExponent, c);
+      } finally {
+        for (const p of ptrs) if (p) M._free(p);
+      }
+      if (status !== 0) fail();
+      this.pointCount = points.length / 3;
+      this.segmentCount = segmentsA.length / 3;
+      this._buffer = null;
+      this.views();
+    }
+    /** Deforms with `targets` (write them first); throws the library's message, keeping the last pose. */
+    deform() {
+      this.views();
+      if (M._mls_splats_deform(this._s) !== 0) fail();
+      return this.views();
+    }
+    /** The posed scene's file: 'ply' (3DGS, the program's bytes) or 'spz' (version 3 before its gzip layer). */
+    exportFile(format, name) {
+      const namePtr = nameIn(name);
+      let status;
+      try {
+        status = M._mls_splats_export(this._s, format === 'spz' ? 1 : 0, namePtr);
+      } finally {
+        M._free(namePtr);
+      }
+      if (status !== 0) fail();
+      return new Uint8Array(M.HEAPU8.buffer, M._mls_splats_bytes(this._s), M._mls_splats_bytes_size(this._s)).slice();
+    }
+    delete() {
+      if (this._s) M._mls_splats_delete(this._s);
+      this._s = 0;
+    }
+  }
+
   return {
     createSession: (opts) => new Session(opts),
+    readSplats: (data, name) => new SplatScene(data, name),
     fitRotations,
     readMesh,
     readHandles,

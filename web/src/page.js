@@ -8,6 +8,9 @@ import { loadMlsdeform } from './mlsdeform.js';
 import { encodeObj, encodePly, encodeHandles, InputError } from './formats.js';
 import { benchmark } from './bench.js';
 import { installInteraction } from './interaction.js';
+import { installSplats, splatName } from './page_splats.js';
+import { base64, bytesOf, fetchBytes, save } from './io.js';
+import { benchmarkSplats } from './bench_splats.js';
 
 const $ = (id) => document.getElementById(id);
 const showError = (e) => {
@@ -60,6 +63,7 @@ const flat = (list) => list.flat();
 
 /** A new session for the current mesh, handles and switches (the rest pose changed, or an option did). */
 function rebuild() {
+  if (state.splats) return splatPage.rebuild();
   const { mesh, handles } = state;
   const o = options();
   const session = state.mls.createSession({
@@ -78,6 +82,7 @@ function rebuild() {
 
 /** Copies the targets into the session, deforms, and shows the result. */
 function deform() {
+  if (state.splats) return splatPage.deform();
   const { session, handles } = state;
   const t = session.targets;
   const k = handles.points.length, s = handles.segments.length;
@@ -88,17 +93,21 @@ function deform() {
   });
   const t0 = performance.now();
   session.deform();
-  const ms = performance.now() - t0;
-  state.frameMs.push(ms);
-  if (state.frameMs.length > 60) state.frameMs.shift();
-  const mean = state.frameMs.reduce((a, b) => a + b, 0) / state.frameMs.length;
-  $('timing').textContent = `deform: ${ms.toFixed(3)} ms (mean of ${state.frameMs.length}: ${mean.toFixed(3)} ms)`;
+  timed(performance.now() - t0);
   const position = state.object.geometry.attributes.position;
   position.array.set(session.output);
   position.needsUpdate = true;
   state.object.geometry.computeVertexNormals();
   state.object.geometry.computeBoundingSphere();
   placeMarkers();
+}
+
+/** Shows a deformation's time (and the mean of the last 60). */
+function timed(ms) {
+  state.frameMs.push(ms);
+  if (state.frameMs.length > 60) state.frameMs.shift();
+  const mean = state.frameMs.reduce((a, b) => a + b, 0) / state.frameMs.length;
+  $('timing').textContent = `deform: ${ms.toFixed(3)} ms (mean of ${state.frameMs.length}: ${mean.toFixed(3)} ms)`;
 }
 
 /** The handles' markers at their targets: moved in place while the handles stay the same (the gizmo holds one). */
@@ -157,24 +166,6 @@ function select(i) {
 }
 
 // --- opening files --------------------------------------------------------------------------------------
-/** The file's bytes; a .gz decompressed by the browser's own gzip (the module has no zlib). */
-async function bytesOf(source, name) {
-  const gz = /\.gz$/i.test(name);
-  let stream = source instanceof Blob ? source.stream() : source.body;
-  if (gz) stream = stream.pipeThrough(new DecompressionStream('gzip'));
-  try {
-    return new Uint8Array(await new Response(stream).arrayBuffer());
-  } catch (e) {
-    throw new InputError(name, gz ? `corrupt gzip data (${e.message})` : `cannot read: ${e.message}`);
-  }
-}
-
-async function fetchBytes(url) {
-  const r = await fetch(url);
-  if (!r.ok) throw new InputError(url, `cannot open: HTTP ${r.status}`);
-  return bytesOf(r, url);
-}
-
 /** Shows a mesh with its handles (or, without, one handle at the first vertex); all or nothing. */
 function open(mesh, handles, name) {
   const geometry = new THREE.BufferGeometry();
@@ -182,7 +173,7 @@ function open(mesh, handles, name) {
   geometry.setIndex(new THREE.BufferAttribute(mesh.triangles, 1));
   const object = new THREE.Mesh(geometry, new THREE.MeshStandardMaterial({ color: 0xc8b49a, roughness: 0.7, side: THREE.DoubleSide }));
   const previous = { ...state };
-  Object.assign(state, { mesh, handles, object, selected: -1, group: [] });
+  Object.assign(state, { mesh, handles, object, selected: -1, group: [], splats: null });
   geometry.computeBoundingSphere();
   state.radius = geometry.boundingSphere.radius;
   try {
@@ -191,6 +182,7 @@ function open(mesh, handles, name) {
     Object.assign(state, previous);
     throw e;
   }
+  if (previous.splats) splatPage.close(previous.splats);
   if (previous.object) scene.remove(previous.object);
   scene.add(object);
   gizmo.detach();
@@ -220,8 +212,25 @@ function readHandles(bytes, name, mesh) {
   };
 }
 
-/** Opens a mesh (and its handles file): both read by the program's readers, compiled into the module. */
+/**
+ * Opens a mesh or a splat scene (and its handles file): all read by the program's readers, compiled into the
+ * module; a .ply is a splat scene when the library reads one (its vertex element has rot_0, or it is compressed).
+ */
 async function openFiles(meshBytes, meshName, handlesBytes, handlesName) {
+  const splats = splatName(meshName) || /\.ply$/i.test(meshName) ? await splatPage.read(meshBytes, meshName) : null;
+  if (splats) {
+    try {
+      const rest = { vertices: splats.rest };
+      const handles = handlesBytes ? readHandles(handlesBytes, handlesName, rest) : defaultHandles(rest);
+      $('status').textContent = splatPage.open(splats, handles, meshName);
+      gizmo.detach();
+      undoStack.length = redoStack.length = 0;
+    } catch (e) {
+      if (state.splats !== splats) splats.delete();
+      throw e;
+    }
+    return;
+  }
   const mesh = state.mls.readMesh(meshBytes, meshName);
   const handles = handlesBytes ? readHandles(handlesBytes, handlesName, mesh) : defaultHandles(mesh);
   open(mesh, handles, meshName);
@@ -229,11 +238,12 @@ async function openFiles(meshBytes, meshName, handlesBytes, handlesName) {
 
 async function openDropped(files) {
   try {
-    const meshFile = files.find((f) => /\.(obj|off|ply)(\.gz)?$/i.test(f.name));
+    const meshFile = files.find((f) => /\.(obj|off|ply)(\.gz)?$/i.test(f.name) || splatName(f.name));
     const handlesFile = files.find((f) => /\.json$/i.test(f.name));
     const unknown = files.find((f) => f !== meshFile && f !== handlesFile);
     if (unknown)
-      throw new InputError(unknown.name, 'unknown format (readable: .obj, .off, .ply, each also .gz, and a handles file .json)');
+      throw new InputError(unknown.name, 'unknown format (readable: .obj, .off, .ply, each also .gz; splats as .ply, ' +
+        '.compressed.ply, .spz, .splat; and a handles file .json)');
     if (meshFile) {
       await openFiles(await bytesOf(meshFile, meshFile.name), meshFile.name,
         handlesFile && (await bytesOf(handlesFile, handlesFile.name)), handlesFile?.name);
@@ -300,24 +310,32 @@ for (const id of ['transform', 'u', 'centroids', 'arap'])
     }
   });
 
+const splatPage = installSplats({ state, scene, camera, renderer, orbit, options, timed, placeMarkers });
 const interaction = installInteraction({
   state, scene, camera, renderer, gizmo, orbit, rebuild, deform, pushUndo, select, showError, placeMarkers,
+  pickSplat: splatPage.pick,
   undoLast: () => (state.handles = JSON.parse(undoStack.pop())),
 });
 
 // --- export -----------------------------------------------------------------------------------------------
-const exportObj = () => encodeObj(state.mesh, state.session.output);
+const exportObj = () => {
+  if (state.splats) throw new Error('OBJ has no place for splats: export PLY or SPZ');
+  return encodeObj(state.mesh, state.session.output);
+};
 const exportHandles = () => encodeHandles(state.handles.points, state.handles.segments, state.handles.region);
-function save(text, name) {
-  const a = document.createElement('a');
-  a.href = URL.createObjectURL(new Blob([text], { type: 'application/octet-stream' }));
-  a.download = name;
-  a.click();
-  URL.revokeObjectURL(a.href);
-}
-$('export-obj').onclick = () => save(exportObj(), 'posed.obj');
-$('export-handles').onclick = () => save(exportHandles(), 'handles.json');
-$('export-ply').onclick = () => save(encodePly(state.mesh, state.session.output), 'posed.ply');
+const saving = (f) => async () => {
+  try {
+    await f();
+    showError(null);
+  } catch (e) {
+    showError(e);
+  }
+};
+$('export-obj').onclick = saving(() => save(exportObj(), 'posed.obj'));
+$('export-handles').onclick = saving(() => save(exportHandles(), 'handles.json'));
+$('export-ply').onclick = saving(async () =>
+  save(state.splats ? await splatPage.exportFile('ply') : encodePly(state.mesh, state.session.output), 'posed.ply'));
+$('export-spz').onclick = saving(async () => save(await splatPage.exportFile('spz'), 'posed.spz'));
 
 // --- start ------------------------------------------------------------------------------------------------
 let frames = 0, fpsStart = performance.now();
@@ -358,6 +376,19 @@ window.mlsdeformPage = {
     deform();
   },
   handleCount: () => state.handles.points.length,
+  /** The posed splat scene's file ('ply' or 'spz'), base64, as "export PLY" / "export SPZ" save it. */
+  exportSplats: async (format) => base64(await splatPage.exportFile(format)),
+  /** Adds a point handle on splat i (at its current centre), as a click on it does. */
+  addSplatHandle(i) {
+    const c = Array.from(state.splats.centres.subarray(3 * i, 3 * i + 3));
+    state.handles.points.push({ rest: Array.from(state.mesh.vertices.subarray(3 * i, 3 * i + 3)), target: c, vertex: i, name: '' });
+    rebuild();
+  },
+  splatCount: () => state.splats?.count ?? 0,
+  /** Opens a mesh or a splat scene (and a handles file) by URL, as ?mesh=&handles= do. */
+  openUrl: async (url, handlesUrl = null) =>
+    openFiles(await fetchBytes(url), url, handlesUrl && (await fetchBytes(handlesUrl)), handlesUrl),
+  benchmarkSplats: (opts) => benchmarkSplats(state.mls, renderer, opts),
   benchmark: (opts) => benchmark(state.mls, state.mesh, state.handles, opts),
   /** Selects point handles as a group (two or more: the gizmo rotates them about their centroid). */
   selectGroup: (members) => interaction.setGroup(members),

@@ -125,4 +125,26 @@ check(mls.fitRotations(H, again) === again && again.every((v, k) => v === fitted
 H[9 * 7 + 5] = NaN;
 throws(() => mls.fitRotations(H), /H\[7, 1, 2\]/, 'fitRotations: a NaN entry is named');
 throws(() => mls.fitRotations(new Float32Array(10)), /multiple of 9/, 'fitRotations: a length that is not 9 n');
+// Splat scenes (readSplats): a 3DGS PLY read, posed and packed; poses keep the heap and the views; what is no
+// splat file, or a handle target that is not finite, is refused; delete() frees all of it.
+const { splatScenePly } = await import(pathToFileURL(join(site, 'splat_scene.js')));
+const heapSplats = M._mls_heap_in_use();
+const scene = mls.readSplats(splatScenePly(3000, 2), 'scene.ply');
+check(scene.count === 3000 && scene.shDegree === 2, `readSplats: ${scene.count} splats of SH degree ${scene.shDegree}`);
+scene.setup({ points: [...scene.rest.subarray(0, 3), ...scene.rest.subarray(3 * 2999)] });
+scene.deform();
+const packedView = scene.packed, heapPose = M._mls_heap_in_use();
+for (let f = 0; f < 20; ++f) {
+  scene.targets[3] = scene.rest[3 * 2999] + 0.1 * Math.sin(f);
+  scene.deform();
+}
+check(M._mls_heap_in_use() === heapPose && scene.packed === packedView, `splats: 20 poses keep the heap (${heapPose} bytes) and the views`);
+check(scene.centres.every(Number.isFinite) && scene.packed.subarray(0, 4 * 3000).some((w) => w !== 0), 'splats: posed and packed');
+scene.targets[0] = NaN;
+throws(() => scene.deform(), /not finite/, 'splats: a NaN target');
+throws(() => mls.readSplats('ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nproperty float y\nproperty float z\nend_header\n0 0 0\n', 'mesh.ply'),
+  /not a Gaussian splat file/, 'readSplats: a PLY mesh');
+throws(() => mls.readSplats(new Uint8Array(31), 'short.splat'), /short.splat/, 'readSplats: a truncated .splat');
+scene.delete();
+check(M._mls_heap_in_use() === heapSplats, `splats: delete() leaves the heap at ${heapSplats} bytes`);
 process.exit(failures ? 1 : 0);

@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # One check of the page in headless Chromium (web/tests/browser.mjs), for the native build's ctest label `web`
 # (tests/web.cmake). Usage: run_browser_test.sh SITE CHECK [PROGRAM]; PROGRAM is build/tools/mlsdeform, for
-# `compare`. Exit 77 (skipped) where emscripten or Chromium is not installed.
+# `compare` and `splat_pose`. Exit 77 (skipped) where emscripten or Chromium is not installed.
 set -euo pipefail
 site=$1 check=$2 program=${3:-}
 root=$(cd "$(dirname "${BASH_SOURCE[0]}")/../.." && pwd)
@@ -20,6 +20,7 @@ fi
 tmp=$(mktemp -d)
 trap 'rm -rf "$tmp"' EXIT
 run() { node "$root/web/tests/browser.mjs" "$site" "$@"; }
+splats() { node "$root/web/tests/browser_splats.mjs" "$site" "$@"; }
 case "$check" in
   compare)
     # The first frame of the human bending, as the program writes it: on the SSE4.2 kernels (bitwise the
@@ -62,5 +63,34 @@ case "$check" in
     run formats "$tmp"
     ;;
   screenshot) run screenshot "${WEB_SCREENSHOT:-$tmp/page.png}" ;;
+  splat_pose)
+    # A splat scene posed on the page (handles on splats, moved), exported as 3DGS PLY and SPZ: the program,
+    # given the scene and the page's handles file, writes the page's PLY byte for byte (the SSE4.2 kernels, as
+    # for `compare`); the SPZ read back is the PLY within SPZ's bounds (browser_splats.mjs).
+    splats pose "$tmp"
+    if [ -n "$program" ]; then
+      MLSDEFORM_ISA=sse4_2 "$program" deform -q -m "$tmp/scene.ply" -H "$tmp/handles.json" -o "$tmp/program.ply"
+      if ! cmp "$tmp/page.ply" "$tmp/program.ply"; then
+        echo "FAILED: the page's PLY and \`mlsdeform deform\`'s differ" >&2
+        exit 1
+      fi
+      echo "page.ply and mlsdeform deform's program.ply: bitwise equal ($(wc -c <"$tmp/page.ply") bytes)"
+      for t in similarity affine; do
+        MLSDEFORM_ISA=sse4_2 "$program" deform -q -t $t -m "$tmp/scene.ply" -H "$tmp/handles.json" -o "$tmp/program_$t.ply"
+        if ! cmp "$tmp/page_$t.ply" "$tmp/program_$t.ply"; then
+          echo "FAILED: the page's PLY and \`mlsdeform deform -t $t\`'s differ" >&2
+          exit 1
+        fi
+        echo "page_$t.ply and mlsdeform deform -t $t's: bitwise equal"
+      done
+      # The same pose as the program writes it in the compact formats, opened by the page.
+      for f in compressed.ply spz; do
+        "$program" deform -q -m "$tmp/scene.ply" -H "$tmp/handles.json" -o "$tmp/program.$f" 2>/dev/null
+      done
+      splats formats "$tmp"
+    fi
+    ;;
+  splat_screenshot) splats screenshot "${WEB_SCREENSHOT:-$tmp/splats.png}" ;;
+  splat_hostile) splats hostile ;;
   *) run "$check" ;;
 esac
