@@ -26,7 +26,12 @@ foreach(src ${_cli_tests})
   target_compile_definitions(${name} PRIVATE MLSDEFORM_SOURCE_DIR="${PROJECT_SOURCE_DIR}"
                                              MLSDEFORM_CLI="$<TARGET_FILE:mlsdeform>")
   add_dependencies(${name} mlsdeform)
-  catch_discover_tests(${name} TEST_PREFIX "${name}:" PROPERTIES TIMEOUT 600 LABELS cli)
+  # One label per test (catch_discover_tests flattens a list): in a cross build, `cross` for CI's ARM64 stage.
+  set(_label cli)
+  if(CMAKE_CROSSCOMPILING AND name IN_LIST MLSDEFORM_CROSS_LABELLED)
+    set(_label cross)
+  endif()
+  catch_discover_tests(${name} TEST_PREFIX "${name}:" PROPERTIES TIMEOUT 600 LABELS ${_label})
 endforeach()
 # Normals against the MLS reference's bound (tests/support); splats from its generator, against that bound.
 foreach(name test_cli_normals_motion test_cli_splats)

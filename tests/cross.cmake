@@ -12,4 +12,4 @@ endif()
 add_test(NAME cross:deform
          COMMAND ${CMAKE_COMMAND} "-DCOMMAND=${CMAKE_CROSSCOMPILING_EMULATOR};$<TARGET_FILE:mlsdeform>;deform;-m;${PROJECT_SOURCE_DIR}/data/human_man.obj;-H;${PROJECT_SOURCE_DIR}/data/human_bend.json;-o;${CMAKE_CURRENT_BINARY_DIR}/cross_human_bent.obj;--force"
                  "-DEXPECT=simd (${_best}) backend" -P ${CMAKE_CURRENT_SOURCE_DIR}/scripts/run_expect.cmake)
-set_tests_properties(cross:deform PROPERTIES LABELS cli TIMEOUT 900)
+set_tests_properties(cross:deform PROPERTIES LABELS "cli;cross" TIMEOUT 900)

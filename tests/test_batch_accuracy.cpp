@@ -5,8 +5,8 @@
 //
 // MLSDEFORM_SEED as in the scalar suite; MLSDEFORM_BATCH_CASES sets the matrices per family and precision
 // (default 4,000; 400 under the sanitizers and under an emulator); MLSDEFORM_SUBNORMAL_CASES the matrices per
-// family and subnormal scale (default 3; 1 under an emulator). The families' order within a batch is interleaved so
-// that every SIMD batch mixes families (a lane's result must not depend on its neighbours).
+// family and subnormal scale (default 3). The families' order within a batch is interleaved so that every SIMD
+// batch mixes families (a lane's result must not depend on its neighbours).
 #include "tests/support/accuracy_bounds.hpp"
 #include "tests/support/isa_guard.hpp"
 #include "tests/support/rotation_cases.hpp"
@@ -150,7 +150,7 @@ template <class T>
 void subnormal_families() {
   using LD = long double;
   const std::uint64_t seed = env_u64("MLSDEFORM_SEED", 20261121);
-  const std::uint64_t per_scale = env_u64("MLSDEFORM_SUBNORMAL_CASES", run_emulated() ? 1 : 3);
+  const std::uint64_t per_scale = env_u64("MLSDEFORM_SUBNORMAL_CASES", 3);
   const int lo = subnormal_lo<T>, hi = subnormal_hi<T>;
   struct Item {
     Case<T> c;

@@ -10,6 +10,21 @@
 
 using namespace deformer_test;
 
+namespace {
+// Vertices of the first test's cases and of the segment scene. The direct evaluation (mls_reference.cpp) costs
+// O(J^2) per vertex, J the pseudo-handles: 516 in the first test, up to 3 x 256 sampled points in the second.
+// Fewer under AddressSanitizer (the sanitizer build of tools/dev.sh) and under an emulator (a cross build's ctest,
+// MLSDEFORM_TEST_EMULATED: 17-36x slower than natively, a minute per precision and test with 300 vertices):
+// every check is per vertex, so fewer vertices check the same bounds on a smaller sample.
+#if defined(MLSDEFORM_TEST_EMULATED)
+constexpr int kCaseVertices = 75, kArmVertices = 40;
+#elif defined(__SANITIZE_ADDRESS__)
+constexpr int kCaseVertices = 300, kArmVertices = 40;
+#else
+constexpr int kCaseVertices = 300, kArmVertices = 150;
+#endif
+}  // namespace
+
 TEMPLATE_TEST_CASE("paper_constant segments agree with the paper's W_i and midpoint centroids (direct evaluation)",
                    "[deformer][segment]", float, double) {
   using T = TestType;
@@ -21,7 +36,7 @@ TEMPLATE_TEST_CASE("paper_constant segments agree with the paper's W_i and midpo
     static_assert(510 + 2 * 3 > mlsdeform::kernels::kCachedTargets);
     for (Eigen::Index k : {0, 3, 510}) {
       INFO(name(tr) << ", " << k << " point handles");
-      const DeformCase<T> sc = random_case<T>(g, 300, k, 3);
+      const DeformCase<T> sc = random_case<T>(g, kCaseVertices, k, 3);
       Options o;
       o.transform = tr;
       o.segment_weight = SegmentWeight::paper_constant;
@@ -45,14 +60,6 @@ struct SegmentScene {
   Handles<double> rest, moved;
   Points<double> vertices;
 };
-
-/// Vertices of the segment scene (the direct evaluation of the sampled handles costs O(J^2) per vertex; fewer
-/// under AddressSanitizer, which the sanitizer build of tools/dev.sh runs).
-#if defined(__SANITIZE_ADDRESS__)
-constexpr int kArmVertices = 40;
-#else
-constexpr int kArmVertices = 150;
-#endif
 
 SegmentScene segment_scene(std::mt19937_64& g) {
   SegmentScene s;

@@ -17,6 +17,10 @@
 #                       (docs/web.md); `tools/dev.sh web --serve [PORT]` then serves the page on localhost
 #   tools/dev.sh format rewrite every C++ file as .clang-format says (Debian 12's clang-format 14) and every Python
 #                       file as black says (Debian 12's black 23.1, pyproject.toml); CI checks both
+#   tools/dev.sh arm64  install what is missing (the cross g++, the arm64 libraries, qemu-aarch64), cross-build
+#                       build-arm64/ for aarch64 (cmake/aarch64-linux-gnu.cmake): the library, the program and the
+#                       test programs of the label `cross` only, and run that label under qemu (docs/arm64.md);
+#                       it ends by printing the program's own report of its SIMD table (neon)
 # Extra arguments after `demo` go to the demo.
 set -euo pipefail
 root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
@@ -28,6 +32,7 @@ case "${1:-}" in
   test) bash tools/install_deps.sh blender web judge ;;
   blender) bash tools/install_deps.sh blender ;;
   web) bash tools/install_deps.sh web ;;
+  arm64) bash tools/install_deps.sh arm64 ;;
   *) bash tools/install_deps.sh ;;
 esac
 # The project's own builds link CHOLMOD for the supernodal ARAP factorisation (GPL-2+: the CMake option is
@@ -124,8 +129,20 @@ case "${1:-}" in
       $sudo bash tools/trixie.sh ci
     fi
     ;;
+  arm64)
+    # The targets the label `cross` runs (tests/CMakeLists.txt: MLSDEFORM_CROSS_LABELLED and the program): not
+    # the whole cross set, whose other programs (the deformer session, segment, allocation tests, and the
+    # deformer's tests again under each forced ISA) take minutes more under the emulator.
+    cmake -S . -B build-arm64 --toolchain cmake/aarch64-linux-gnu.cmake -DCMAKE_BUILD_TYPE=Release \
+      -DMLSDEFORM_WERROR=ON >/dev/null
+    targets=$(sed -n 's/^MLSDEFORM_CROSS_LABELLED:STRING=//p' build-arm64/CMakeCache.txt | tr ';' ' ')
+    # shellcheck disable=SC2086 # one target per word
+    cmake --build build-arm64 -j "$jobs" --target mlsdeform $targets
+    ctest --test-dir build-arm64 --output-on-failure -j "$jobs" -L cross
+    grep -m 1 -o 'deformer: .* backend' build-arm64/Testing/Temporary/LastTest.log
+    ;;
   *)
-    echo "usage: tools/dev.sh demo [demo options] | test | python | blender | web [--serve [PORT]] | format" >&2
+    echo "usage: tools/dev.sh demo [demo options] | test | python | blender | web [--serve [PORT]] | format | arm64" >&2
     exit 2
     ;;
 esac

@@ -47,6 +47,6 @@ for type in float double; do
     row x86-64 "$isa" "$type" "$qx86" -cpu max -- "$x86_build/tools/fit_count"
   done
   for isa in scalar neon; do
-    row aarch64 "$isa" "$type" "$qarm" -L /usr/aarch64-linux-gnu -- "$arm_build/tools/fit_count"
+    row aarch64 "$isa" "$type" "$qarm" -L / -- "$arm_build/tools/fit_count"
   done
 done

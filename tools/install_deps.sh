@@ -5,8 +5,8 @@
 # (emscripten and Chromium from Debian, and the page's npm packages into web/node_modules from
 # web/package-lock.json: docs/web.md), `clang19` (Debian 12: clang 19 beside the default clang 14, for a clang
 # build: CXX=clang++-19; Debian 13's default clang is 19 already), `arm64` (the ARM64 cross build,
-# cmake/aarch64-linux-gnu.cmake: Debian's cross g++, the arm64 libraries by multiarch, and a qemu-aarch64 that
-# runs TBB programs: Debian 13's qemu-user, which on Debian 12 is unpacked into /opt/qemu-trixie/bin).
+# cmake/aarch64-linux-gnu.cmake: Debian's cross g++, the arm64 libraries by multiarch, and qemu-aarch64 10:
+# Debian 13's qemu-user, which on Debian 12 is unpacked into /opt/qemu-trixie/bin).
 set -euo pipefail
 codename=$(. /etc/os-release 2>/dev/null && echo "${VERSION_CODENAME:-}")
 case "$codename" in
@@ -56,7 +56,7 @@ for arg in "$@"; do
       # for the target's library directory, Eigen, CLI11 and nlohmann-json are architecture-independent.
       arm64=1
       packages+=(g++-aarch64-linux-gnu libtbb-dev:arm64 libxsimd-dev:arm64 zlib1g-dev:arm64)
-      # Debian 12's qemu-user 7.2 hangs in multi-threaded TBB programs; Debian 13's 10.0 runs them.
+      # qemu 10 (tools/insn_per_fit.sh's instruction counts are its); Debian 12's 7.2 would run the tests too.
       [ "$codename" = trixie ] && packages+=(qemu-user)
       ;;
     bench) packages+=(libcgal-dev) ;;
