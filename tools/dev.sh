@@ -5,7 +5,8 @@
 #                       C++ tests and the program's again under AddressSanitizer + UndefinedBehaviorSanitizer
 #                       with every assertion on, then the other platforms' stages (HACKING.md): Debian 13 with
 #                       clang 19, numpy 2 and Blender 4.3 in a debootstrap root (tools/trixie.sh ci; root or
-#                       sudo), and ARM64 cross-built and tested under qemu; MLSDEFORM_PLATFORMS=0 skips those
+#                       sudo), and ARM64 cross-built and tested under qemu (`arm64` below); MLSDEFORM_PLATFORMS=0
+#                       skips those two
 #   tools/dev.sh python install what is missing, build (Release), install the Python package into the venv .venv/
 #                       (made if missing; editable: it loads the module of build/, so a rebuild is picked up)
 #                       and run the Python tests against it
@@ -29,7 +30,13 @@ jobs=$(nproc 2>/dev/null || echo 2)
 sudo=""
 [ "$(id -u)" -eq 0 ] || sudo="sudo"
 case "${1:-}" in
-  test) bash tools/install_deps.sh blender web judge ;;
+  test)
+    if [ "${MLSDEFORM_PLATFORMS:-1}" = 0 ]; then
+      bash tools/install_deps.sh blender web judge
+    else
+      bash tools/install_deps.sh blender web judge arm64
+    fi
+    ;;
   blender) bash tools/install_deps.sh blender ;;
   web) bash tools/install_deps.sh web ;;
   arm64) bash tools/install_deps.sh arm64 ;;
@@ -48,6 +55,20 @@ build_web() {
   export NODE_PATH=/usr/share/nodejs
   emcmake cmake -S . -B build-web -DCMAKE_BUILD_TYPE=Release -DMLSDEFORM_WERROR=ON >/dev/null
   cmake --build build-web -j "$jobs"
+}
+# The ARM64 stage (docs/arm64.md): the targets the label `cross` runs (tests/CMakeLists.txt:
+# MLSDEFORM_CROSS_LABELLED and the program), not the whole cross set, whose other programs (the deformer session,
+# segment, allocation tests, and the deformer's tests again under each forced ISA) take minutes more under the
+# emulator; it ends with the program's own report of its table, which must be NEON.
+arm64_stage() {
+  cmake -S . -B build-arm64 --toolchain cmake/aarch64-linux-gnu.cmake -DCMAKE_BUILD_TYPE=Release \
+    -DMLSDEFORM_WERROR=ON >/dev/null
+  local targets
+  targets=$(sed -n 's/^MLSDEFORM_CROSS_LABELLED:STRING=//p' build-arm64/CMakeCache.txt | tr ';' ' ')
+  # shellcheck disable=SC2086 # one target per word
+  cmake --build build-arm64 -j "$jobs" --target mlsdeform $targets
+  ctest --test-dir build-arm64 --output-on-failure -j "$jobs" -L cross
+  grep -m 1 -o 'deformer: .* backend' build-arm64/Testing/Temporary/LastTest.log
 }
 case "${1:-}" in
   web)
@@ -118,6 +139,7 @@ case "${1:-}" in
       echo "dev.sh test: MLSDEFORM_PLATFORMS=0: the Debian 13 and ARM64 stages are skipped" >&2
       exit 0
     fi
+    arm64_stage
     # Debian 13: clang 19, xsimd 13, Catch2 3, Python 3.13 with numpy 2 and pybind11 2.13, Blender 4.3. On a
     # Debian 13 host the builds above were that platform already (with its g++).
     if [ -n "$trixie_setup" ]; then
@@ -129,18 +151,7 @@ case "${1:-}" in
       $sudo bash tools/trixie.sh ci
     fi
     ;;
-  arm64)
-    # The targets the label `cross` runs (tests/CMakeLists.txt: MLSDEFORM_CROSS_LABELLED and the program): not
-    # the whole cross set, whose other programs (the deformer session, segment, allocation tests, and the
-    # deformer's tests again under each forced ISA) take minutes more under the emulator.
-    cmake -S . -B build-arm64 --toolchain cmake/aarch64-linux-gnu.cmake -DCMAKE_BUILD_TYPE=Release \
-      -DMLSDEFORM_WERROR=ON >/dev/null
-    targets=$(sed -n 's/^MLSDEFORM_CROSS_LABELLED:STRING=//p' build-arm64/CMakeCache.txt | tr ';' ' ')
-    # shellcheck disable=SC2086 # one target per word
-    cmake --build build-arm64 -j "$jobs" --target mlsdeform $targets
-    ctest --test-dir build-arm64 --output-on-failure -j "$jobs" -L cross
-    grep -m 1 -o 'deformer: .* backend' build-arm64/Testing/Temporary/LastTest.log
-    ;;
+  arm64) arm64_stage ;;
   *)
     echo "usage: tools/dev.sh demo [demo options] | test | python | blender | web [--serve [PORT]] | format | arm64" >&2
     exit 2
