@@ -63,10 +63,11 @@ struct Expected {
 // pow, exp, log, sin, cos, expm1, log1p and their float forms agree), and long double is x87's 80 bits on one
 // and IEEE binary128 on the other (the segment rule's Gauss-Legendre nodes, core/src/deformer/weights.hpp), and
 // Eigen's vectorised expressions fuse on aarch64 (its NEON pmadd is vfmaq wherever __ARM_FEATURE_FMA is defined,
-// as on every aarch64 target; -ffp-contract=off does not reach intrinsics) where x86-64's SSE2 has no FMA. NEON's
-// results are AVX2's except in two double scenes. The aarch64 hashes were written under qemu 10's user-mode
-// emulation, whose arithmetic is IEEE's, bit for bit, fused multiply-add and the estimate instructions included
-// (ARM defines those bit for bit), with Debian 12's arm64 glibc, whose libm picks no variant by CPU.
+// as on every aarch64 target; -ffp-contract=off does not reach intrinsics) where x86-64's SSE2 has no FMA: without
+// it (-U__ARM_FEATURE_FMA) the scalar double results are x86-64's. NEON's are AVX2's except in two double scenes. The
+// aarch64 hashes were written under qemu 10's user-mode emulation, whose arithmetic is IEEE's, bit for bit, fused
+// multiply-add and the estimate instructions included (ARM defines those bit for bit), with Debian 12's arm64 glibc,
+// whose libm picks no variant by CPU.
 const Expected kExpected[] = {
 #if defined(__aarch64__)
 #include "tests/cli/scene_hashes_aarch64.inc"
