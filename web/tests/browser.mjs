@@ -16,7 +16,7 @@
 import { existsSync, readFileSync, writeFileSync } from 'node:fs';
 import { join } from 'node:path';
 import { compareObj } from './compare.mjs';
-import { startPage } from './harness.mjs';
+import { litShare, startPage } from './harness.mjs';
 
 const [siteArg, check, arg, arg2] = process.argv.slice(2);
 const { site, page, open, extra, errors, fail, finish } = await startPage(siteArg);
@@ -149,17 +149,7 @@ try {
     const png = await page.screenshot({ type: 'png' });
     writeFileSync(arg, png);
     // Not blank: the share of pixels that differ from the background colour (#20242a) by more than a little.
-    const share = await page.evaluate(() => {
-      const c = document.querySelector('#view canvas');
-      const g = document.createElement('canvas');
-      g.width = c.width, g.height = c.height;
-      const ctx = g.getContext('2d');
-      ctx.drawImage(c, 0, 0);
-      const d = ctx.getImageData(0, 0, g.width, g.height).data;
-      let on = 0;
-      for (let i = 0; i < d.length; i += 4) on += Math.abs(d[i] - 0x20) + Math.abs(d[i + 1] - 0x24) + Math.abs(d[i + 2] - 0x2a) > 30;
-      return on / (d.length / 4);
-    });
+    const share = await litShare(page);
     console.log(`screenshot ${arg}: ${(100 * share).toFixed(1)}% of the canvas shows something`);
     if (!(share > 0.02)) fail('the canvas is blank');
   } else if (check === 'bench') {

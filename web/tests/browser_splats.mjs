@@ -15,7 +15,7 @@
 //   node web/tests/browser_splats.mjs SITE bench           web/src/bench_splats.js, as JSON
 import { writeFileSync } from 'node:fs';
 import { join } from 'node:path';
-import { startPage } from './harness.mjs';
+import { litShare, startPage } from './harness.mjs';
 import { splatScenePly } from '../src/splat_scene.js';
 import { compareSplatPly, comparePacked, readSplatPly } from './splat_compare.mjs';
 import { checkFormats } from './splat_formats.mjs';
@@ -189,17 +189,7 @@ try {
   } else if (check === 'screenshot') {
     await pose(15000, 3);
     // Spark sorts in a worker: the splats appear a few frames later (software WebGL: up to seconds).
-    const drawn = () => page.evaluate(() => {
-      const c = document.querySelector('#view canvas');
-      const g = document.createElement('canvas');
-      g.width = c.width, g.height = c.height;
-      const ctx = g.getContext('2d');
-      ctx.drawImage(c, 0, 0);
-      const d = ctx.getImageData(0, 0, g.width, g.height).data;
-      let on = 0;
-      for (let i = 0; i < d.length; i += 4) on += Math.abs(d[i] - 0x20) + Math.abs(d[i + 1] - 0x24) + Math.abs(d[i + 2] - 0x2a) > 30;
-      return on / (d.length / 4);
-    });
+    const drawn = () => litShare(page);
     const start = Date.now();
     let share = await drawn();
     while (share <= 0.05 && Date.now() - start < 20000) {

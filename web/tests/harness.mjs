@@ -68,3 +68,19 @@ export async function startPage(siteArg) {
   };
   return { site, base, browser, page, open, extra, errors, fail, finish };
 }
+
+// The share of the canvas's pixels that differ from the page's background colour (#20242a) by more than a
+// little: what the screenshot tests call "not blank".
+export function litShare(page) {
+  return page.evaluate(() => {
+    const c = document.querySelector('#view canvas');
+    const g = document.createElement('canvas');
+    g.width = c.width, g.height = c.height;
+    const ctx = g.getContext('2d');
+    ctx.drawImage(c, 0, 0);
+    const d = ctx.getImageData(0, 0, g.width, g.height).data;
+    let on = 0;
+    for (let i = 0; i < d.length; i += 4) on += Math.abs(d[i] - 0x20) + Math.abs(d[i + 1] - 0x24) + Math.abs(d[i + 2] - 0x2a) > 30;
+    return on / (d.length / 4);
+  });
+}
